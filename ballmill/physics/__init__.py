@@ -1,0 +1,26 @@
+"""ballmill.physics: the ball rolling without slip in a translating sphere.
+
+Plain Python and numpy, SI units, no FMI and no I/O. The FMU adapters in
+fmu_src/ and drive_models/ and the scenario runner build on this package.
+
+    from ballmill.physics import Ball, BallModel, CrankStartup, simulate
+    model = BallModel(Ball())                  # the paper's ball, vector form
+    traj = simulate(model, CrankStartup(t0=2.5), t_end=10.0, dt=0.01)
+    traj["zP"], traj["N"]
+"""
+from .drives import Circle, CrankStartup, Fixed, Harmonic
+from .equations import PaperFormulation, VectorFormulation, make_formulation, omega_dot_cramer
+from .errors import FormulationLimitError, InputError, ParameterError, StepFailure
+from .integrators import METHODS, Integrator
+from .model import BallModel, BallState, Trajectory, simulate
+from .outputs import Outputs, energy, evaluate, spin
+from .params import Ball, steel_ball_mass
+from .platform import MODES as INPUT_MODES, InputReconstruction
+
+__all__ = [
+    "Ball", "BallModel", "BallState", "Circle", "CrankStartup", "Fixed", "FormulationLimitError",
+    "Harmonic", "INPUT_MODES", "InputError", "InputReconstruction", "Integrator", "METHODS",
+    "Outputs", "PaperFormulation", "ParameterError", "StepFailure", "Trajectory",
+    "VectorFormulation", "energy", "evaluate", "make_formulation", "omega_dot_cramer",
+    "simulate", "spin", "steel_ball_mass",
+]

@@ -1,0 +1,120 @@
+"""Prescribed platform motions: the paper's crank start-up law and simple tests.
+
+A platform motion is any object with ``state(t) -> (x, y, vx, vy, ax, ay)``,
+the position of the platform reference point O relative to the crank axis
+and its exact first and second derivatives (SI units).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from .errors import ParameterError
+
+
+def _check(name, value, unit, allow_zero=False):
+    v = float(value)
+    if not math.isfinite(v) or v < 0.0 or (v == 0.0 and not allow_zero):
+        expected = "non-negative" if allow_zero else "positive"
+        raise ParameterError(f"{name} must be {expected} and finite, got {name} = {value!r} {unit}")
+    return v
+
+
+@dataclass(frozen=True)
+class CrankStartup:
+    """The paper's start-up law: the crank's angular speed rises quadratically
+    from 0 to w0 = 2 pi n0 / 60 in t0 seconds, then stays at w0.
+
+        psi   = -w0 (t - t0)^3 / (3 t0^2) + w0 t - w0 t0 / 3,   t <= t0
+        psi   = 2/3 w0 t0 + w0 (t - t0),                        t >  t0
+        psi'  = w0 (1 - (1 - t/t0)^2),   psi'' = 2 w0 (1 - t/t0) / t0   (t <= t0)
+
+    The platform point O moves on a circle of radius l: x = l cos psi, y = l sin psi.
+    Before t = 0 the crank is at rest; at t = 0 the law's right-hand limits apply
+    (psi''(0) = 2 w0 / t0).
+    """
+
+    l: float = 0.5  # crank length [m]
+    n0: float = 60.0  # steady crank speed [1/min]
+    t0: float = 2.5  # start-up time [s]
+
+    def __post_init__(self):
+        _check("l", self.l, "m")
+        _check("n0", self.n0, "1/min", allow_zero=True)
+        _check("t0", self.t0, "s")
+
+    @property
+    def w0(self) -> float:
+        """Steady angular speed [rad/s]."""
+        return 2.0 * math.pi * self.n0 / 60.0
+
+    def angle(self, t: float):
+        """(psi, psi', psi'') at time t [rad, rad/s, rad/s2]."""
+        w0, t0 = self.w0, self.t0
+        if t < 0.0:
+            return 0.0, 0.0, 0.0
+        if t <= t0:
+            u = 1.0 - t / t0
+            return (-w0 * (t - t0) ** 3 / (3.0 * t0 * t0) + w0 * t - w0 * t0 / 3.0,
+                    w0 * (1.0 - u * u), 2.0 * w0 * u / t0)
+        return 2.0 / 3.0 * w0 * t0 + w0 * (t - t0), w0, 0.0
+
+    def state(self, t: float):
+        """(x, y, vx, vy, ax, ay) of the platform point O at time t."""
+        psi, wd, wdd = self.angle(t)
+        c, s, l = math.cos(psi), math.sin(psi), self.l
+        return (l * c, l * s, -l * s * wd, l * c * wd,
+                -l * (s * wdd + c * wd * wd), l * (c * wdd - s * wd * wd))
+
+    def accel(self, t: float):
+        """(ax, ay) at time t, for the integrator's inner loop."""
+        return self.state(t)[4:]
+
+
+@dataclass(frozen=True)
+class Fixed:
+    """A chamber that does not move (for energy and pendulum checks)."""
+
+    def state(self, t: float):
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+
+    def accel(self, t: float):
+        return 0.0, 0.0
+
+
+@dataclass(frozen=True)
+class Harmonic:
+    """O moves as x = ax_amp sin(wx t + phx), y = ay_amp sin(wy t + phy) [m, rad/s]."""
+
+    x_amp: float = 0.0
+    x_omega: float = 0.0
+    y_amp: float = 0.0
+    y_omega: float = 0.0
+    x_phase: float = 0.0
+    y_phase: float = 0.0
+
+    def state(self, t: float):
+        sx, cx = math.sin(self.x_omega * t + self.x_phase), math.cos(self.x_omega * t + self.x_phase)
+        sy, cy = math.sin(self.y_omega * t + self.y_phase), math.cos(self.y_omega * t + self.y_phase)
+        return (self.x_amp * sx, self.y_amp * sy,
+                self.x_amp * self.x_omega * cx, self.y_amp * self.y_omega * cy,
+                -self.x_amp * self.x_omega**2 * sx, -self.y_amp * self.y_omega**2 * sy)
+
+    def accel(self, t: float):
+        return self.state(t)[4:]
+
+
+@dataclass(frozen=True)
+class Circle:
+    """O moves on a circle of radius l at constant angular speed w [rad/s] (no start-up)."""
+
+    l: float = 0.5
+    w: float = 2.0 * math.pi
+
+    def state(self, t: float):
+        c, s = math.cos(self.w * t), math.sin(self.w * t)
+        l, w = self.l, self.w
+        return l * c, l * s, -l * w * s, l * w * c, -l * w * w * c, -l * w * w * s
+
+    def accel(self, t: float):
+        return self.state(t)[4:]

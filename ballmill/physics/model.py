@@ -1,0 +1,180 @@
+"""The ball model: formulation + integrator + state, one interval at a time.
+
+`BallModel` is what both the monolithic driver (`simulate`) and the
+BallInShell FMU use. Its `advance` is a pure step: it takes a `BallState`,
+returns a new one, and leaves the old one intact when it raises, so a
+failing step never loses the last good state.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from . import outputs as _out
+from .equations import make_formulation
+from .errors import ParameterError
+from .integrators import Integrator
+from .params import Ball
+
+
+@dataclass
+class BallState:
+    """Everything that determines the ball's future: time, coordinates, and the
+    adaptive integrator's next step size."""
+
+    t: float
+    y: np.ndarray
+    h: float | None = None
+
+    def copy(self) -> "BallState":
+        return BallState(self.t, self.y.copy(), self.h)
+
+    def to_dict(self):
+        return {"t": self.t, "y": [float(v) for v in self.y], "h": self.h}
+
+    @classmethod
+    def from_dict(cls, d):
+        return cls(float(d["t"]), np.array(d["y"], dtype=float), d["h"])
+
+
+@dataclass
+class StepInfo:
+    steps: int = 0
+    rejected: int = 0
+    nfev: int = 0
+
+
+class BallModel:
+    """A ball in a translating spherical chamber.
+
+    formulation: 'vector' (default, whole sphere) or 'paper' (xC, yC; lower
+        hemisphere, refuses near the equator).
+    method: 'DOP853' (default), 'RK45' or 'RK4' (fixed step ``h_fixed``).
+    tol: relative tolerance of the adaptive methods.
+    cramer: paper formulation only: solve for omega' by Cramer's rule.
+    """
+
+    def __init__(self, ball: Ball, formulation: str = "vector", method: str = "DOP853",
+                 tol: float = 1e-9, h_fixed: float = 1e-3, equator_margin: float = 0.02,
+                 cramer: bool = False, h_max: float | None = None):
+        self.ball = ball
+        opts = {"equator_margin": equator_margin, "cramer": cramer} if formulation == "paper" else {}
+        self.form = make_formulation(formulation, ball, **opts)
+        w_ref = ball.d * ball.omega_small / ball.r  # spin of a ball rolling at the pendulum's speed
+        scale = ([1.0, 1.0, 1.0] if formulation == "vector" else [ball.d, ball.d]) + [w_ref] * 3
+        self.integrator = Integrator(method, tol=tol, scale=scale, h_fixed=h_fixed, h_max=h_max,
+                                     project=self.form.project, check=self.form.check)
+        self.info = StepInfo()
+
+    @property
+    def formulation(self) -> str:
+        return self.form.name
+
+    # -- states ---------------------------------------------------------
+    def initial(self, xC0: float = 0.0, yC0: float = 0.0, w0=(0.0, 0.0, 0.0), t0: float = 0.0) -> BallState:
+        """State with the ball centre at (xC0, yC0) on the lower half of its
+        sphere of centres and angular velocity w0. Raises ParameterError when
+        the position cannot be reached or a value is not finite.
+
+        Only the part of w0 compatible with rolling matters: all three
+        components are state (the spin about n is conserved)."""
+        d = self.ball.d
+        for name, v in (("xC0", xC0), ("yC0", yC0), ("wx0", w0[0]), ("wy0", w0[1]), ("wz0", w0[2])):
+            if not math.isfinite(v):
+                raise ParameterError(f"{name} must be finite, got {name} = {v!r}")
+        rho2 = xC0 * xC0 + yC0 * yC0
+        if rho2 > d * d:
+            raise ParameterError(
+                f"initial position out of reach: the ball centre lies on a sphere of radius "
+                f"R - r = {d:.6g} m, so sqrt(xC0^2 + yC0^2) must be <= {d:.6g} m, got "
+                f"xC0 = {xC0!r} m, yC0 = {yC0!r} m ({math.sqrt(rho2):.6g} m)")
+        n = (xC0 / d, yC0 / d, -math.sqrt(max(0.0, 1.0 - rho2 / (d * d))))
+        try:
+            y = self.form.from_nw(n, w0)
+        except ArithmeticError as e:
+            raise ParameterError(str(e)) from None
+        return BallState(float(t0), y, None)
+
+    def nw(self, state: BallState):
+        """(n, omega) of a state, as tuples."""
+        return self.form.to_nw(state.y)
+
+    # -- dynamics -------------------------------------------------------
+    def rhs(self, accel: Callable[[float], tuple]):
+        """f(t, y) for the integrator, with a_O(t) = accel(t)."""
+        deriv = self.form.derivative
+
+        def f(t, y):
+            ax, ay = accel(t)
+            return deriv(y.tolist(), ax, ay)
+        return f
+
+    def advance(self, state: BallState, t_end: float, accel: Callable[[float], tuple]) -> BallState:
+        """Integrate from state.t to t_end with platform acceleration accel(t).
+        Returns a new state; raises StepFailure or FormulationLimitError and
+        then leaves ``state`` as it was."""
+        y, h, st = self.integrator.advance(self.rhs(accel), state.t, state.y, t_end, state.h)
+        self.info.steps += st.steps
+        self.info.rejected += st.rejected
+        self.info.nfev += st.nfev
+        return BallState(float(t_end), y, h)
+
+    def outputs(self, state: BallState, ax: float, ay: float, xO: float = 0.0, yO: float = 0.0):
+        n, w = self.form.to_nw(state.y)
+        return _out.evaluate(self.ball, n, w, ax, ay, xO, yO)
+
+    def energy(self, state: BallState, vx: float = 0.0, vy: float = 0.0) -> float:
+        n, w = self.form.to_nw(state.y)
+        return _out.energy(self.ball, n, w, vx, vy)
+
+
+@dataclass
+class Trajectory:
+    """Result of `simulate`: outputs on the time grid, like scipy's OdeResult."""
+
+    t: np.ndarray
+    y: np.ndarray
+    out: dict = field(default_factory=dict)
+    success: bool = True
+    message: str = "completed"
+    info: StepInfo | None = None
+
+    def __getitem__(self, name):
+        return self.out[name]
+
+
+def simulate(model: BallModel, motion, t_end: float, dt: float, state: BallState | None = None,
+             outputs: bool = True) -> Trajectory:
+    """Monolithic run: the ball driven by a platform motion with exact
+    derivatives (``motion.state(t) -> (x, y, vx, vy, ax, ay)``), sampled every
+    dt up to t_end. Stops early (success False, with the message) when the
+    formulation or the integrator gives up."""
+    if not (dt > 0 and math.isfinite(dt)):
+        raise ValueError(f"dt must be positive and finite, got {dt!r} s")
+    state = state or model.initial()
+    n_steps = int(round((t_end - state.t) / dt))
+    times = state.t + dt * np.arange(n_steps + 1)
+    ys = np.empty((n_steps + 1, state.y.size))
+    outs = []
+    accel = motion.accel
+    success, message, last = True, "completed", n_steps
+    for i, t in enumerate(times):
+        if i:
+            try:
+                state = model.advance(state, float(t), accel)
+            except ArithmeticError as e:
+                success, message, last = False, f"stopped at t = {times[i - 1]:.6g} s: {e}", i - 1
+                break
+        ys[i] = state.y
+        if outputs:
+            x, yy, _, _, ax, ay = motion.state(float(t))
+            outs.append(model.outputs(state, ax, ay, x, yy))
+    times, ys = times[:last + 1], ys[:last + 1]
+    out = {}
+    if outputs and outs:
+        arr = np.array([tuple(o) for o in outs], dtype=float)
+        out = {name: arr[:, j] for j, name in enumerate(_out.Outputs._fields)}
+    return Trajectory(times, ys, out, success, message, model.info)

@@ -1,0 +1,94 @@
+"""What the model reports: contact point, forces, torques, validity, energy.
+
+All from the state (n, omega) and the platform's motion at the same instant
+(DESIGN.md section 3). Pure functions; no integration here.
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+from .equations import omega_dot
+from .params import Ball
+
+
+class Outputs(NamedTuple):
+    """Everything the BallInShell FMU reports, in the frame Oxyz, SI units."""
+
+    xP: float  # contact point [m]
+    yP: float
+    zP: float
+    xC: float  # ball centre [m]
+    yC: float
+    zC: float
+    wx: float  # absolute angular velocity [rad/s]
+    wy: float
+    wz: float
+    N: float  # normal force, > 0 pushes the ball towards the chamber centre [N]
+    Fx: float  # force of the ball on the chamber, F_s = -F [N]
+    Fy: float
+    Fz: float
+    M_reaction: float  # torque on the crank shaft about the vertical axis through O1 [N m]
+    MAx: float  # moment of F_s about the chamber centre A [N m]
+    MAy: float
+    MAz: float
+    Ft: float  # magnitude of the friction (tangential) force [N]
+    friction_ratio: float  # |F_t| / N (inf when N <= 0) [1]
+    contact: bool  # N > 0
+    rolling: bool  # contact and |F_t| <= mu N
+
+
+def evaluate(ball: Ball, n, w, ax: float, ay: float, xO: float = 0.0, yO: float = 0.0) -> Outputs:
+    """Outputs for unit vector n, angular velocity w, platform acceleration (ax, ay)
+    and platform position (xO, yO) relative to the crank axis."""
+    nx, ny, nz = n
+    wx, wy, wz = w
+    lam, r, d, R, m, g = ball.lam, ball.r, ball.d, ball.R, ball.m, ball.g
+    ndx = lam * (ny * wz - nz * wy)
+    ndy = lam * (nz * wx - nx * wz)
+    ndz = lam * (nx * wy - ny * wx)
+    wdx, wdy, wdz = omega_dot(ball.k, r, g, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay)
+    # n'' = lambda (n' x omega + n x omega')
+    nddx = lam * (ndy * wz - ndz * wy + ny * wdz - nz * wdy)
+    nddy = lam * (ndz * wx - ndx * wz + nz * wdx - nx * wdz)
+    nddz = lam * (ndx * wy - ndy * wx + nx * wdy - ny * wdx)
+    # contact force on the ball F = m (a_C - g_vec)
+    Fx = m * (ax + d * nddx)
+    Fy = m * (ay + d * nddy)
+    Fz = m * (d * nddz + g)
+    N = -(Fx * nx + Fy * ny + Fz * nz)
+    ftx, fty, ftz = Fx + N * nx, Fy + N * ny, Fz + N * nz
+    Ft = math.sqrt(ftx * ftx + fty * fty + ftz * ftz)
+    contact = N > 0.0
+    ratio = Ft / N if contact else math.inf
+    # the ball's force on the chamber
+    sx, sy, sz = -Fx, -Fy, -Fz
+    return Outputs(
+        xP=R * nx, yP=R * ny, zP=R * (1.0 + nz),
+        xC=d * nx, yC=d * ny, zC=R + d * nz,
+        wx=wx, wy=wy, wz=wz,
+        N=N, Fx=sx, Fy=sy, Fz=sz,
+        M_reaction=xO * sy - yO * sx,
+        MAx=R * (ny * sz - nz * sy), MAy=R * (nz * sx - nx * sz), MAz=R * (nx * sy - ny * sx),
+        Ft=Ft, friction_ratio=ratio, contact=contact,
+        rolling=contact and Ft <= ball.mu * N,
+    )
+
+
+def energy(ball: Ball, n, w, vx: float = 0.0, vy: float = 0.0) -> float:
+    """Mechanical energy of the ball in the fixed frame [J]:
+    1/2 m |v_O + d n'|^2 + 1/2 I |omega|^2 + m g zC, with (vx, vy) the platform velocity."""
+    nx, ny, nz = n
+    wx, wy, wz = w
+    lam, d = ball.lam, ball.d
+    vcx = vx + d * lam * (ny * wz - nz * wy)
+    vcy = vy + d * lam * (nz * wx - nx * wz)
+    vcz = d * lam * (nx * wy - ny * wx)
+    return (0.5 * ball.m * (vcx * vcx + vcy * vcy + vcz * vcz)
+            + 0.5 * ball.I * (wx * wx + wy * wy + wz * wz)
+            + ball.m * ball.g * (ball.R + d * nz))
+
+
+def spin(n, w) -> float:
+    """Spin about the normal, omega . n [rad/s]: constant for any platform motion."""
+    return n[0] * w[0] + n[1] * w[1] + n[2] * w[2]

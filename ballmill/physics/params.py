@@ -1,0 +1,93 @@
+"""Parameters of the ball-in-chamber system: validated, frozen, SI units.
+
+`Ball` holds what the equations need (radii, mass, gravity, friction
+coefficient) and the derived constants (d = R - r, lambda = r/d, I, and the
+gain k = m r / (I + m r^2) of the closed-form angular acceleration). Building
+one with an impossible value raises `ParameterError` naming the value.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from .errors import ParameterError
+
+STEEL_DENSITY = 7800.0  # kg/m^3; the paper gives no mass, DESIGN.md fixes a steel ball
+PAPER_R_BALL = 0.025  # m
+PAPER_R_CHAMBER = 0.25  # m
+
+
+def steel_ball_mass(r: float) -> float:
+    """Mass of a solid steel ball of radius r [m], in kg (7800 kg/m^3)."""
+    return STEEL_DENSITY * 4.0 / 3.0 * math.pi * r**3
+
+
+def _positive_finite(name: str, value: float, unit: str) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} must be a number in {unit}, got {value!r}") from None
+    if not math.isfinite(v) or v <= 0.0:
+        raise ParameterError(f"{name} must be positive and finite, got {name} = {value!r} {unit}")
+    return v
+
+
+@dataclass(frozen=True)
+class Ball:
+    """A solid ball of radius r and mass m rolling inside a sphere of radius R.
+
+    All values SI. `mu` is the friction coefficient, used only for the rolling
+    (no-slip) validity check |F_t| <= mu N.
+    """
+
+    r: float = PAPER_R_BALL
+    R: float = PAPER_R_CHAMBER
+    m: float = field(default_factory=lambda: steel_ball_mass(PAPER_R_BALL))
+    g: float = 9.81
+    mu: float = 0.3
+    inertia_factor: float = 0.4  # I = inertia_factor * m r^2 (0.4: solid sphere)
+
+    def __post_init__(self):
+        for name, unit in (("r", "m"), ("R", "m"), ("m", "kg"), ("g", "m/s2"),
+                           ("mu", "1"), ("inertia_factor", "1")):
+            object.__setattr__(self, name, _positive_finite(name, getattr(self, name), unit))
+        if not self.r < self.R:
+            raise ParameterError(
+                f"R must be larger than r (the ball must fit in the chamber), "
+                f"got r = {self.r:g} m, R = {self.R:g} m")
+        if (self.R - self.r) / self.R < 1e-9:
+            raise ParameterError(
+                f"R - r must be at least 1e-9 R, got r = {self.r!r} m, R = {self.R!r} m")
+
+    # derived constants -----------------------------------------------------
+    @property
+    def d(self) -> float:
+        """Distance from the chamber centre A to the ball centre C, R - r [m]."""
+        return self.R - self.r
+
+    @property
+    def lam(self) -> float:
+        """lambda = r / (R - r) [1]."""
+        return self.r / (self.R - self.r)
+
+    @property
+    def I(self) -> float:  # noqa: E743 - the physics symbol
+        """Moment of inertia about the centre [kg m2]."""
+        return self.inertia_factor * self.m * self.r**2
+
+    @property
+    def k(self) -> float:
+        """Gain m r / (I + m r^2) of the closed-form omega' [1/m]."""
+        return 1.0 / (self.r * (1.0 + self.inertia_factor))
+
+    @property
+    def omega_small(self) -> float:
+        """Angular frequency of small oscillations at the bottom, sqrt(g_red/d) [rad/s]
+        with the reduced gravity g_red = g / (1 + I/(m r^2)) (5g/7 for a solid ball)."""
+        return math.sqrt(self.g / (1.0 + self.inertia_factor) / self.d)
+
+    def with_(self, **changes) -> "Ball":
+        """A copy with some values changed (validated again)."""
+        values = {k: getattr(self, k) for k in ("r", "R", "m", "g", "mu", "inertia_factor")}
+        values.update(changes)
+        return Ball(**values)

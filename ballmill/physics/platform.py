@@ -1,0 +1,143 @@
+"""Reconstructing the platform's motion between communication points.
+
+A co-simulation FMU receives its inputs only at communication points t_k,
+but the ball needs the platform acceleration a_O(t) for t in [t_k, t_k + H].
+`InputReconstruction` keeps the last few samples and fits one polynomial per
+axis through them, which it then extrapolates over the coming step:
+
+* mode "derivatives": each sample brings x, v and a. Two samples give a
+  quintic (Hermite) through (x, v, a) at t_{k-1} and t_k; a(t) is then a
+  cubic and its extrapolation error is O(H^4).
+* mode "positions": each sample brings x only (a measured motion, a tool
+  without derivative outputs). Six samples give a quintic in x, a(t) again
+  a cubic, O(H^4) on smooth motion; a jump in acceleration (the start of the
+  paper's crank law at t = 0) is smeared over the window and costs O(H) there.
+* mode "hold": a(t) = a_k over the step (zero-order hold): first order, the
+  baseline that DESIGN.md warns about; kept for measurements.
+
+Until enough samples exist the fit uses what it has (lower degree).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .errors import InputError
+
+MODES = ("derivatives", "positions", "hold")
+DEFAULT_POINTS = {"derivatives": 2, "positions": 6, "hold": 1}
+
+
+class InputReconstruction:
+    """Polynomial reconstruction of (x, y) of the platform from its samples."""
+
+    def __init__(self, mode: str = "derivatives", points: int | None = None):
+        if mode not in MODES:
+            raise ValueError(f"input mode must be one of {MODES}, got {mode!r}")
+        self.mode = mode
+        self.points = DEFAULT_POINTS[mode] if points is None else int(points)
+        if self.points < 1 or self.points > 8:
+            raise ValueError(f"points must be between 1 and 8, got {points!r}")
+        self.samples: list[tuple] = []  # (t, x, y, vx, vy, ax, ay)
+        self._t0 = 0.0
+        self._hs = 1.0
+        self._cx = self._cy = (0.0,)  # polynomial coefficients in tau = (t - t0)/hs
+        self._dirty = True
+
+    # -- samples ---------------------------------------------------------
+    def push(self, t, x, y, vx=0.0, vy=0.0, ax=0.0, ay=0.0):
+        """Record the inputs seen at communication point t. A second sample at
+        the same t replaces the first. Raises InputError (state unchanged) on
+        a non-finite value or a time earlier than the last sample."""
+        sample = (float(t), float(x), float(y), float(vx), float(vy), float(ax), float(ay))
+        names = ("t", "x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O")
+        for name, v in zip(names, sample):
+            if not math.isfinite(v):
+                raise InputError(f"input {name} must be finite, got {v!r} at t = {t!r} s")
+        if self.samples and sample[0] < self.samples[-1][0]:
+            raise InputError(f"inputs must come in time order: got t = {t!r} s after "
+                             f"t = {self.samples[-1][0]!r} s")
+        if self.samples and sample[0] == self.samples[-1][0]:
+            self.samples[-1] = sample
+        else:
+            self.samples.append(sample)
+            if len(self.samples) > self.points:
+                del self.samples[0]
+        self._dirty = True
+
+    def get_state(self):
+        return {"mode": self.mode, "points": self.points, "samples": [list(s) for s in self.samples]}
+
+    def set_state(self, state):
+        self.mode = state["mode"]
+        self.points = state["points"]
+        self.samples = [tuple(s) for s in state["samples"]]
+        self._dirty = True
+
+    # -- fit -----------------------------------------------------------
+    def _fit(self):
+        s = self.samples
+        if not s:
+            raise InputError("no platform sample has been set yet")
+        tk = s[-1][0]
+        self._t0 = tk
+        self._hs = (tk - s[-2][0]) if len(s) > 1 else 1.0
+        if self.mode == "hold":
+            _, x, y, vx, vy, ax, ay = s[-1]
+            self._cx, self._cy = (x, vx, 0.5 * ax), (y, vy, 0.5 * ay)
+            self._hs = 1.0
+        else:
+            rows, bx, by = [], [], []
+            hs = self._hs
+            for (t, x, y, vx, vy, ax, ay) in s:
+                tau = (t - tk) / hs
+                rows.append((0, tau)); bx.append(x); by.append(y)
+                if self.mode == "derivatives":
+                    rows.append((1, tau)); bx.append(vx * hs); by.append(vy * hs)
+                    rows.append((2, tau)); bx.append(ax * hs * hs); by.append(ay * hs * hs)
+            n = len(rows)
+            M = np.zeros((n, n))
+            for i, (der, tau) in enumerate(rows):
+                for j in range(der, n):
+                    coef = math.perm(j, der)
+                    M[i, j] = coef * tau ** (j - der)
+            c = np.linalg.solve(M, np.array([bx, by]).T)
+            self._cx, self._cy = tuple(c[:, 0]), tuple(c[:, 1])
+        self._dirty = False
+        # derivative coefficient tuples for fast evaluation
+        self._dx = self._deriv(self._cx)
+        self._dy = self._deriv(self._cy)
+        self._ddx = self._deriv(self._dx)
+        self._ddy = self._deriv(self._dy)
+
+    @staticmethod
+    def _deriv(c):
+        return tuple(j * c[j] for j in range(1, len(c))) or (0.0,)
+
+    @staticmethod
+    def _horner(c, tau):
+        acc = 0.0
+        for v in reversed(c):
+            acc = acc * tau + v
+        return acc
+
+    def prepare(self):
+        """Fit the polynomials for the coming step (idempotent)."""
+        if self._dirty:
+            self._fit()
+
+    def accel(self, t):
+        """(ax, ay) [m/s2] at time t (t >= the last sample: extrapolation)."""
+        tau = (t - self._t0) / self._hs
+        h2 = self._hs * self._hs
+        return self._horner(self._ddx, tau) / h2, self._horner(self._ddy, tau) / h2
+
+    def state(self, t):
+        """(x, y, vx, vy, ax, ay) of the reconstructed motion at time t."""
+        self.prepare()
+        tau = (t - self._t0) / self._hs
+        hs = self._hs
+        hz = self._horner
+        return (hz(self._cx, tau), hz(self._cy, tau), hz(self._dx, tau) / hs, hz(self._dy, tau) / hs,
+                hz(self._ddx, tau) / hs**2, hz(self._ddy, tau) / hs**2)
