@@ -160,6 +160,10 @@ class Integrator:
             return y, h, stats
         f0 = np.asarray(f(t, y), dtype=float)
         stats.nfev += 1
+        if not np.all(np.isfinite(f0)):
+            # no step size can help: the state or the input is already unusable
+            raise StepFailure(f"{self.method}: non-finite derivative at t = {t:.9g} s "
+                              f"(state or input not finite)")
         if not self.adaptive:
             n = max(1, math.ceil(span / self.h_fixed - 1e-9))
             hh = span / n
@@ -198,7 +202,7 @@ class Integrator:
             if not math.isfinite(err) or not np.all(np.isfinite(y_new)):
                 stats.rejected += 1
                 h = 0.2 * hh
-                if h < h_min_abs:
+                if not h >= h_min_abs:  # also catches a NaN step
                     raise StepFailure(f"{self.method}: non-finite values at t = {t:.9g} s "
                                       f"even with step {hh:.3g} s")
                 continue
@@ -214,7 +218,7 @@ class Integrator:
             else:
                 stats.rejected += 1
                 h = hh * max(0.2, 0.9 * err ** (-1.0 / order))
-                if h < h_min_abs:
+                if not h >= h_min_abs:
                     raise StepFailure(f"{self.method}: step size underflow at t = {t:.9g} s "
                                       f"(tolerance {self.tol:g} not met with step {hh:.3g} s)")
         return y, h, stats

@@ -1,0 +1,77 @@
+"""The `ballmill` command: build the FMUs, run scenarios, benchmark.
+
+    ballmill build [--force]                 build and validate every FMU into build/
+    ballmill run SCENARIO [--out DIR] [--set inst.param=value ...]
+    ballmill bench [...]                      speed/accuracy map -> BENCHMARKS.md
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+
+def _build(args) -> int:
+    from .fmi import build
+    try:
+        build.build_all(Path(args.build_dir) if args.build_dir else None, force=args.force)
+    except build.BuildError as e:
+        print(f"ballmill build: {e}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _run(args) -> int:
+    from .fmi.build import BuildError
+    from .scenario import report, runner
+    from .scenario.spec import ScenarioError
+    try:
+        sc, models, paths = runner.prepare(args.scenario, args.set or (),
+                                           Path(args.build_dir) if args.build_dir else None,
+                                           log=lambda m: print(m, file=sys.stderr))
+    except (ScenarioError, BuildError) as e:
+        print(f"ballmill run: {e}", file=sys.stderr)
+        return 2
+    out = Path(args.out or Path("out") / sc.name)
+    print(f"running {sc.name}: {sc.description}", file=sys.stderr)
+    res = runner.run(sc, models, paths, progress=not args.quiet)
+    summary = report.write_all(res, models, out)
+    brief = {k: summary.get(k) for k in ("success", "message", "wall_time_s", "N", "ring", "zP_max_m",
+                                         "M_reaction_peak_abs_Nm", "validity") if k in summary}
+    print(json.dumps(brief, indent=2))
+    print(f"results: {out / 'results.csv'}, {out / 'summary.json'}, plots: "
+          f"{', '.join(str(out / p) for p in summary.get('plots', []))}", file=sys.stderr)
+    return 0 if res.success else 1
+
+
+def _bench(args, rest) -> int:
+    from . import bench
+    return bench.main(rest)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="ballmill", description=__doc__.split("\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    b = sub.add_parser("build", help="build and validate every FMU into build/")
+    b.add_argument("--force", action="store_true", help="rebuild even when up to date")
+    b.add_argument("--build-dir", help="where to put the FMUs (default: build/)")
+    r = sub.add_parser("run", help="run a scenario (builds the FMUs if needed)")
+    r.add_argument("scenario", help="scenario name in scenarios/ (e.g. fast_start) or a .toml path")
+    r.add_argument("--out", help="output folder (default: out/SCENARIO)")
+    r.add_argument("--set", action="append", metavar="INSTANCE.PARAM=VALUE",
+                   help="override a parameter, e.g. --set drive.t0=30 (repeatable)")
+    r.add_argument("--build-dir", help="where the FMUs are (default: build/)")
+    r.add_argument("--quiet", action="store_true", help="no progress bar")
+    sub.add_parser("bench", help="speed/accuracy benchmarks -> BENCHMARKS.md (see ballmill bench -h)",
+                   add_help=False)
+    args, rest = parser.parse_known_args(argv)
+    if args.command == "bench":
+        return _bench(args, rest)
+    if rest:
+        parser.error(f"unrecognized arguments: {' '.join(rest)}")
+    return {"build": _build, "run": _run}[args.command](args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

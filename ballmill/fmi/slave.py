@@ -1,0 +1,174 @@
+"""Base class for the project's pythonfmu slaves (bundled into every FMU).
+
+pythonfmu 0.7.0 writes no units, no min/max and no InitialUnknowns, so its
+FMUs fail `fmpy validate` as built. `Slave` declares each variable with its
+unit, description and bounds in one call (`add`), and extends `to_xml` with
+UnitDefinitions, unit/min/max attributes, output dependencies and
+InitialUnknowns. It also provides full FMU-state save/restore: subclasses
+return their internal state from `internal_state()` and take it back in
+`restore_internal_state()`; pythonfmu alone would save registered variables
+only and rollback would silently lose the integrator's state.
+
+Everything here is FMI plumbing: no physics.
+"""
+from __future__ import annotations
+
+import copy
+from xml.etree.ElementTree import Element, SubElement
+
+from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
+from pythonfmu.enums import Fmi2Status
+from pythonfmu.default_experiment import DefaultExperiment
+
+# unit name -> SI base-unit exponents (and factor) for <UnitDefinitions>
+UNITS = {
+    "m": {"m": 1},
+    "kg": {"kg": 1},
+    "s": {"s": 1},
+    "1": {},
+    "rad": {"rad": 1},
+    "rad/s": {"rad": 1, "s": -1},
+    "rad/s2": {"rad": 1, "s": -2},
+    "1/min": {"s": -1, "factor": 1.0 / 60.0},
+    "m/s": {"m": 1, "s": -1},
+    "m/s2": {"m": 1, "s": -2},
+    "N": {"kg": 1, "m": 1, "s": -2},
+    "N.m": {"kg": 1, "m": 2, "s": -2},
+    "J": {"kg": 1, "m": 2, "s": -2},
+    "W": {"kg": 1, "m": 2, "s": -3},
+    "kg.m2": {"kg": 1, "m": 2},
+    "V": {"kg": 1, "m": 2, "s": -3, "A": -1},
+    "A": {"A": 1},
+    "Hz": {"s": -1},
+    "Ohm": {"kg": 1, "m": 2, "s": -3, "A": -2},
+    "H": {"kg": 1, "m": 2, "s": -2, "A": -2},
+    "Wb": {"kg": 1, "m": 2, "s": -2, "A": -1},
+}
+
+_CAUSALITY = {"parameter": Fmi2Causality.parameter, "input": Fmi2Causality.input,
+              "output": Fmi2Causality.output, "local": Fmi2Causality.local}
+_TYPES = {float: Real, int: Integer, bool: Boolean}
+
+
+class Slave(Fmi2Slave):
+    """pythonfmu slave with units, bounds, dependencies and full state save."""
+
+    log_categories = {
+        "logStatusWarning": "Warnings: loss of contact, onset of slip, refused inputs.",
+        "logStatusDiscard": "A step that was refused; the last good state is kept.",
+        "logStatusError": "Errors: bad parameters, unusable inputs.",
+        "logStatusFatal": "Fatal errors.",
+        "logAll": "All messages.",
+    }
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self._meta: dict[str, dict] = {}
+        self.author = "ballmill"
+        self.license = "MIT"
+
+    # -- declaration -------------------------------------------------------
+    def add(self, name: str, causality: str, start, description: str, unit: str | None = None,
+            vmin: float | None = None, vmax: float | None = None, depends=None):
+        """Declare a variable and set its start value as an attribute.
+
+        The Python type of ``start`` chooses the FMI type (float -> Real,
+        int -> Integer, bool -> Boolean). ``depends`` lists the input names an
+        output depends on during initialisation (InitialUnknowns); in
+        continuous time the outputs here have no direct feedthrough.
+        """
+        kind = _TYPES[type(start)]
+        if kind is Real and unit is None:
+            raise ValueError(f"Real variable {name!r} needs a unit")
+        if unit is not None and unit not in UNITS:
+            raise ValueError(f"unit {unit!r} of {name!r} is not in UNITS")
+        setattr(self, name, start)
+        if causality == "parameter":
+            variability = Fmi2Variability.fixed
+        elif kind is Real:
+            variability = Fmi2Variability.continuous
+        else:
+            variability = Fmi2Variability.discrete
+        self.register_variable(kind(name, causality=_CAUSALITY[causality], description=description,
+                                    variability=variability))
+        self._meta[name] = {"unit": unit, "min": vmin, "max": vmax, "depends": depends or ()}
+
+    def set_default_experiment(self, start: float, stop: float, step: float, tolerance: float | None = None):
+        self.default_experiment = DefaultExperiment(start, stop, step, tolerance)
+
+    # -- model description ---------------------------------------------------
+    def to_xml(self, model_options=dict()) -> Element:  # noqa: B006 - pythonfmu's signature
+        root = super().to_xml(model_options)
+        used = sorted({m["unit"] for m in self._meta.values() if m["unit"]})
+        units = Element("UnitDefinitions")
+        for u in used:
+            spec = dict(UNITS[u])
+            factor = spec.pop("factor", None)
+            unit_el = SubElement(units, "Unit", name=u)
+            attrs = {k: str(v) for k, v in spec.items()}
+            if factor is not None:
+                attrs["factor"] = repr(factor)
+            SubElement(unit_el, "BaseUnit", attrs)
+        # schema order: CoSimulation, UnitDefinitions, TypeDefinitions, LogCategories, ...
+        root.insert(list(root).index(root.find("CoSimulation")) + 1, units)
+
+        index = {}
+        for i, sv in enumerate(root.find("ModelVariables")):
+            name = sv.get("name")
+            index[name] = i + 1
+            meta = self._meta.get(name)
+            if not meta:
+                continue
+            typed = sv[0]
+            if meta["unit"]:
+                typed.set("unit", meta["unit"])
+            for key in ("min", "max"):
+                if meta[key] is not None:
+                    v = meta[key]
+                    typed.set(key, str(v) if isinstance(v, int) and sv.find("Integer") is not None
+                              else repr(float(v)))
+        structure = root.find("ModelStructure")
+        outputs = structure.find("Outputs")
+        init = SubElement(structure, "InitialUnknowns")
+        if outputs is not None:
+            for unknown in outputs:
+                name = root.find("ModelVariables")[int(unknown.get("index")) - 1].get("name")
+                unknown.set("dependencies", "")  # outputs at t_k come from the state only
+                deps = " ".join(str(index[d]) for d in self._meta.get(name, {}).get("depends", ()))
+                SubElement(init, "Unknown", index=unknown.get("index"), dependencies=deps)
+        if not len(init):
+            structure.remove(init)
+        return root
+
+    # -- state save/restore ------------------------------------------------
+    def internal_state(self) -> dict:
+        """Subclasses: everything beyond the registered variables, as plain data."""
+        return {}
+
+    def restore_internal_state(self, state: dict) -> None:
+        """Subclasses: take back what `internal_state` returned."""
+
+    def _get_fmu_state(self):
+        state = super()._get_fmu_state()
+        state["__internal__"] = copy.deepcopy(self.internal_state())
+        return state
+
+    def _set_fmu_state(self, state):
+        state = dict(state)
+        internal = state.pop("__internal__", None)
+        super()._set_fmu_state(state)
+        if internal is not None:
+            self.restore_internal_state(copy.deepcopy(internal))
+
+    # -- logging helpers ---------------------------------------------------
+    def warn(self, msg: str):
+        self.log(msg, Fmi2Status.warning)
+
+    def error(self, msg: str):
+        self.log(msg, Fmi2Status.error)
+
+    def discard(self, msg: str) -> bool:
+        """Log why a step is refused and return False (fmi2Discard)."""
+        self.log(msg, Fmi2Status.discard)
+        return False
+

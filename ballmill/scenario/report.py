@@ -1,0 +1,138 @@
+"""Results of a scenario run: results.csv, summary.json and the plots.
+
+The summary holds what a mill engineer reads first: the ball's pressure N
+(over the run and after the start-up), the ring of the contact point in the
+Oxy plane, the highest contact point, the peak reaction torque, whether the
+model stayed valid (contact, rolling) and when it first failed, and the
+wall time.
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .runner import RunResult
+
+
+def _ball_instance(res: RunResult) -> str | None:
+    sc = res.scenario
+    name = sc.summary.get("ball")
+    if name:
+        return name
+    for n, inst in sc.instances.items():
+        if inst.fmu == "BallInShell":
+            return n
+    return None
+
+
+def _after_time(res: RunResult, models) -> float:
+    """Start of the 'after start-up' window: a number or 'instance.parameter'."""
+    sc = res.scenario
+    after = sc.summary.get("after", sc.start)
+    if isinstance(after, str):
+        inst, param = after.split(".", 1)
+        if param in sc.instances[inst].parameters:
+            return float(sc.instances[inst].parameters[param])
+        md = models[sc.instances[inst].fmu]
+        return float(next(v.start for v in md.modelVariables if v.name == param))
+    return float(after)
+
+
+def _stats(x):
+    return {"min": float(np.min(x)), "max": float(np.max(x)), "range": float(np.ptp(x))} if len(x) else None
+
+
+def summarise(res: RunResult, models) -> dict:
+    sc = res.scenario
+    out = {"scenario": sc.name, "description": sc.description, "success": res.success,
+           "message": res.message, "steps": res.steps, "wall_time_s": round(res.wall_time, 4),
+           "startup_time_s": round(res.init_time, 4), "communication_step_s": sc.step,
+           "parameters": {n: i.parameters for n, i in sc.instances.items()}}
+    ball = _ball_instance(res)
+    cols = set(res.columns)
+    if ball and f"{ball}.N" in cols and len(res.data):
+        t = res.column("time")
+        after = _after_time(res, models)
+        late = t >= after - 1e-12
+        col = lambda v: res.column(f"{ball}.{v}")  # noqa: E731
+        out["after_s"] = after
+        out["N"] = {"all": _stats(col("N")), "after": _stats(col("N")[late])}
+        if {f"{ball}.xP", f"{ball}.yP"} <= cols:
+            rho = np.hypot(col("xP"), col("yP"))
+            out["ring"] = {"inner_radius_m": float(rho[late].min()) if late.any() else None,
+                           "outer_radius_m": float(rho[late].max()) if late.any() else None}
+            out["ring"]["width_m"] = (out["ring"]["outer_radius_m"] - out["ring"]["inner_radius_m"]
+                                      if late.any() else None)
+        if f"{ball}.zP" in cols:
+            out["zP_max_m"] = float(col("zP").max())
+        if f"{ball}.M_reaction" in cols:
+            out["M_reaction_peak_abs_Nm"] = float(np.abs(col("M_reaction")).max())
+        validity = {}
+        for flag in ("contact", "rolling"):
+            if f"{ball}.{flag}" in cols:
+                bad = np.flatnonzero(col(flag) < 0.5)
+                validity[flag] = {"held_throughout": bool(bad.size == 0),
+                                  "first_failure_s": float(t[bad[0]]) if bad.size else None}
+        if f"{ball}.friction_ratio" in cols:
+            fr = col("friction_ratio")
+            validity["friction_ratio_max"] = float(fr[np.isfinite(fr) & (fr < 1e299)].max()) \
+                if np.any(fr < 1e299) else None
+        out["validity"] = validity
+    out["log"] = [m for m in res.messages if m["status"] != "ok"][:50]
+    return out
+
+
+def write_csv(res: RunResult, path: Path):
+    header = ",".join(res.columns)
+    np.savetxt(path, res.data, delimiter=",", header=header, comments="", fmt="%.12g")
+
+
+def plot(res: RunResult, out_dir: Path) -> list[Path]:
+    """The scenario's [[plots]] as PNG files."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    files = []
+    for spec in res.scenario.plots:
+        fig, ax = plt.subplots(figsize=(7.5, 4.8) if spec.get("aspect") != "equal" else (6.4, 6.4))
+        xname = spec.get("x", "time")
+        x = res.column(xname)
+        for yname in spec["y"]:
+            ax.plot(x, res.column(yname), lw=0.8 if len(x) > 2000 else 1.2, label=yname)
+        ax.set_xlabel(spec.get("xlabel", "time [s]" if xname == "time" else xname))
+        ax.set_ylabel(spec.get("ylabel", ", ".join(spec["y"])))
+        ax.set_title(spec.get("title", ""))
+        if spec.get("aspect") == "equal":
+            ax.set_aspect("equal", adjustable="datalim")
+        for line in spec.get("vlines", []):
+            ax.axvline(float(line), color="grey", ls="--", lw=0.8)
+        if len(spec["y"]) > 1:
+            ax.legend()
+        ax.grid(alpha=0.3)
+        fig.tight_layout()
+        path = out_dir / spec["file"]
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        files.append(path)
+    return files
+
+
+def write_all(res: RunResult, models, out_dir: Path) -> dict:
+    out_dir.mkdir(parents=True, exist_ok=True)
+    write_csv(res, out_dir / "results.csv")
+    summary = summarise(res, models)
+    summary["plots"] = [p.name for p in plot(res, out_dir)] if len(res.data) > 1 else []
+    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=_json_default))
+    return summary
+
+
+def _json_default(o):
+    if isinstance(o, float) and not math.isfinite(o):
+        return None
+    if isinstance(o, np.generic):
+        return o.item()
+    raise TypeError(f"not JSON serialisable: {o!r}")

@@ -1,0 +1,264 @@
+"""Scenario files: reading, overriding and checking them before anything runs.
+
+A scenario is a TOML file:
+
+    description = "..."
+    [experiment]            start, stop [s], step [s] (the communication step)
+    [instances.NAME]        fmu = "BallInShell"  (a model built into build/)
+                            or table = "file.csv" (columns: time, then signals)
+    [instances.NAME.parameters]   parameter = value
+    connections = ["drive.x1O -> ball.x1O", ...]
+    [record]                variables = ["ball.zP", ...]  (default: all outputs)
+    [summary]               ball = "ball"; after = 2.5 or "drive.t0" (statistics after the start-up)
+    [[plots]]               title, x = "time" or a variable, y = [variables], file = "name.png",
+                            aspect = "equal" (optional), ylabel, xlabel (optional)
+
+`load` returns a `Scenario` or raises `ScenarioError` listing every problem
+with its file and key.
+"""
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+SCENARIO_DIR = Path(__file__).resolve().parents[2] / "scenarios"
+
+
+class ScenarioError(ValueError):
+    """A scenario has problems; ``problems`` lists them, each with file and key."""
+
+    def __init__(self, problems: list[str]):
+        self.problems = problems
+        super().__init__(f"{len(problems)} problem(s) in the scenario:\n  - " + "\n  - ".join(problems))
+
+
+@dataclass
+class Instance:
+    name: str
+    fmu: str | None = None  # model name, for FMU instances
+    table: Path | None = None  # CSV file, for table sources
+    parameters: dict = field(default_factory=dict)
+    columns: list[str] = field(default_factory=list)  # table sources: signal names
+    data: np.ndarray | None = None  # table sources: rows of (time, signals...)
+
+
+@dataclass
+class Scenario:
+    path: Path
+    name: str
+    description: str
+    start: float
+    stop: float
+    step: float
+    instances: dict[str, Instance]
+    connections: list[tuple[str, str, str, str]]  # (src inst, src var, dst inst, dst var)
+    record: list[tuple[str, str]]
+    plots: list[dict]
+    summary: dict
+
+
+def resolve(name_or_path: str) -> Path:
+    """A scenario by path, or by name in scenarios/ (with or without .toml)."""
+    p = Path(name_or_path)
+    for cand in (p, p.with_suffix(".toml"), SCENARIO_DIR / p, (SCENARIO_DIR / p).with_suffix(".toml")):
+        if cand.is_file():
+            return cand
+    known = ", ".join(sorted(q.stem for q in SCENARIO_DIR.glob("*.toml")))
+    raise ScenarioError([f"{name_or_path}: no such scenario file (scenarios here: {known})"])
+
+
+def parse_override(text: str):
+    """'instance.parameter=value' -> (instance, parameter, value)."""
+    if "=" not in text or "." not in text.split("=", 1)[0]:
+        raise ScenarioError([f"--set {text!r}: expected instance.parameter=value, e.g. drive.t0=30"])
+    key, value = text.split("=", 1)
+    inst, param = key.strip().split(".", 1)
+    try:
+        parsed = tomllib.loads(f"v = {value.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        parsed = value.strip()
+    return inst, param, parsed
+
+
+def load(name_or_path: str, overrides: list[str] = (), models: dict | None = None) -> Scenario:
+    """Read a scenario and check it. ``models`` maps model name -> fmpy
+    ModelDescription (to check parameters, connections and records); the
+    runner passes it once the FMUs are built."""
+    path = resolve(name_or_path)
+    where = path.as_posix()
+    try:
+        doc = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as e:
+        raise ScenarioError([f"{where}: not valid TOML: {e}"]) from None
+    problems: list[str] = []
+
+    def bad(key, msg):
+        problems.append(f"{where}: {key}: {msg}")
+
+    exp = doc.get("experiment", {})
+    start, stop, step = exp.get("start", 0.0), exp.get("stop"), exp.get("step")
+    for key, v in (("start", start), ("stop", stop), ("step", step)):
+        if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v):
+            bad(f"experiment.{key}", f"expected a finite number of seconds, got {v!r}")
+    if not problems:
+        if stop <= start:
+            bad("experiment.stop", f"must be after experiment.start = {start}, got {stop}")
+        if step <= 0 or step > stop - start:
+            bad("experiment.step", f"must be in (0, stop - start = {stop - start:g}] s, got {step!r}")
+
+    instances: dict[str, Instance] = {}
+    for name, spec in (doc.get("instances") or {}).items():
+        key = f"instances.{name}"
+        if not isinstance(spec, dict):
+            bad(key, "expected a table")
+            continue
+        inst = Instance(name, parameters=dict(spec.get("parameters", {})))
+        if "fmu" in spec and "table" not in spec:
+            inst.fmu = str(spec["fmu"])
+        elif "table" in spec and "fmu" not in spec:
+            inst.table = (path.parent / spec["table"]).resolve()
+            _load_table(inst, key, bad)
+        else:
+            bad(key, "needs exactly one of fmu = \"Model\" or table = \"file.csv\"")
+        unknown = set(spec) - {"fmu", "table", "parameters"}
+        if unknown:
+            bad(key, f"unknown key(s) {sorted(unknown)}; expected fmu, table, parameters")
+        instances[name] = inst
+    if not instances:
+        bad("instances", "a scenario needs at least one instance")
+
+    for text in overrides:
+        try:
+            inst, param, value = parse_override(text)
+        except ScenarioError as e:
+            problems += e.problems
+            continue
+        if inst not in instances:
+            problems.append(f"--set {text}: no instance {inst!r} (instances: {', '.join(instances)})")
+        else:
+            instances[inst].parameters[param] = value
+
+    connections = []
+    for i, text in enumerate(doc.get("connections", [])):
+        key = f"connections[{i}]"
+        try:
+            src, dst = (s.strip() for s in str(text).split("->"))
+            si, sv = src.split(".", 1)
+            di, dv = dst.split(".", 1)
+        except ValueError:
+            bad(key, f"expected 'instance.output -> instance.input', got {text!r}")
+            continue
+        connections.append((si, sv, di, dv))
+
+    record_spec = (doc.get("record") or {}).get("variables")
+    record = []
+    for i, text in enumerate(record_spec or []):
+        if "." not in str(text):
+            bad(f"record.variables[{i}]", f"expected 'instance.variable', got {text!r}")
+            continue
+        record.append(tuple(str(text).split(".", 1)))
+
+    scenario = Scenario(path=path, name=path.stem, description=str(doc.get("description", "")),
+                        start=float(start or 0.0), stop=float(stop or 0.0), step=float(step or 0.0),
+                        instances=instances, connections=connections, record=record,
+                        plots=list(doc.get("plots", [])), summary=dict(doc.get("summary", {})))
+    if models is not None and not problems:
+        problems += check(scenario, models, record_spec is None)
+    if problems:
+        raise ScenarioError(problems)
+    return scenario
+
+
+def _load_table(inst: Instance, key: str, bad):
+    if not inst.table.is_file():
+        bad(f"{key}.table", f"no such file {inst.table}")
+        return
+    try:
+        with open(inst.table) as fh:
+            header = [h.strip() for h in fh.readline().split(",")]
+        data = np.loadtxt(inst.table, delimiter=",", skiprows=1, ndmin=2)
+    except ValueError as e:
+        bad(f"{key}.table", f"{inst.table.name}: not a numeric CSV with one header line: {e}")
+        return
+    if header[0] != "time" or data.shape[1] != len(header) or len(header) < 2:
+        bad(f"{key}.table", f"{inst.table.name}: expected a header 'time,signal,...' matching the "
+                            f"columns, got {header}")
+        return
+    if not np.all(np.isfinite(data)):
+        row = int(np.argwhere(~np.isfinite(data))[0][0]) + 2
+        bad(f"{key}.table", f"{inst.table.name}: non-finite value on line {row}")
+        return
+    if np.any(np.diff(data[:, 0]) <= 0):
+        bad(f"{key}.table", f"{inst.table.name}: the time column must increase strictly")
+        return
+    inst.columns, inst.data = header[1:], data
+
+
+def _variables(inst: Instance, models: dict):
+    """{name: (causality, type, unit)} of an instance."""
+    if inst.table is not None:
+        return {c: ("output", "Real", None) for c in inst.columns}
+    md = models[inst.fmu]
+    return {v.name: (v.causality, v.type, v.unit) for v in md.modelVariables}
+
+
+def check(sc: Scenario, models: dict, record_all: bool) -> list[str]:
+    """Check instances, parameters, connections and records against the model descriptions."""
+    where = sc.path.as_posix()
+    problems = []
+    for name, inst in sc.instances.items():
+        if inst.fmu is not None and inst.fmu not in models:
+            problems.append(f"{where}: instances.{name}.fmu: unknown model {inst.fmu!r} "
+                            f"(built models: {', '.join(sorted(models))})")
+    if problems:
+        return problems
+    variables = {name: _variables(inst, models) for name, inst in sc.instances.items()}
+    for name, inst in sc.instances.items():
+        for param, value in inst.parameters.items():
+            key = f"{where}: instances.{name}.parameters.{param}"
+            info = variables[name].get(param)
+            if info is None or info[0] != "parameter":
+                params = [v for v, i in variables[name].items() if i[0] == "parameter"]
+                problems.append(f"{key}: {inst.fmu or 'a table'} has no parameter {param!r} "
+                                f"(parameters: {', '.join(params)})")
+                continue
+            kind = info[1]
+            ok = (kind == "Real" and isinstance(value, (int, float)) and not isinstance(value, bool)) or \
+                 (kind == "Integer" and isinstance(value, int) and not isinstance(value, bool)) or \
+                 (kind == "Boolean" and isinstance(value, bool)) or (kind == "String" and isinstance(value, str))
+            if not ok:
+                problems.append(f"{key}: expected a {kind} value, got {value!r}")
+    seen_inputs = set()
+    for i, (si, sv, di, dv) in enumerate(sc.connections):
+        key = f"{where}: connections[{i}] ({si}.{sv} -> {di}.{dv})"
+        for inst, var, role in ((si, sv, "output"), (di, dv, "input")):
+            if inst not in variables:
+                problems.append(f"{key}: no instance {inst!r}")
+            elif variables[inst].get(var, (None,))[0] != role:
+                names = [v for v, c in variables[inst].items() if c[0] == role]
+                problems.append(f"{key}: {inst!r} has no {role} {var!r} ({role}s: {', '.join(names)})")
+        if si in variables and di in variables and sv in variables[si] and dv in variables[di]:
+            su, du = variables[si][sv][2], variables[di][dv][2]
+            if su and du and su != du:
+                problems.append(f"{key}: unit mismatch, {su} -> {du}")
+        if (di, dv) in seen_inputs:
+            problems.append(f"{key}: input {di}.{dv} is connected twice")
+        seen_inputs.add((di, dv))
+    if record_all:
+        sc.record = [(n, v) for n, inst in sc.instances.items() for v, c in variables[n].items()
+                     if c[0] == "output" and c[1] in ("Real", "Boolean", "Integer")]
+    for i, (inst, var) in enumerate(sc.record):
+        if inst not in variables or var not in variables[inst]:
+            problems.append(f"{where}: record.variables[{i}]: no variable {inst}.{var}")
+    recorded = {f"{a}.{b}" for a, b in sc.record} | {"time"}
+    for i, plot in enumerate(sc.plots):
+        for var in [plot.get("x", "time")] + list(plot.get("y", [])):
+            if var not in recorded:
+                problems.append(f"{where}: plots[{i}]: {var!r} is not recorded")
+        if not plot.get("file"):
+            problems.append(f"{where}: plots[{i}].file: expected a PNG file name")
+    return problems

@@ -1,0 +1,102 @@
+"""MotorStartup FMU: the paper's kinematic crank start-up law as a platform source.
+
+A thin pythonfmu adapter over ballmill.physics.drives.CrankStartup (DESIGN.md
+sections 4 and 5). It outputs the crank angle and speed and the platform
+point's position, velocity and acceleration, all exact (no numerical
+derivatives). With the ball's reaction torque as an input it also reports the
+torque and power the drive must supply to follow the law:
+    T_drive = J_total psi'' - M_reaction,  J_total = J_crank + m_platform l^2,
+    P_drive = T_drive psi'.
+"""
+from __future__ import annotations
+
+from ballmill.fmi.slave import Slave
+from ballmill.physics import CrankStartup
+
+KINEMATICS = (
+    ("psi", "rad", "Crank angle"),
+    ("psi_dot", "rad/s", "Crank angular speed"),
+    ("psi_ddot", "rad/s2", "Crank angular acceleration"),
+    ("x1O", "m", "Platform point O, x (crank axis at the origin)"),
+    ("y1O", "m", "Platform point O, y"),
+    ("vx1O", "m/s", "Platform velocity x"),
+    ("vy1O", "m/s", "Platform velocity y"),
+    ("ax1O", "m/s2", "Platform acceleration x"),
+    ("ay1O", "m/s2", "Platform acceleration y"),
+)
+
+
+class MotorStartup(Slave):
+    """Crank start-up law of the paper: quadratic rise of the crank speed to n0 in t0."""
+
+    description = ("Kinematic crank start-up law (quadratic speed rise to n0 in t0) driving a "
+                   "platform on a circle of radius l; reports the drive torque and power")
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        law = CrankStartup()
+        p = self.add
+        p("l", "parameter", law.l, "Crank length (radius of the platform's circle)", "m", vmin=0.0)
+        p("n0", "parameter", law.n0, "Steady crank speed", "1/min", vmin=0.0)
+        p("t0", "parameter", law.t0, "Start-up time to reach n0", "s", vmin=0.0)
+        p("m_platform", "parameter", 0.0, "Mass of the platform and chamber (adds m l^2 to the inertia)",
+          "kg", vmin=0.0)
+        p("J_crank", "parameter", 0.0, "Inertia of cranks and gear about the crank axis", "kg.m2",
+          vmin=0.0)
+        p("M_reaction", "input", 0.0, "Torque of the ball on the crank shaft (BallInShell.M_reaction)",
+          "N.m")
+        for name, unit, desc in KINEMATICS:
+            p(name, "output", 0.0, desc, unit)
+        p("T_drive", "output", 0.0, "Torque the drive must supply: J_total psi'' - M_reaction", "N.m",
+          depends=("M_reaction",))
+        p("P_drive", "output", 0.0, "Power the drive must supply: T_drive psi'", "W",
+          depends=("M_reaction",))
+        self.set_default_experiment(0.0, 10.0, 1e-3)
+        self._law = None
+
+    def exit_initialization_mode(self):
+        try:
+            self._law = CrankStartup(l=self.l, n0=self.n0, t0=self.t0)
+            for name, unit in (("m_platform", "kg"), ("J_crank", "kg.m2")):
+                v = getattr(self, name)
+                if not (v >= 0.0 and v < float("inf")):
+                    raise ValueError(f"{name} must be non-negative and finite, got {name} = {v!r} {unit}")
+        except ValueError as e:
+            self.error(f"MotorStartup '{self.instance_name}': initialisation failed: {e}")
+            raise
+        self._publish(self._t)
+
+    _t = 0.0
+
+    def setup_experiment(self, start_time, stop_time, tolerance):
+        self._t = float(start_time)
+
+    def _publish(self, t):
+        psi, wd, wdd = self._law.angle(t)
+        values = (psi, wd, wdd) + self._law.state(t)
+        for (name, _, _), v in zip(KINEMATICS, values):
+            setattr(self, name, v)
+        self._update_torque()
+
+    def _update_torque(self):
+        m_r = self.M_reaction
+        if m_r != m_r or m_r in (float("inf"), float("-inf")):
+            return False
+        j_total = self.J_crank + self.m_platform * self.l ** 2
+        self.T_drive = j_total * self.psi_ddot - m_r
+        self.P_drive = self.T_drive * self.psi_dot
+        return True
+
+    def do_step(self, current_time, step_size):
+        if not self._update_torque():
+            return self.discard(f"MotorStartup '{self.instance_name}': input M_reaction must be finite, "
+                                f"got {self.M_reaction!r} at t = {current_time:.9g} s; step refused")
+        self._t = current_time + step_size
+        self._publish(self._t)
+        return True
+
+    def internal_state(self):
+        return {"t": self._t}
+
+    def restore_internal_state(self, s):
+        self._t = s["t"]

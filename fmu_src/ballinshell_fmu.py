@@ -1,0 +1,180 @@
+"""BallInShell FMU: the ball rolling without slip in a translating spherical chamber.
+
+A thin pythonfmu adapter over ballmill.physics (DESIGN.md sections 3 and 5).
+Inputs: the platform position x1O, y1O (and, when the source knows them, its
+velocity and acceleration). Outputs: contact point, normal force, the ball's
+force on the chamber, the reaction torque on the crank shaft, the moment
+about the chamber centre, the ball's centre and angular velocity, and the
+validity of the model (contact, rolling).
+
+Each do_step computes into a scratch state and keeps it only on success:
+a refused step (non-finite input, the paper formulation at the equator, an
+integrator failure) returns fmi2Discard with the reason in the log and
+leaves the last good state in place.
+"""
+from __future__ import annotations
+
+import math
+
+from ballmill.fmi.slave import Slave
+from ballmill.physics import Ball, BallModel, BallState, InputReconstruction, ParameterError
+
+FORMULATIONS = {1: "vector", 2: "paper"}
+METHODS = {1: "DOP853", 2: "RK45", 3: "RK4"}
+INPUT_MODES = {1: "derivatives", 2: "positions", 3: "hold"}
+
+OUTPUTS = (
+    ("xP", "m", "Contact point P, x in the chamber frame Oxyz"),
+    ("yP", "m", "Contact point P, y in the chamber frame Oxyz"),
+    ("zP", "m", "Contact point P, height above the chamber's lowest point O"),
+    ("N", "N", "Normal force of the chamber on the ball (> 0: ball pressed on the wall)"),
+    ("Fx", "N", "Force of the ball on the chamber, x"),
+    ("Fy", "N", "Force of the ball on the chamber, y"),
+    ("Fz", "N", "Force of the ball on the chamber, z (-m g at rest)"),
+    ("M_reaction", "N.m", "Torque of the ball's force on the crank shaft about the vertical crank axis "
+                          "through O1 (positive counter-clockwise seen from above)"),
+    ("MAx", "N.m", "Moment of the ball's force about the chamber centre A, x"),
+    ("MAy", "N.m", "Moment of the ball's force about the chamber centre A, y"),
+    ("MAz", "N.m", "Moment of the ball's force about the chamber centre A, z"),
+    ("xC", "m", "Ball centre C, x in Oxyz"),
+    ("yC", "m", "Ball centre C, y in Oxyz"),
+    ("zC", "m", "Ball centre C, z in Oxyz"),
+    ("wx", "rad/s", "Absolute angular velocity of the ball, x"),
+    ("wy", "rad/s", "Absolute angular velocity of the ball, y"),
+    ("wz", "rad/s", "Absolute angular velocity of the ball, z"),
+    ("Ft", "N", "Magnitude of the friction (tangential) force on the ball"),
+    ("friction_ratio", "1", "|F_t| / N: the ball rolls while this is <= mu (1e300 when N <= 0)"),
+)
+INPUTS = ("x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O")
+BIG = 1e300  # stands for infinity in outputs (FMI tools choke on inf)
+
+
+class BallInShell(Slave):
+    """A heavy ball rolling without slip inside a spherical chamber that translates
+    horizontally (shockless ball mill; ball vibration absorber)."""
+
+    description = ("Ball rolling without slip inside a translating spherical chamber "
+                   "(Gibbs-Appell model of the shockless ball mill)")
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        ball = Ball()
+        p = self.add
+        p("r", "parameter", ball.r, "Ball radius", "m", vmin=0.0)
+        p("R", "parameter", ball.R, "Chamber (inner sphere) radius, > r", "m", vmin=0.0)
+        p("m", "parameter", ball.m, "Ball mass (default: steel ball of r = 25 mm)", "kg", vmin=0.0)
+        p("g", "parameter", ball.g, "Gravitational acceleration", "m/s2", vmin=0.0)
+        p("mu", "parameter", ball.mu, "Friction coefficient ball/chamber, for the rolling check",
+          "1", vmin=0.0)
+        p("xC0", "parameter", 0.0, "Initial ball centre x (lower half of the chamber)", "m")
+        p("yC0", "parameter", 0.0, "Initial ball centre y (lower half of the chamber)", "m")
+        p("wx0", "parameter", 0.0, "Initial angular velocity x", "rad/s")
+        p("wy0", "parameter", 0.0, "Initial angular velocity y", "rad/s")
+        p("wz0", "parameter", 0.0, "Initial angular velocity z", "rad/s")
+        p("formulation", "parameter", 1, "Equations: 1 = vector (n, omega; whole sphere), "
+          "2 = paper (xC, yC, omega; lower hemisphere only)", vmin=1, vmax=2)
+        p("integrator", "parameter", 1, "Internal integrator: 1 = DOP853 (adaptive, 8th order), "
+          "2 = RK45 (adaptive), 3 = RK4 (fixed step h_fixed)", vmin=1, vmax=3)
+        p("tolerance", "parameter", 1e-9, "Relative tolerance of the adaptive integrators", "1",
+          vmin=1e-15, vmax=0.1)
+        p("h_fixed", "parameter", 1e-3, "Step of the fixed-step RK4 integrator", "s", vmin=0.0)
+        p("input_mode", "parameter", 1, "How the platform acceleration between communication points "
+          "is obtained: 1 = from the derivative inputs vx1O..ay1O (Hermite extrapolation), "
+          "2 = from the positions x1O, y1O alone (polynomial through the last 6 samples), "
+          "3 = hold ax1O, ay1O constant (first order)", vmin=1, vmax=3)
+        descriptions = {
+            "x1O": ("Platform point O, x in the fixed frame (crank axis at the origin)", "m"),
+            "y1O": ("Platform point O, y in the fixed frame", "m"),
+            "vx1O": ("Platform velocity x (used with input_mode = 1)", "m/s"),
+            "vy1O": ("Platform velocity y (used with input_mode = 1)", "m/s"),
+            "ax1O": ("Platform acceleration x (used with input_mode = 1 or 3)", "m/s2"),
+            "ay1O": ("Platform acceleration y (used with input_mode = 1 or 3)", "m/s2"),
+        }
+        for name in INPUTS:
+            desc, unit = descriptions[name]
+            p(name, "input", 0.0, desc, unit)
+        for name, unit, desc in OUTPUTS:
+            p(name, "output", 0.0, desc, unit, depends=INPUTS)
+        p("contact", "output", True, "The ball touches the wall (N > 0); the model is invalid otherwise",
+          depends=INPUTS)
+        p("rolling", "output", True, "Contact and |F_t| <= mu N: the ball rolls without slip",
+          depends=INPUTS)
+        self.set_default_experiment(0.0, 10.0, 1e-3)
+        self._model = None
+        self._state = None
+        self._inputs = None
+
+    # -- life cycle --------------------------------------------------------
+    def _choice(self, name, table):
+        value = getattr(self, name)
+        if value not in table:
+            raise ParameterError(f"{name} must be one of {sorted(table)} "
+                                 f"({', '.join(f'{k} = {v}' for k, v in table.items())}), got {value!r}")
+        return table[value]
+
+    def exit_initialization_mode(self):
+        try:
+            ball = Ball(r=self.r, R=self.R, m=self.m, g=self.g, mu=self.mu)
+            self._model = BallModel(ball, formulation=self._choice("formulation", FORMULATIONS),
+                                    method=self._choice("integrator", METHODS),
+                                    tol=self.tolerance, h_fixed=self.h_fixed)
+            self._state = self._model.initial(self.xC0, self.yC0, (self.wx0, self.wy0, self.wz0),
+                                              t0=self._start_time)
+            self._inputs = InputReconstruction(self._choice("input_mode", INPUT_MODES))
+            self._inputs.push(*self._sample(self._start_time))
+        except (ValueError, ArithmeticError) as e:
+            self.error(f"BallInShell '{self.instance_name}': initialisation failed: {e}")
+            raise
+        self._publish(self._state, self._inputs.state(self._start_time))
+
+    _start_time = 0.0
+
+    def setup_experiment(self, start_time, stop_time, tolerance):
+        self._start_time = float(start_time)
+
+    def _sample(self, t):
+        return (t,) + tuple(getattr(self, name) for name in INPUTS)
+
+    def do_step(self, current_time, step_size):
+        t_end = current_time + step_size
+        try:
+            self._inputs.push(*self._sample(current_time))
+            self._inputs.prepare()
+            new_state = self._model.advance(self._state, t_end, self._inputs.accel)
+            platform = self._inputs.state(t_end)
+        except (ValueError, ArithmeticError) as e:
+            # a valid sample recorded before the failure is harmless: a retry at the
+            # same time replaces it
+            return self.discard(f"BallInShell '{self.instance_name}': step from t = {current_time:.9g} s "
+                                f"refused, last good state kept: {e}")
+        self._state = new_state
+        self._publish(new_state, platform, current_time)
+        return True
+
+    # -- outputs -------------------------------------------------------------
+    def _publish(self, state, platform, t_prev=None):
+        x, y, _, _, ax, ay = platform
+        out = self._model.outputs(state, ax, ay, x, y)
+        was_contact, was_rolling = self.contact, self.rolling
+        for name, _, _ in OUTPUTS:
+            v = getattr(out, name)
+            setattr(self, name, v if math.isfinite(v) else BIG)
+        self.contact, self.rolling = bool(out.contact), bool(out.rolling)
+        when = f"at t = {state.t:.9g} s" if t_prev is None else \
+            f"between t = {t_prev:.9g} s and {state.t:.9g} s"
+        if was_contact and not out.contact:
+            self.warn(f"BallInShell '{self.instance_name}': contact lost {when} (N = {out.N:.6g} N): "
+                      f"the ball leaves the wall and the rolling model no longer holds")
+        elif was_rolling and out.contact and not out.rolling:
+            self.warn(f"BallInShell '{self.instance_name}': slip {when}: |F_t|/N = "
+                      f"{out.friction_ratio:.4g} > mu = {self.mu:g}; the ball would slide")
+
+    # -- state save/restore ------------------------------------------------
+    def internal_state(self):
+        return {"state": self._state.to_dict(), "inputs": self._inputs.get_state(),
+                "start": self._start_time}
+
+    def restore_internal_state(self, s):
+        self._state = BallState.from_dict(s["state"])
+        self._inputs.set_state(s["inputs"])
+        self._start_time = s["start"]
