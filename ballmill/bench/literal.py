@@ -91,7 +91,12 @@ def run(problem: Problem, rtol: float):
 
 def bench(problem: Problem, ref: Sample, rtol: float, repeats: int) -> RunResult:
     res = RunResult("paper-literal", "solve_ivp RK45", f"rtol {rtol:g}", rtol)
-    res.wall, res.walls, (sol, sample) = median_time(lambda: run(problem, rtol), repeats)
+    try:
+        res.wall, res.walls, (sol, sample) = median_time(lambda: run(problem, rtol), repeats)
+    except (ValueError, ArithmeticError) as e:  # sqrt of a negative number: past the equator
+        res.ok, res.message = False, f"failed: {type(e).__name__}: {e} (the paper's coordinates " \
+                                     f"left the lower hemisphere)"
+        return res
     res.ok, res.message = bool(sol.success), sol.message
     res.err_P, res.err_N = errors(sample, ref)
     res.nfev = int(sol.nfev)

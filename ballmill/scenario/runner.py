@@ -43,7 +43,9 @@ class RunResult:
 
 
 class _Logger:
-    """FMI logger callbacks that collect messages (and echo warnings and errors)."""
+    """FMI logger callbacks that collect messages (and echo the first warnings and errors)."""
+
+    ECHO_LIMIT = 5
 
     def __init__(self, echo: bool):
         from fmpy.fmi2 import (fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
@@ -52,6 +54,7 @@ class _Logger:
         self.messages: list[dict] = []
         self.echo = echo
         self.now = 0.0
+        self._shown: dict[str, int] = {}
         self.callbacks = fmi2CallbackFunctions()
         self._log = fmi2CallbackLoggerTYPE(self._on_message)
         self.callbacks.logger = self._log
@@ -70,7 +73,13 @@ class _Logger:
                  "category": category.decode() if category else "", "message": text}
         self.messages.append(entry)
         if self.echo and status >= 1:
-            sys.stderr.write(f"\n[{entry['status']}] {text}\n")
+            shown = self._shown.get(entry["instance"], 0)
+            self._shown[entry["instance"]] = shown + 1
+            if shown < self.ECHO_LIMIT:
+                sys.stderr.write(f"\n[{entry['status']}] {text}\n")
+            elif shown == self.ECHO_LIMIT:
+                sys.stderr.write(f"\n[{entry['status']}] {entry['instance']}: further messages are "
+                                 f"in summary.json\n")
 
 
 class _Progress:

@@ -1,0 +1,119 @@
+"""ballmill.bench: the benchmark harness behind ``ballmill bench``.
+
+Measures, in one run on this machine, and writes BENCHMARKS.md (plus PNG
+figures in benchmarks/figures/):
+
+1. micro: one right-hand side (vector, paper closed form, paper with the
+   3x3 Cramer solve), one communication step of BallModel.advance, and the
+   time from process start to the first step;
+2. the monolithic fast start (CrankStartup(0.5, 60, 2.5), 10 s, outputs
+   every 0.01 s) against a converged reference, for a grid of formulations,
+   methods and tolerances/steps: max contact-point error, max N error, wall
+   time (median of repeats), steps and evaluations;
+3. two peers on the same problem in the same run: "paper-literal" (the
+   paper's coordinates and Cramer solve under scipy's solve_ivp RK45) and
+   "compiled" (the library's algorithm generated as C, built with gcc -O2);
+4. Pareto fronts, the time of each family at a 1e-6 m contact-point error
+   and the ratios, and where the library's time goes.
+
+Speed is measured here, never asserted in tests. ``--quick`` runs a reduced
+grid (about a minute) and by default writes to benchmarks/_work/ so that it
+does not replace the published BENCHMARKS.md.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+__all__ = ["main"]
+
+
+def _default_root() -> Path:
+    """The repository holding this package if it looks like one, else the cwd."""
+    here = Path(__file__).resolve().parents[2]
+    if (here / "pyproject.toml").exists() and (here / "ballmill").is_dir():
+        return here
+    return Path.cwd()
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="ballmill bench",
+        description="Benchmark the physics library against a literal port of the paper's program "
+                    "and a compiled peer; write BENCHMARKS.md and figures.")
+    p.add_argument("--quick", action="store_true",
+                   help="reduced grid and repeats (about a minute); writes to benchmarks/_work/ "
+                        "unless --out/--figures are given")
+    p.add_argument("--root", type=Path, default=None,
+                   help="repository root (default: the checkout holding this package, else the cwd)")
+    p.add_argument("--out", type=Path, default=None,
+                   help="report path (default: <root>/BENCHMARKS.md; quick: "
+                        "<root>/benchmarks/_work/BENCHMARKS.quick.md)")
+    p.add_argument("--figures", type=Path, default=None,
+                   help="directory for PNG figures (default: <root>/benchmarks/figures; quick: "
+                        "<root>/benchmarks/_work/figures)")
+    p.add_argument("--work", type=Path, default=None,
+                   help="scratch directory for the C peer (default: <root>/benchmarks/_work)")
+    p.add_argument("--repeats", type=int, default=None,
+                   help="timed repeats per setting, median reported (default 5; quick 3; minimum 3)")
+    p.add_argument("--target", type=float, default=1e-6,
+                   help="contact-point error for the headline comparison [m] (default 1e-6)")
+    p.add_argument("--cc", default="gcc", help="C compiler for the compiled peer (default gcc)")
+    p.add_argument("--no-compiled", action="store_true", help="skip the compiled (C) peer")
+    p.add_argument("--debug", action="store_true", help="show the traceback when a benchmark fails")
+    return p
+
+
+class Progress:
+    def __init__(self, stream=None):
+        self.t0 = time.perf_counter()
+        self.stream = stream or sys.stdout
+
+    def elapsed(self) -> float:
+        return time.perf_counter() - self.t0
+
+    def __call__(self, msg: str):
+        print(f"[{self.elapsed():6.1f} s] {msg}", file=self.stream, flush=True)
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    if args.repeats is not None and args.repeats < 3:
+        print("ballmill bench: --repeats must be at least 3", file=sys.stderr)
+        return 2
+    if not (0.0 < args.target < 1.0):
+        print(f"ballmill bench: --target must be a positive error in m below 1, got {args.target}",
+              file=sys.stderr)
+        return 2
+    from .runner import Config, run
+
+    root = (args.root or _default_root()).resolve()
+    work = (args.work or root / "benchmarks" / "_work").resolve()
+    if args.quick:
+        out = args.out or work / "BENCHMARKS.quick.md"
+        figures = args.figures or work / "figures"
+    else:
+        out = args.out or root / "BENCHMARKS.md"
+        figures = args.figures or root / "benchmarks" / "figures"
+    cfg = Config.quick() if args.quick else Config.full()
+    if args.repeats is not None:
+        cfg.repeats = args.repeats
+    cfg.target = args.target
+    cfg.cc = args.cc
+    cfg.compiled = not args.no_compiled
+    progress = Progress()
+    try:
+        run(cfg, root=root, out=Path(out).resolve(), figures=Path(figures).resolve(),
+            work=work, progress=progress)
+    except KeyboardInterrupt:
+        print("ballmill bench: interrupted", file=sys.stderr)
+        return 130
+    except Exception as e:  # report, do not dump a traceback on the user
+        print(f"ballmill bench: failed: {type(e).__name__}: {e}", file=sys.stderr)
+        if args.debug:
+            raise
+        return 1
+    progress(f"done: {out}")
+    return 0

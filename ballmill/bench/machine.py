@@ -1,0 +1,55 @@
+"""Machine and software description for the report."""
+from __future__ import annotations
+
+import datetime as _dt
+import os
+import platform
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+
+def _cmd(args, cwd=None):
+    try:
+        out = subprocess.run(args, capture_output=True, text=True, cwd=cwd, timeout=20)
+        return out.stdout.strip() if out.returncode == 0 else ""
+    except (OSError, subprocess.SubprocessError):
+        return ""
+
+
+def _cpu_model():
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.lower().startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
+def info(root: Path, cc: str = "gcc") -> list[tuple[str, str]]:
+    import matplotlib
+    import numpy
+    import scipy
+
+    nproc = _cmd(["nproc"]) or str(os.cpu_count())
+    try:
+        affinity = len(os.sched_getaffinity(0))
+    except AttributeError:
+        affinity = os.cpu_count()
+    commit = _cmd(["git", "rev-parse", "--short", "HEAD"], cwd=root)
+    dirty = _cmd(["git", "status", "--porcelain", "--", "ballmill"], cwd=root)
+    rows = [
+        ("date (UTC)", _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M")),
+        ("nproc", f"{nproc} (usable by this process: {affinity})"),
+        ("CPU", _cpu_model()),
+        ("OS", f"{platform.system()} {platform.release()} ({platform.machine()})"),
+        ("Python", f"{sys.version.split()[0]} ({platform.python_implementation()})"),
+        ("numpy", numpy.__version__),
+        ("scipy", scipy.__version__),
+        ("matplotlib", matplotlib.__version__),
+        ("C compiler", (_cmd([cc, "--version"]).splitlines() or ["not found"])[0] if shutil.which(cc) else "not found"),
+        ("git", (commit + (" + uncommitted changes in ballmill/" if dirty else "")) if commit else "n/a"),
+    ]
+    return rows

@@ -1,0 +1,68 @@
+"""Where the library's time goes: a measured decomposition and a cProfile listing."""
+from __future__ import annotations
+
+import cProfile
+import io
+import pstats
+
+from ballmill.physics import simulate
+
+from .micro import mid_run_state, per_call_us
+from .problem import Problem, library_model, median_time
+
+
+def decomposition(problem: Problem, formulation: str, method: str, param: float, repeats: int,
+                  min_time: float = 0.1):
+    """Split one monolithic run into: right-hand sides (nfev x cost of one f(t, y)
+    call, itself split into drive and equations), outputs on the grid (points x
+    cost of one outputs evaluation), and the rest (integrator and driver)."""
+    drive = problem.drive
+
+    def run():
+        model = library_model(problem, formulation, method, param)
+        simulate(model, drive, t_end=problem.t_end, dt=problem.dt)
+        return model
+
+    total, _, model = median_time(run, repeats)
+    nfev, steps = model.info.nfev, model.info.steps
+    probe = library_model(problem, formulation, method, param)
+    st = mid_run_state(problem, probe, 5.0)
+    f = probe.rhs(drive.accel)
+    y = st.y.copy()
+    yl = y.tolist()
+    ax, ay = drive.accel(5.0)
+    t_f = per_call_us(lambda: f(5.0, y), 5, min_time)[0] * 1e-6
+    t_acc = per_call_us(lambda: drive.accel(5.0), 5, min_time)[0] * 1e-6
+    t_der = per_call_us(lambda: probe.form.derivative(yl, ax, ay), 5, min_time)[0] * 1e-6
+
+    def one_output():
+        x, yy, _, _, ax_, ay_ = drive.state(5.0)
+        return probe.outputs(st, ax_, ay_, x, yy)
+
+    t_out = per_call_us(one_output, 5, min_time)[0] * 1e-6
+    n_out = problem.n_out
+    rows = [
+        ("drive: CrankStartup.accel", nfev * t_acc),
+        ("equations: formulation.derivative", nfev * t_der),
+        ("rhs glue (closure, y.tolist())", nfev * (t_f - t_acc - t_der)),
+        ("outputs on the grid (drive.state + evaluate)", n_out * t_out),
+    ]
+    rest = total - sum(v for _, v in rows)
+    rows.append(("integrator + driver (stage arithmetic, error norm, control, arrays)", rest))
+    return {"total": total, "nfev": nfev, "steps": steps, "rows": rows,
+            "per_step_us": total / max(steps, 1) * 1e6, "t_f_us": t_f * 1e6}
+
+
+def cprofile_top(problem: Problem, formulation: str, method: str, param: float, top: int = 14):
+    model = library_model(problem, formulation, method, param)
+    prof = cProfile.Profile()
+    prof.enable()
+    simulate(model, problem.drive, t_end=problem.t_end, dt=problem.dt)
+    prof.disable()
+    stats = pstats.Stats(prof, stream=io.StringIO())
+    total = stats.total_tt
+    rows = []
+    for (fname, line, func), (cc, nc, tt, ct, _) in sorted(stats.stats.items(), key=lambda kv: -kv[1][2])[:top]:
+        short = fname.split("ballmill/")[-1] if "ballmill/" in fname else fname.rsplit("/", 1)[-1]
+        rows.append((f"{short}:{line}({func})", nc, tt, ct))
+    return total, rows
