@@ -125,10 +125,12 @@ def test_paper_formulation_stops_before_equator(case):
     assert traj_v.success, traj_v.message
     assert traj_v.t[-1] == pytest.approx(t_end)
     assert np.all(np.isfinite(traj_v.y))
-    assert traj_v["zC"].max() > BALL.R - 0.02 * BALL.d
+    assert traj_v["zC"].max() > BALL.R  # it does cross the equator
     # up to where the paper formulation stopped both describe the same motion
+    # (tol 1e-10, < 60 steps: ~1e-11 m measured; 1e-8 m allows for the steep
+    # coordinates of the paper formulation near the equator)
     k = len(traj.t)
-    assert np.abs(contact_points(traj) - contact_points(traj_v)[:k]).max() < 1e-6
+    assert np.abs(contact_points(traj) - contact_points(traj_v)[:k]).max() < 1e-8
 
 
 def test_paper_advance_raises_limit_error_and_keeps_state():

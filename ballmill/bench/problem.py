@@ -131,6 +131,7 @@ def bench_library(problem: Problem, ref: Sample, formulation: str, method: str, 
     res.ok, res.message = traj.success, traj.message
     res.err_P, res.err_N = errors(last["sample"], ref)
     res.steps, res.rejected, res.nfev = model.info.steps, model.info.rejected, model.info.nfev
+    res.extra["sample"] = last["sample"]
     return res
 
 

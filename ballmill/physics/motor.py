@@ -152,10 +152,11 @@ def _phasor_breakdown(dq: DqParameters, p: int, U_phase: float, w_el: float):
 class InductionMotor:
     """A three-phase squirrel-cage induction motor, from its catalogue data.
 
-    Default: WAT Motor MTF3 0.75 kW, 4 poles, frame 80M, IE3, 230/400 V
-    50 Hz (catalogue code MTF3 0,75 1500 4 80M B3 W), as listed in the
-    manufacturer's technical table reproduced on a distributor's product page
-    (mecha.odoo.com, "motor electric trifazat 0,75 kW 1500 rpm 80M B3 IE3"):
+    Default: MTF3 series motor (brand listed as WAT), 0.75 kW, 4 poles,
+    frame 80M, IE3, aluminium, 230/400 V 50 Hz, catalogue code
+    "MTF3 0,75 1500 4 80M B3 W", from the manufacturer's technical table as
+    reproduced on a distributor's product page (mecha.odoo.com, "motor
+    electric trifazat 0,75 kW 1500 rpm 80M B3 IE3 WAT aluminiu"):
 
         rated power 0.75 kW, rated speed 1445 1/min, 1.7 A at 400 V,
         rated torque 5.0 N m, I_start/I_n 6.7, T_start/T_n 2.8,
@@ -163,12 +164,14 @@ class InductionMotor:
         J = 0.00261 kg m2.
 
     Values of this kind come from the manufacturer's catalogue or the
-    motor's data sheet: the rated point is measured per IEC 60034-1/-2-1
-    (tolerances there: slip +-20 %, breakdown torque -10 %, starting torque
-    -15 %/+25 %, efficiency -15 % of the losses), the rotor inertia from the
-    design. A datasheet gives no winding resistances; the dq model's are
-    fitted (below). A 0.37 or 0.55 kW motor in frame 71 (rated speed about
-    1370-1400 1/min) is an equally common choice: pass its values.
+    motor's data sheet: the rated point is measured per IEC 60034-2-1 and
+    guaranteed within the tolerances of IEC 60034-1 (slip +-20 %, +-30 %
+    below 1 kW; breakdown torque -10 %; locked-rotor torque -15 %/+25 %;
+    efficiency -15 % of 1 - eta), the rotor inertia comes from the design.
+    Check: sqrt(3) 400 V 1.7 A 0.77 = 907 W = 750 W / 0.827. A datasheet
+    gives no winding resistances; the dq model's are fitted (below). A 0.37
+    or 0.55 kW motor in frame 71 (rated speed about 1370-1400 1/min) is an
+    equally common choice: pass its values.
 
     Kloss's formula (no stator resistance)
         T(s) = 2 Tb / (s/sb + sb/s) = 2 Tb s sb / (s^2 + sb^2),
