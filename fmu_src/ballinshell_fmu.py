@@ -82,6 +82,10 @@ class BallInShell(Slave):
           "is obtained: 1 = from the derivative inputs vx1O..ay1O (Hermite extrapolation), "
           "2 = from the positions x1O, y1O alone (polynomial through the last 6 samples), "
           "3 = hold ax1O, ay1O constant (first order)", vmin=1, vmax=3)
+        p("max_step", "parameter", 0.0, "Largest communication step accepted; longer steps are "
+          "refused (fmi2Discard) because the platform motion cannot be extrapolated accurately over "
+          "them. 0 = automatic: 1/20 of the ball's natural period 2 pi sqrt(7 (R - r) / (5 g))", "s",
+          vmin=0.0)
         descriptions = {
             "x1O": ("Platform point O, x in the fixed frame (crank axis at the origin)", "m"),
             "y1O": ("Platform point O, y in the fixed frame", "m"),
@@ -101,6 +105,7 @@ class BallInShell(Slave):
           depends=INPUTS)
         self.set_default_experiment(0.0, 10.0, 1e-3)
         self._model = None
+        self._max_step = math.inf
         self._state = None
         self._inputs = None
 
@@ -120,6 +125,10 @@ class BallInShell(Slave):
                                     tol=self.tolerance, h_fixed=self.h_fixed)
             self._state = self._model.initial(self.xC0, self.yC0, (self.wx0, self.wy0, self.wz0),
                                               t0=self._start_time)
+            if not (self.max_step >= 0.0 and math.isfinite(self.max_step)):
+                raise ParameterError(f"max_step must be >= 0 and finite (0 = automatic), "
+                                     f"got max_step = {self.max_step!r} s")
+            self._max_step = self.max_step or 0.05 * 2.0 * math.pi / ball.omega_small
             self._inputs = InputReconstruction(self._choice("input_mode", INPUT_MODES))
             self._inputs.push(*self._sample(self._start_time))
         except (ValueError, ArithmeticError) as e:
@@ -137,6 +146,12 @@ class BallInShell(Slave):
 
     def do_step(self, current_time, step_size):
         t_end = current_time + step_size
+        if step_size > self._max_step * (1.0 + 1e-12):
+            return self.discard(
+                f"BallInShell '{self.instance_name}': communication step {step_size:g} s refused: it "
+                f"exceeds max_step = {self._max_step:.4g} s (1/20 of the ball's natural period unless "
+                f"set), over which the platform motion cannot be extrapolated accurately; use a "
+                f"smaller step, or set max_step if you accept the error")
         try:
             self._inputs.push(*self._sample(current_time))
             self._inputs.prepare()
