@@ -119,6 +119,10 @@ def test_paper_formulation_stops_before_equator(case):
     for name in ("xP", "yP", "zP", "N", "Fx", "Fy", "Fz", "M_reaction"):
         assert np.all(np.isfinite(traj[name])), name
     assert np.all(traj["zC"] < BALL.R)
+    # ... and outside the formulation's safety margin (default: R - zC >= 0.02 d,
+    # the ball's centre more than 1.15 deg below the equator), which is where
+    # the paper's coordinates are still well conditioned
+    assert np.all(BALL.R - traj["zC"] >= 0.02 * BALL.d)
     # the vector formulation runs the same case through, past the equator
     vec = BallModel(BALL, "vector", tol=1e-10)
     traj_v = simulate(vec, motion, t_end, 0.01, state=vec.initial(**init))

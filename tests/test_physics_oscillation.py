@@ -63,11 +63,9 @@ def zero_crossings(model, state, t_end, dt):
         s1 = model.advance(s, t1, accel)
         x1 = _xC(model, s1)
         if x0 * x1 < 0.0:
-            s_left = s
-
-            def g(tt, s_left=s_left):
-                return _xC(model, model.advance(s_left.copy(), tt, accel)) if tt > s_left.t else _xC(model, s_left)
-            times.append(brentq(g, t, t1, xtol=1e-14, rtol=4 * np.finfo(float).eps))
+            def xC_at(tt, left=s):
+                return _xC(model, model.advance(left, tt, accel) if tt > left.t else left)
+            times.append(brentq(xC_at, t, t1, xtol=1e-14, rtol=4 * np.finfo(float).eps))
         t, s, x0 = t1, s1, x1
     return np.array(times)
 

@@ -129,6 +129,8 @@ class InputReconstruction:
 
     def accel(self, t):
         """(ax, ay) [m/s2] at time t (t >= the last sample: extrapolation)."""
+        if self._dirty:
+            self._fit()
         tau = (t - self._t0) / self._hs
         h2 = self._hs * self._hs
         return self._horner(self._ddx, tau) / h2, self._horner(self._ddy, tau) / h2
