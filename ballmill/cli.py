@@ -3,6 +3,8 @@
     ballmill build [--force]                 build and validate every FMU into build/
     ballmill run SCENARIO [--out DIR] [--set inst.param=value ...]
     ballmill bench [...]                      speed/accuracy map -> BENCHMARKS.md
+    ballmill export-ssp SCENARIO OUT.ssp [--set inst.param=value ...]
+                                             the scenario as an SSP package for other FMI tools
 """
 from __future__ import annotations
 
@@ -45,6 +47,22 @@ def _run(args) -> int:
     return 0 if res.success else 1
 
 
+def _export_ssp(args) -> int:
+    from .fmi.build import BuildError
+    from .scenario import ssp
+    from .scenario.spec import ScenarioError
+    try:
+        out = ssp.export_ssp(args.scenario, args.out, args.set or (),
+                             Path(args.build_dir) if args.build_dir else None,
+                             log=lambda m: print(m, file=sys.stderr))
+    except (ScenarioError, BuildError) as e:
+        print(f"ballmill export-ssp: {e}", file=sys.stderr)
+        return 2
+    print(f"wrote {out} (run it in libcosim, e.g. ballmill.scenario.ssp.run_ssp_libcosim; "
+          f"see docs/OTHER_TOOLS.md)", file=sys.stderr)
+    return 0
+
+
 def _bench(args, rest) -> int:
     from . import bench
     return bench.main(rest)
@@ -63,6 +81,12 @@ def main(argv=None) -> int:
                    help="override a parameter, e.g. --set drive.t0=30 (repeatable)")
     r.add_argument("--build-dir", help="where the FMUs are (default: build/)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
+    e = sub.add_parser("export-ssp", help="write a scenario as an SSP package (.ssp) for other FMI tools")
+    e.add_argument("scenario", help="scenario name in scenarios/ (e.g. fast_start) or a .toml path")
+    e.add_argument("out", help="the .ssp file to write")
+    e.add_argument("--set", action="append", metavar="INSTANCE.PARAM=VALUE",
+                   help="override a parameter, e.g. --set drive.t0=30 (repeatable)")
+    e.add_argument("--build-dir", help="where the FMUs are (default: build/)")
     sub.add_parser("bench", help="speed/accuracy benchmarks -> BENCHMARKS.md (see ballmill bench -h)",
                    add_help=False)
     args, rest = parser.parse_known_args(argv)
@@ -70,7 +94,7 @@ def main(argv=None) -> int:
         return _bench(args, rest)
     if rest:
         parser.error(f"unrecognized arguments: {' '.join(rest)}")
-    return {"build": _build, "run": _run}[args.command](args)
+    return {"build": _build, "run": _run, "export-ssp": _export_ssp}[args.command](args)
 
 
 if __name__ == "__main__":
