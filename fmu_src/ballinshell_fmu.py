@@ -5,7 +5,9 @@ Inputs: the platform position x1O, y1O (and, when the source knows them, its
 velocity and acceleration). Outputs: contact point, normal force, the ball's
 force on the chamber, the reaction torque on the crank shaft, the moment
 about the chamber centre, the ball's centre and angular velocity, and the
-validity of the model (contact, rolling).
+validity of the model (contact, rolling). Losses to the ground material
+(rolling resistance ``delta``, viscous drag ``c_drag``; 0 by default) are
+parameters, and ``P_diss`` reports the power they take.
 
 Each do_step computes into a scratch state and keeps it only on success:
 a refused step (non-finite input, the paper formulation at the equator, an
@@ -103,6 +105,15 @@ class BallInShell(Slave):
           depends=INPUTS)
         p("rolling", "output", True, "Contact and |F_t| <= mu N: the ball rolls without slip",
           depends=INPUTS)
+        # losses to the ground material (declared last: earlier value references stay as they were)
+        p("delta", "parameter", 0.0, "Rolling-resistance length: the ground material resists the "
+          "rolling with a moment delta N opposite to the rolling angular velocity (0 = none)", "m",
+          vmin=0.0)
+        p("c_drag", "parameter", 0.0, "Viscous drag of the ground material on the ball's centre, "
+          "F_d = -c_drag v_C,rel (0 = none); Fx..Fz and M_reaction then include its reaction on the "
+          "material the chamber carries", "N.s/m", vmin=0.0)
+        p("P_diss", "output", 0.0, "Power dissipated by rolling resistance and drag (0 without them)",
+          "W", depends=INPUTS)
         self.set_default_experiment(0.0, 10.0, 1e-3)
         self._model = None
         self._max_step = math.inf
@@ -119,7 +130,8 @@ class BallInShell(Slave):
 
     def exit_initialization_mode(self):
         try:
-            ball = Ball(r=self.r, R=self.R, m=self.m, g=self.g, mu=self.mu)
+            ball = Ball(r=self.r, R=self.R, m=self.m, g=self.g, mu=self.mu,
+                        rolling_resistance=self.delta, drag=self.c_drag)
             self._model = BallModel(ball, formulation=self._choice("formulation", FORMULATIONS),
                                     method=self._choice("integrator", METHODS),
                                     tol=self.tolerance, h_fixed=self.h_fixed)
@@ -175,6 +187,7 @@ class BallInShell(Slave):
             v = getattr(out, name)
             setattr(self, name, v if math.isfinite(v) else BIG)
         self.contact, self.rolling = bool(out.contact), bool(out.rolling)
+        self.P_diss = out.P_diss
         when = f"at t = {state.t:.9g} s" if t_prev is None else \
             f"between t = {t_prev:.9g} s and {state.t:.9g} s"
         if was_contact and not out.contact:

@@ -43,6 +43,7 @@ UNITS = {
     "Ohm": {"kg": 1, "m": 2, "s": -3, "A": -2},
     "H": {"kg": 1, "m": 2, "s": -2, "A": -2},
     "Wb": {"kg": 1, "m": 2, "s": -2, "A": -1},
+    "N.s/m": {"kg": 1, "s": -1},
 }
 
 _CAUSALITY = {"parameter": Fmi2Causality.parameter, "input": Fmi2Causality.input,

@@ -6,8 +6,8 @@ returns the new state with the internal step size to try next, so that an
 FMU can carry the adaptive step across communication points.
 
 Methods:
-  * ``DOP853``: Dormand-Prince 8(5,3), adaptive (scipy's tableau);
-  * ``RK45``: Dormand-Prince 5(4), adaptive (scipy's tableau);
+  * ``DOP853``: Dormand-Prince 8(5,3), adaptive (scipy's tableau, embedded below);
+  * ``RK45``: Dormand-Prince 5(4), adaptive (scipy's tableau, embedded below);
   * ``RK4``: the classic fourth-order method with a fixed step, as in the
     paper's MathCAD program.
 
@@ -22,10 +22,64 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate._ivp import dop853_coefficients as _dop
-from scipy.integrate._ivp.rk import RK45 as _RK45
 
 from .errors import StepFailure
+
+# Butcher tableaus, copied from scipy.integrate._ivp (dop853_coefficients.py and rk.py,
+# BSD-3-Clause) as exact float64 literals: importing scipy.integrate costs about half a second
+# of start-up, and these numbers are all the integrators need from it.
+_DOP853_A = [  # rows 1..11 of A, entries 0..s-1 (row 0 is empty)
+    [0.05260015195876773],
+    [0.0197250569845379, 0.0591751709536137],
+    [0.02958758547680685, 0.0, 0.08876275643042054],
+    [0.2413651341592667, 0.0, -0.8845494793282861, 0.924834003261792],
+    [0.037037037037037035, 0.0, 0.0, 0.17082860872947386, 0.12546768756682242],
+    [0.037109375, 0.0, 0.0, 0.17025221101954405, 0.06021653898045596, -0.017578125],
+    [0.03709200011850479, 0.0, 0.0, 0.17038392571223998, 0.10726203044637328, -0.015319437748624402,
+     0.008273789163814023],
+    [0.6241109587160757, 0.0, 0.0, -3.3608926294469414, -0.868219346841726, 27.59209969944671,
+     20.154067550477894, -43.48988418106996],
+    [0.47766253643826434, 0.0, 0.0, -2.4881146199716677, -0.590290826836843, 21.230051448181193,
+     15.279233632882423, -33.28821096898486, -0.020331201708508627],
+    [-0.9371424300859873, 0.0, 0.0, 5.186372428844064, 1.0914373489967295, -8.149787010746927,
+     -18.52006565999696, 22.739487099350505, 2.4936055526796523, -3.0467644718982196],
+    [2.273310147516538, 0.0, 0.0, -10.53449546673725, -2.0008720582248625, -17.9589318631188,
+     27.94888452941996, -2.8589982771350235, -8.87285693353063, 12.360567175794303,
+     0.6433927460157636],
+]
+_DOP853_B = [0.054293734116568765, 0.0, 0.0, 0.0, 0.0, 4.450312892752409, 1.8915178993145003,
+             -5.801203960010585, 0.3111643669578199, -0.1521609496625161, 0.20136540080403034,
+             0.04471061572777259]
+_DOP853_C = [0.0, 0.05260015195876773, 0.0789002279381516, 0.1183503419072274, 0.2816496580927726,
+             0.3333333333333333, 0.25, 0.3076923076923077, 0.6512820512820513, 0.6,
+             0.8571428571428571, 1.0]
+_DOP853_E5 = [0.01312004499419488, 0.0, 0.0, 0.0, 0.0, -1.2251564463762044, -0.4957589496572502,
+              1.6643771824549864, -0.35032884874997366, 0.3341791187130175, 0.08192320648511571,
+              -0.022355307863886294, 0.0]
+_DOP853_E3 = [-0.18980075407240762, 0.0, 0.0, 0.0, 0.0, 4.450312892752409, 1.8915178993145003,
+              -5.801203960010585, -0.4226823213237919, -0.1521609496625161, 0.20136540080403034,
+              0.02265179219836082, 0.0]
+_RK45_A = [  # rows 1..5 of A, entries 0..s-1
+    [0.2],
+    [0.075, 0.225],
+    [0.9777777777777777, -3.7333333333333334, 3.5555555555555554],
+    [2.9525986892242035, -11.595793324188385, 9.822892851699436, -0.2908093278463649],
+    [2.8462752525252526, -10.757575757575758, 8.906422717743473, 0.2784090909090909,
+     -0.2735313036020583],
+]
+_RK45_B = [0.09114583333333333, 0.0, 0.44923629829290207, 0.6510416666666666, -0.322376179245283,
+           0.13095238095238096]
+_RK45_C = [0.0, 0.2, 0.3, 0.8, 0.8888888888888888, 1.0]
+_RK45_E = [-0.0012326388888888888, 0.0, 0.0042527702905061394, -0.03697916666666667, 0.05086379716981132,
+           -0.0419047619047619, 0.025]
+
+
+def _square(rows, n):
+    """The n x n strictly lower-triangular A from its rows 1..n-1."""
+    A = np.zeros((n, n))
+    for s, row in enumerate(rows, start=1):
+        A[s, :s] = row
+    return A
 
 
 @dataclass(frozen=True)
@@ -40,10 +94,10 @@ class Tableau:
 
 
 TABLEAUS = {
-    "DOP853": Tableau(A=_dop.A[:_dop.N_STAGES, :_dop.N_STAGES], B=_dop.B, C=_dop.C[:_dop.N_STAGES],
-                      E=_dop.E5, E3=_dop.E3, order=8, n_stages=_dop.N_STAGES),
-    "RK45": Tableau(A=_RK45.A, B=_RK45.B, C=_RK45.C, E=_RK45.E, E3=None, order=5,
-                    n_stages=_RK45.n_stages),
+    "DOP853": Tableau(A=_square(_DOP853_A, 12), B=np.array(_DOP853_B), C=np.array(_DOP853_C),
+                      E=np.array(_DOP853_E5), E3=np.array(_DOP853_E3), order=8, n_stages=12),
+    "RK45": Tableau(A=_square(_RK45_A, 6), B=np.array(_RK45_B), C=np.array(_RK45_C),
+                    E=np.array(_RK45_E), E3=None, order=5, n_stages=6),
     "RK4": Tableau(A=np.array([[0, 0, 0, 0], [0.5, 0, 0, 0], [0, 0.5, 0, 0], [0, 0, 1.0, 0]]),
                    B=np.array([1 / 6, 1 / 3, 1 / 3, 1 / 6]), C=np.array([0, 0.5, 0.5, 1.0]),
                    E=None, E3=None, order=4, n_stages=4),
@@ -66,6 +120,102 @@ def _identity(y):
 
 def _nothing(y):
     return None
+
+
+# ----------------------------------------------------------------------
+# Scalar kernels for small systems.
+#
+# For the five or six states of the ball, numpy's per-call overhead (about
+# a microsecond per array operation, some forty operations per DOP853 step)
+# costs more than the arithmetic. A step of a small system is therefore
+# done by a function generated once per (method, dimension): the tableau's
+# coefficients written out as float literals (zeros left out), the state
+# as Python floats. The arithmetic is the same as the numpy path's, up to
+# the order in which each dot product is summed (round-off).
+SMALL_SYSTEM = 16  # largest dimension that uses a generated kernel
+_KERNELS: dict = {}
+
+
+def _dot(coefs, names):
+    """Source of sum(c * name) over the non-zero coefficients (left to right)."""
+    terms = [f"{float(c)!r} * {nm}" for c, nm in zip(coefs, names) if c != 0.0]
+    return "(" + " + ".join(terms) + ")" if terms else "0.0"
+
+
+def _as_seq(n):
+    def seq(r):
+        """A right-hand side's value as n floats, broadcast as numpy would assign it."""
+        return np.broadcast_to(np.asarray(r, dtype=float), (n,)).tolist()
+    return seq
+
+
+def _kernel(method: str, n: int, scaled: bool):
+    """step(f, t, y, h, k0, tol, scale, tols, arr) for `method` on n states.
+
+    Adaptive methods return (y_new, f_new, err, finite); RK4 returns
+    (y_new, finite). ``y`` is a list of floats, ``k0`` f(t, y) as a sequence,
+    ``arr`` builds the array handed to f; ``scale``/``tols`` are the scale and
+    tol * scale tuples (unused when not ``scaled``).
+    """
+    key = (method, n, scaled)
+    fn = _KERNELS.get(key)
+    if fn is not None:
+        return fn
+    tab = TABLEAUS[method]
+    ns = tab.n_stages
+    comps = range(n)
+    K = [[f"k{s}_{i}" for i in comps] for s in range(ns + 1)]
+    ys = [f"y_{i}" for i in comps]
+    yn = [f"yn_{i}" for i in comps]
+    one = "," if n == 1 else ""
+    src = ["def step(f, t, y, h, k0, tol, scale, tols, arr):",
+           f"    {', '.join(ys)}{one} = y",
+           "    if type(k0) is not tuple:",
+           "        k0 = seq(k0)",
+           f"    {', '.join(K[0])}{one} = k0"]
+    for s in range(1, ns):
+        args = ", ".join(f"{ys[i]} + {_dot(tab.A[s, :s], [K[j][i] for j in range(s)])} * h" for i in comps)
+        src += [f"    k = f(t + {float(tab.C[s])!r} * h, arr([{args}]))",
+                "    if type(k) is not tuple:",
+                "        k = seq(k)",
+                f"    {', '.join(K[s])}{one} = k"]
+    for i in comps:
+        src.append(f"    {yn[i]} = {ys[i]} + h * {_dot(tab.B, [K[j][i] for j in range(ns)])}")
+    src.append(f"    y_new = [{', '.join(yn)}]")
+    src.append("    finite = " + " and ".join(f"isfinite({v})" for v in yn))
+    if tab.E is None:
+        src.append("    return y_new, finite")
+    else:
+        src += ["    k = f(t + h, arr(y_new))",
+                "    if type(k) is not tuple:",
+                "        k = seq(k)",
+                f"    {', '.join(K[ns])}{one} = k"]
+        if scaled:
+            src.append(f"    {', '.join(f's_{i}' for i in comps)}{one} = scale")
+            src.append(f"    {', '.join(f'ts_{i}' for i in comps)}{one} = tols")
+        for i in comps:
+            base = f"max(abs({ys[i]}), abs({yn[i]})" + (f", s_{i})" if scaled else ")")
+            src.append(f"    sc_{i} = tol * {base} + " + (f"ts_{i}" if scaled else "1e-12"))
+        col = [[K[j][i] for j in range(ns + 1)] for i in comps]
+        if tab.E3 is None:
+            for i in comps:
+                src.append(f"    e_{i} = {_dot(tab.E, col[i])} * h / sc_{i}")
+            src.append(f"    err = sqrt(({' + '.join(f'e_{i} * e_{i}' for i in comps)}) / {n})")
+        else:
+            for i in comps:
+                src.append(f"    e_{i} = {_dot(tab.E, col[i])} / sc_{i}")
+                src.append(f"    g_{i} = {_dot(tab.E3, col[i])} / sc_{i}")
+            src.append(f"    e5n = {' + '.join(f'e_{i} * e_{i}' for i in comps)}")
+            src.append(f"    e3n = {' + '.join(f'g_{i} * g_{i}' for i in comps)}")
+            src += ["    if e5n == 0.0 and e3n == 0.0:",
+                    "        err = 0.0",
+                    "    else:",
+                    f"        err = abs(h) * e5n / sqrt((e5n + 0.01 * e3n) * {n})"]
+        src.append("    return y_new, k, err, finite and isfinite(err)")
+    namespace = {"seq": _as_seq(n), "isfinite": math.isfinite, "sqrt": math.sqrt}
+    exec(compile("\n".join(src) + "\n", f"<ballmill {method} kernel, n={n}>", "exec"), namespace)
+    fn = _KERNELS[key] = namespace["step"]
+    return fn
 
 
 class Integrator:
@@ -158,6 +308,8 @@ class Integrator:
         span = t_end - t
         if span <= 0.0:
             return y, h, stats
+        if y.ndim == 1 and y.size <= SMALL_SYSTEM and (self.scale is None or self.scale.shape == y.shape):
+            return self._advance_small(f, t, y, t_end, h, stats)
         f0 = np.asarray(f(t, y), dtype=float)
         stats.nfev += 1
         if not np.all(np.isfinite(f0)):
@@ -211,6 +363,89 @@ class Integrator:
                 t = t_end if last else t + hh
                 y = self.project(y_new)
                 self.check(y)
+                f0 = f_new
+                stats.steps += 1
+                # keep the controller's step, not the clipped one, for the next interval
+                h = max(h, hh * factor) if last else hh * factor
+            else:
+                stats.rejected += 1
+                h = hh * max(0.2, 0.9 * err ** (-1.0 / order))
+                if not h >= h_min_abs:
+                    raise StepFailure(f"{self.method}: step size underflow at t = {t:.9g} s "
+                                      f"(tolerance {self.tol:g} not met with step {hh:.3g} s)")
+        return y, h, stats
+
+    def _advance_small(self, f, t, y, t_end, h, stats):
+        """`advance` for a small system with a generated scalar kernel: the same
+        steps, step-size control and hooks as the numpy path below it."""
+        n = y.size
+        c = getattr(self, "_small", None)  # kernel and scale tuples, rebuilt if tol or scale change
+        if c is None or c[0] != n or c[1] != self.tol or c[2] is not self.scale:
+            scaled = self.scale is not None
+            c = self._small = (n, self.tol, self.scale, _kernel(self.method, n, scaled),
+                               tuple(self.scale.tolist()) if scaled else None,
+                               tuple((self.tol * self.scale).tolist()) if scaled else None)
+        _, tol, _, step, scale, tols = c
+        arr = np.array
+        span = t_end - t
+        yl = y.tolist()
+        f0 = f(t, y)
+        stats.nfev += 1
+        if type(f0) is not tuple:  # an array, a list or a scalar to broadcast: n floats
+            f0 = _as_seq(n)(f0)
+        if not all(map(math.isfinite, f0)):
+            # no step size can help: the state or the input is already unusable
+            raise StepFailure(f"{self.method}: non-finite derivative at t = {t:.9g} s "
+                              f"(state or input not finite)")
+        if not self.adaptive:
+            count = max(1, math.ceil(span / self.h_fixed - 1e-9))
+            hh = span / count
+            for i in range(count):
+                ti = t + i * hh
+                if i:
+                    f0 = f(ti, y)
+                    stats.nfev += 1
+                y_new, finite = step(f, ti, yl, hh, f0, tol, scale, tols, arr)
+                stats.nfev += self.tab.n_stages - 1
+                if not finite:
+                    raise StepFailure(f"RK4 step at t = {ti:.9g} s produced non-finite values "
+                                      f"(step {hh:.3g} s); reduce the step")
+                y = self.project(arr(y_new))
+                self.check(y)
+                yl = y.tolist()
+                stats.steps += 1
+            return y, self.h_fixed, stats
+
+        if h is None or not (h > 0.0 and math.isfinite(h)):
+            h = self.initial_step(f, t, y, np.asarray(f0, dtype=float), span)
+            stats.nfev += 1
+        order = self.tab.order
+        n_eval = self.tab.n_stages
+        h_max = self.h_max
+        h_min_abs = 1e-14 * max(1.0, abs(t_end))
+        t_last = t_end - 1e-12 * max(1.0, abs(t_end))
+        while t < t_end:
+            if stats.steps + stats.rejected >= self.max_steps:
+                raise StepFailure(f"{self.method}: more than {self.max_steps} internal steps "
+                                  f"between t = {t:.9g} s and {t_end:.9g} s")
+            h = min(h, h_max)
+            last = t + h >= t_last
+            hh = t_end - t if last else h
+            y_new, f_new, err, finite = step(f, t, yl, hh, f0, tol, scale, tols, arr)
+            stats.nfev += n_eval
+            if not finite:
+                stats.rejected += 1
+                h = 0.2 * hh
+                if not h >= h_min_abs:  # also catches a NaN step
+                    raise StepFailure(f"{self.method}: non-finite values at t = {t:.9g} s "
+                                      f"even with step {hh:.3g} s")
+                continue
+            if err <= 1.0:
+                factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / order))
+                t = t_end if last else t + hh
+                y = self.project(arr(y_new))
+                self.check(y)
+                yl = y.tolist()
                 f0 = f_new
                 stats.steps += 1
                 # keep the controller's step, not the clipped one, for the next interval

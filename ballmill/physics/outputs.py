@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-from .equations import omega_dot
+from .equations import loss_constants, omega_dot, omega_dot_lossy
 from .params import Ball
 
 
@@ -36,11 +36,14 @@ class Outputs(NamedTuple):
     friction_ratio: float  # |F_t| / N (inf when N <= 0) [1]
     contact: bool  # N > 0
     rolling: bool  # contact and |F_t| <= mu N
+    P_diss: float = 0.0  # power dissipated by rolling resistance and drag (0 without losses) [W]
 
 
 def evaluate(ball: Ball, n, w, ax: float, ay: float, xO: float = 0.0, yO: float = 0.0) -> Outputs:
     """Outputs for unit vector n, angular velocity w, platform acceleration (ax, ay)
     and platform position (xO, yO) relative to the crank axis."""
+    if ball.rolling_resistance or ball.drag:
+        return _evaluate_lossy(ball, n, w, ax, ay, xO, yO)
     nx, ny, nz = n
     wx, wy, wz = w
     lam, r, d, R, m, g = ball.lam, ball.r, ball.d, ball.R, ball.m, ball.g
@@ -72,6 +75,70 @@ def evaluate(ball: Ball, n, w, ax: float, ay: float, xO: float = 0.0, yO: float 
         MAx=R * (ny * sz - nz * sy), MAy=R * (nz * sx - nx * sz), MAz=R * (nx * sy - ny * sx),
         Ft=Ft, friction_ratio=ratio, contact=contact,
         rolling=contact and Ft <= ball.mu * N,
+    )
+
+
+def _evaluate_lossy(ball: Ball, n, w, ax, ay, xO, yO) -> Outputs:
+    """`evaluate` with the ground material's losses (Ball.rolling_resistance, Ball.drag;
+    equations.py has the derivation).
+
+    - N, the friction force F_t and friction_ratio are those of the contact force
+      F = m (a_C - g_vec) - F_d alone (the drag F_d = -c d n' acts on the centre);
+    - Fx, Fy, Fz and M_reaction are the ball's whole load on the chamber and the
+      material it carries, -m (a_C - g_vec) = -F - F_d: what the platform and
+      the drive feel (then -M_reaction psi' is the power the drive gives the ball);
+    - MA is the moment about A of that load: -F at P, -F_d at C, and the
+      rolling-resistance couple -M_rr (a couple on a translating chamber does
+      no work and adds nothing to M_reaction);
+    - P_diss = delta N |w_t|^2 / sqrt(|w_t|^2 + eps^2) + c |v_C,rel|^2 >= 0.
+    """
+    nx, ny, nz = n
+    wx, wy, wz = w
+    lam, r, d, R, m, g = ball.lam, ball.r, ball.d, ball.R, ball.m, ball.g
+    consts = loss_constants(ball)
+    ndx = lam * (ny * wz - nz * wy)
+    ndy = lam * (nz * wx - nx * wz)
+    ndz = lam * (nx * wy - ny * wx)
+    wdx, wdy, wdz = omega_dot_lossy(consts, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay)
+    nddx = lam * (ndy * wz - ndz * wy + ny * wdz - nz * wdy)
+    nddy = lam * (ndz * wx - ndx * wz + nz * wdx - nx * wdz)
+    nddz = lam * (ndx * wy - ndy * wx + nx * wdy - ny * wdx)
+    # everything chamber and material exert on the ball (but gravity): m (a_C - g_vec)
+    Tx = m * (ax + d * nddx)
+    Ty = m * (ay + d * nddy)
+    Tz = m * (d * nddz + g)
+    cd = ball.drag * d
+    Fdx, Fdy, Fdz = -cd * ndx, -cd * ndy, -cd * ndz  # drag on the centre, -c v_C,rel
+    Fx, Fy, Fz = Tx - Fdx, Ty - Fdy, Tz - Fdz  # contact force
+    N = -(Fx * nx + Fy * ny + Fz * nz)
+    ftx, fty, ftz = Fx + N * nx, Fy + N * ny, Fz + N * nz
+    Ft = math.sqrt(ftx * ftx + fty * fty + ftz * ftz)
+    contact = N > 0.0
+    ratio = Ft / N if contact else math.inf
+    Mx = My = Mz = 0.0  # rolling-resistance couple on the ball
+    P_diss = cd * d * (ndx * ndx + ndy * ndy + ndz * ndz)
+    delta = ball.rolling_resistance
+    if delta and contact:
+        s = nx * wx + ny * wy + nz * wz
+        tx, ty, tz = wx - s * nx, wy - s * ny, wz - s * nz
+        t2 = tx * tx + ty * ty + tz * tz
+        f = -delta * N / math.sqrt(t2 + consts[-1])
+        Mx, My, Mz = f * tx, f * ty, f * tz
+        P_diss -= f * t2
+    sx, sy, sz = -Tx, -Ty, -Tz  # the ball's load on chamber + material
+    cx, cy, cz = -Fx, -Fy, -Fz  # through the contact, at P
+    ex, ey, ez = -Fdx, -Fdy, -Fdz  # through the material, at C
+    return Outputs(
+        xP=R * nx, yP=R * ny, zP=R * (1.0 + nz),
+        xC=d * nx, yC=d * ny, zC=R + d * nz,
+        wx=wx, wy=wy, wz=wz,
+        N=N, Fx=sx, Fy=sy, Fz=sz,
+        M_reaction=xO * sy - yO * sx,
+        MAx=R * (ny * cz - nz * cy) + d * (ny * ez - nz * ey) - Mx,
+        MAy=R * (nz * cx - nx * cz) + d * (nz * ex - nx * ez) - My,
+        MAz=R * (nx * cy - ny * cx) + d * (nx * ey - ny * ex) - Mz,
+        Ft=Ft, friction_ratio=ratio, contact=contact,
+        rolling=contact and Ft <= ball.mu * N, P_diss=P_diss,
     )
 
 

@@ -32,12 +32,28 @@ def _positive_finite(name: str, value: float, unit: str) -> float:
     return v
 
 
+def _non_negative_finite(name: str, value: float, unit: str) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} must be a number in {unit}, got {value!r}") from None
+    if not math.isfinite(v) or v < 0.0:
+        raise ParameterError(f"{name} must be non-negative and finite, got {name} = {value!r} {unit}")
+    return v
+
+
 @dataclass(frozen=True)
 class Ball:
     """A solid ball of radius r and mass m rolling inside a sphere of radius R.
 
     All values SI. `mu` is the friction coefficient, used only for the rolling
     (no-slip) validity check |F_t| <= mu N.
+
+    Losses to the ground material, both off by default (0): a rolling
+    resistance of length ``rolling_resistance`` = delta, a resisting moment
+    M_rr = -delta N w_t/|w_t| on the ball (w_t: part of omega perpendicular
+    to n), and a viscous drag ``drag`` = c on the ball's centre,
+    F_d = -c v_C,rel (equations.py has the derivation).
     """
 
     r: float = PAPER_R_BALL
@@ -46,11 +62,15 @@ class Ball:
     g: float = 9.81
     mu: float = 0.3
     inertia_factor: float = 0.4  # I = inertia_factor * m r^2 (0.4: solid sphere)
+    rolling_resistance: float = 0.0  # delta, rolling-resistance length [m]
+    drag: float = 0.0  # c, viscous drag of the ground material on the centre [N s/m]
 
     def __post_init__(self):
         for name, unit in (("r", "m"), ("R", "m"), ("m", "kg"), ("g", "m/s2"),
                            ("mu", "1"), ("inertia_factor", "1")):
             object.__setattr__(self, name, _positive_finite(name, getattr(self, name), unit))
+        for name, unit in (("rolling_resistance", "m"), ("drag", "N s/m")):
+            object.__setattr__(self, name, _non_negative_finite(name, getattr(self, name), unit))
         if not self.r < self.R:
             raise ParameterError(
                 f"R must be larger than r (the ball must fit in the chamber), "
@@ -88,6 +108,7 @@ class Ball:
 
     def with_(self, **changes) -> "Ball":
         """A copy with some values changed (validated again)."""
-        values = {k: getattr(self, k) for k in ("r", "R", "m", "g", "mu", "inertia_factor")}
+        values = {k: getattr(self, k) for k in ("r", "R", "m", "g", "mu", "inertia_factor",
+                                                "rolling_resistance", "drag")}
         values.update(changes)
         return Ball(**values)

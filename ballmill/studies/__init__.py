@@ -1,0 +1,4 @@
+"""Studies that measure the models against each other; each writes a page in docs/.
+
+    python -m ballmill.studies.induction    induction motor: coupling error, starts compared
+"""

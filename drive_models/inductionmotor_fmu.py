@@ -1,0 +1,272 @@
+"""InductionMotor FMU: an induction motor that drives the crank and feels the ball.
+
+A thin pythonfmu adapter over ballmill.physics.motor.CrankDrive (DESIGN.md
+section 4): a three-phase induction motor given by its datasheet (Kloss's
+formula, or a 4-state dq model fitted to the same datasheet), a starter
+(direct on line, voltage ramp, V/f frequency ramp), an ideal gear of ratio
+i = motor speed / crank speed, and the crank shaft with the platform:
+
+    J_total psi'' = i T_motor + M_reaction,
+    J_total = J_crank + m_platform l^2 + i^2 J_rotor.
+
+Unlike MotorStartup (a prescribed law), the crank speed here follows from
+the torques: the ball's reaction torque M_reaction (input, from
+BallInShell.M_reaction) slows the drive down. The outputs are MotorStartup's
+(crank angle, speed, acceleration and the platform kinematics, all from the
+integrated state) plus the motor's speed, torque, current and power.
+
+Each do_step integrates the drive's ODE from t_k to t_k + H (DOP853 with
+error control, the step size carried across communication points) into a
+scratch state and keeps it only on success. Over the step M_reaction is
+extrapolated linearly from the last two communication points (or held,
+M_input = 1); outputs at t_k + H use the same extrapolated value, so they do
+not depend on the input set at t_k + H (no direct feedthrough). A
+non-finite M_reaction, or a failing integration, refuses the step
+(fmi2Discard, the reason in the log) and leaves the last good state.
+"""
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+
+from ballmill.fmi.slave import Slave
+from ballmill.physics.errors import ParameterError
+from ballmill.physics.integrators import Integrator
+from ballmill.physics.motor import RPM, CrankDrive
+from ballmill.physics.motor import InductionMotor as MotorData
+from ballmill.physics.motor import platform_state
+
+MODELS = {1: "kloss", 2: "dq"}
+STARTS = {1: "dol", 2: "voltage_ramp", 3: "frequency_ramp"}
+M_INPUTS = {1: "hold", 2: "linear"}
+# the physics' names of the datasheet values -> this FMU's parameter names (for error messages)
+NAMES = {"rated_power": "P_rated", "rated_speed": "n_rated", "rated_voltage": "U_rated",
+         "rated_frequency": "f_rated", "rated_current": "I_rated", "power_factor": "cos_phi",
+         "efficiency": "eta", "breakdown_ratio": "Tb_ratio", "stator_copper_share": "Rs_share"}
+
+KINEMATICS = (
+    ("psi", "rad", "Crank angle"),
+    ("psi_dot", "rad/s", "Crank angular speed"),
+    ("psi_ddot", "rad/s2", "Crank angular acceleration (i T_motor + M_reaction) / J_total"),
+    ("x1O", "m", "Platform point O, x (crank axis at the origin)"),
+    ("y1O", "m", "Platform point O, y"),
+    ("vx1O", "m/s", "Platform velocity x"),
+    ("vy1O", "m/s", "Platform velocity y"),
+    ("ax1O", "m/s2", "Platform acceleration x"),
+    ("ay1O", "m/s2", "Platform acceleration y"),
+)
+FEEDTHROUGH = ("psi_ddot", "ax1O", "ay1O")  # depend on M_reaction at initialisation
+
+
+def _default(name):
+    return MotorData.__dataclass_fields__[name].default
+
+
+def _drive_default(name):
+    return CrankDrive.__dataclass_fields__[name].default
+
+
+class InductionMotor(Slave):
+    """Induction motor (Kloss or dq) + starter + gear + crank + platform, loaded by M_reaction."""
+
+    description = ("Three-phase induction motor from its datasheet (Kloss or dq model; direct on line, "
+                   "voltage ramp or V/f ramp) driving a platform on cranks through a gear; the ball's "
+                   "reaction torque M_reaction loads the crank shaft")
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        p = self.add
+        # motor datasheet
+        p("P_rated", "parameter", _default("rated_power"), "Rated (shaft) power of the motor", "W",
+          vmin=0.0)
+        p("n_rated", "parameter", _default("rated_speed"), "Rated speed of the motor", "1/min", vmin=0.0)
+        p("U_rated", "parameter", _default("rated_voltage"), "Rated line-to-line voltage (rms)", "V",
+          vmin=0.0)
+        p("f_rated", "parameter", _default("rated_frequency"), "Rated supply frequency", "Hz", vmin=0.0)
+        p("pole_pairs", "parameter", _default("pole_pairs"), "Number of pole pairs (2 for a 4-pole motor)",
+          vmin=1)
+        p("I_rated", "parameter", _default("rated_current"), "Rated line current (rms) at U_rated", "A",
+          vmin=0.0)
+        p("cos_phi", "parameter", _default("power_factor"), "Power factor at the rated point (dq fit)",
+          "1", vmin=0.0, vmax=1.0)
+        p("eta", "parameter", _default("efficiency"), "Efficiency at the rated point (dq fit)", "1",
+          vmin=0.0, vmax=1.0)
+        p("Tb_ratio", "parameter", _default("breakdown_ratio"), "Breakdown torque / rated torque", "1",
+          vmin=1.0)
+        p("J_rotor", "parameter", _default("J_rotor"), "Rotor inertia (and anything on the motor shaft)",
+          "kg.m2", vmin=0.0)
+        p("Rs_share", "parameter", _default("stator_copper_share"), "Share of the rated losses (other "
+          "than rotor copper) attributed to stator copper; sets Rs of the fitted dq model", "1",
+          vmin=0.0, vmax=1.0)
+        # starter
+        p("start_mode", "parameter", 1, "Starter: 1 = direct on line, 2 = voltage ramp (soft starter, "
+          "U/Un from u_start to 1 in ramp_time), 3 = frequency ramp (inverter, V/f, f/fn from f_start "
+          "to 1 in ramp_time)", vmin=1, vmax=3)
+        p("ramp_time", "parameter", _default("ramp_time"), "Duration of the voltage or frequency ramp",
+          "s", vmin=0.0)
+        p("u_start", "parameter", _default("u_start"), "U/Un at t = 0 of a voltage ramp", "1",
+          vmin=0.0, vmax=1.0)
+        p("f_start", "parameter", _default("f_start"), "f/fn at t = 0 of a frequency ramp", "1",
+          vmin=0.0, vmax=1.0)
+        p("model", "parameter", 1, "Motor model: 1 = Kloss (quasi-static torque-speed curve), "
+          "2 = dq (4 flux states, electrical transients, current and power)", vmin=1, vmax=2)
+        # gear, crank, platform
+        p("i", "parameter", _drive_default("i"), "Gear ratio: motor speed / crank speed", "1", vmin=0.0)
+        p("J_crank", "parameter", _drive_default("J_crank"), "Inertia of cranks and gear output about "
+          "the crank axis", "kg.m2", vmin=0.0)
+        p("m_platform", "parameter", _drive_default("m_platform"), "Mass of the translating platform "
+          "with the chamber (adds m l^2 to the inertia)", "kg", vmin=0.0)
+        p("l", "parameter", _drive_default("l"), "Crank length (radius of the platform's circle)", "m",
+          vmin=0.0)
+        # numerics
+        p("tolerance", "parameter", 1e-9, "Relative tolerance of the internal DOP853 integrator", "1",
+          vmin=1e-14, vmax=0.1)
+        p("M_input", "parameter", 2, "M_reaction over a communication step: 1 = held at its value at "
+          "the step's start, 2 = extrapolated linearly from the last two communication points",
+          vmin=1, vmax=2)
+        p("M_reaction", "input", 0.0, "Torque of the load (BallInShell.M_reaction) on the crank shaft, "
+          "positive counter-clockwise seen from above", "N.m")
+        for name, unit, desc in KINEMATICS:
+            p(name, "output", 0.0, desc, unit, depends=("M_reaction",) if name in FEEDTHROUGH else None)
+        p("w_motor", "output", 0.0, "Motor speed i psi'", "rad/s")
+        p("n_motor", "output", 0.0, "Motor speed i psi'", "1/min")
+        p("slip", "output", 1.0, "Slip (w_sync(t) - w_motor) / w_sync(t) of the supply at t "
+          "(0 while the supply frequency is zero)", "1")
+        p("T_motor", "output", 0.0, "Electromagnetic (air-gap) torque of the motor, at the motor shaft",
+          "N.m")
+        p("I_motor", "output", 0.0, "Stator line current (rms); dq model only, 0 with Kloss", "A")
+        p("P_el", "output", 0.0, "Electrical input power; dq model only, 0 with Kloss", "W")
+        p("P_motor", "output", 0.0, "Mechanical power of the motor T_motor w_motor", "W")
+        p("W_motor", "output", 0.0, "Mechanical work of the motor since the start, integral of P_motor",
+          "J")
+        p("E_drive", "output", 0.0, "Kinetic energy of rotor, gear, cranks and platform 1/2 J_total psi'^2",
+          "J")
+        self.set_default_experiment(0.0, 10.0, 1e-3)
+        self._drive = None
+        self._integrator = None
+        self._t = 0.0
+        self._z = None  # drive state + W_motor
+        self._h = None
+        self._samples = []  # last (t, M_reaction) at communication points
+
+    # -- life cycle --------------------------------------------------------
+    def _choice(self, name, table):
+        value = getattr(self, name)
+        if value not in table:
+            raise ParameterError(f"{name} must be one of {sorted(table)} "
+                                 f"({', '.join(f'{k} = {v}' for k, v in table.items())}), got {value!r}")
+        return table[value]
+
+    def setup_experiment(self, start_time, stop_time, tolerance):
+        self._t = float(start_time)
+
+    def exit_initialization_mode(self):
+        try:
+            motor = MotorData(
+                rated_power=self.P_rated, rated_speed=self.n_rated, rated_voltage=self.U_rated,
+                rated_frequency=self.f_rated, pole_pairs=self.pole_pairs, rated_current=self.I_rated,
+                power_factor=self.cos_phi, efficiency=self.eta, breakdown_ratio=self.Tb_ratio,
+                J_rotor=self.J_rotor, start=self._choice("start_mode", STARTS), ramp_time=self.ramp_time,
+                u_start=self.u_start, f_start=self.f_start, stator_copper_share=self.Rs_share)
+            self._drive = CrankDrive(motor=motor, i=self.i, J_crank=self.J_crank, m_platform=self.m_platform,
+                                     l=self.l, model=self._choice("model", MODELS))
+            self._choice("M_input", M_INPUTS)
+            y0 = self._drive.initial_state()
+            self._z = np.concatenate([y0, [0.0]])
+            w_scale = motor.synchronous_speed / self._drive.i
+            flux = motor.phase_voltage_peak / (2.0 * math.pi * motor.rated_frequency)
+            scale = [1.0, w_scale] + ([flux] * 4 if self._drive.model == "dq" else []) \
+                + [max(1.0, 0.5 * self._drive.J_total * w_scale ** 2)]
+            self._integrator = Integrator("DOP853", tol=self.tolerance, scale=scale)
+            if not math.isfinite(self.M_reaction):
+                raise ParameterError(f"input M_reaction must be finite, got {self.M_reaction!r} N.m")
+        except (ValueError, ArithmeticError) as e:
+            msg = re.sub(r"\b(" + "|".join(NAMES) + r")\b", lambda mo: NAMES[mo.group(1)], str(e))
+            self.error(f"InductionMotor '{self.instance_name}': initialisation failed: {msg}")
+            raise
+        self._h = None
+        self._samples = [(self._t, float(self.M_reaction))]
+        self._publish(self._t, self._z, self._load(self._samples))
+
+    # -- the load over a step ------------------------------------------------
+    def _load(self, samples):
+        """M_reaction(t) over the coming step from the communication-point samples."""
+        tk, mk = samples[-1]
+        if self.M_input == 2 and len(samples) > 1 and samples[-1][0] > samples[-2][0]:
+            tp, mp = samples[-2]
+            slope = (mk - mp) / (tk - tp)
+            return lambda t: mk + slope * (t - tk)
+        return lambda t: mk
+
+    def _rhs(self, load):
+        drive = self._drive
+        motor, i, J = drive.motor, drive.i, drive.J_total
+        if drive.model == "kloss":
+            torque = motor.torque
+
+            def f(t, z):
+                w_m = i * z[1]
+                T = torque(w_m, t)
+                return (z[1], (i * T + load(t)) / J, T * w_m)
+        else:
+            dq_rhs, dq_torque = motor.dq_rhs, motor.dq_torque
+
+            def f(t, z):
+                w_m = i * z[1]
+                x = z[2:6]
+                T = dq_torque(x)
+                return (z[1], (i * T + load(t)) / J) + tuple(dq_rhs(t, x, w_m)) + (T * w_m,)
+        return f
+
+    def do_step(self, current_time, step_size):
+        m_r = self.M_reaction
+        if not math.isfinite(m_r):
+            return self.discard(f"InductionMotor '{self.instance_name}': input M_reaction must be finite, "
+                                f"got {m_r!r} at t = {current_time:.9g} s; step refused, last good state "
+                                f"kept")
+        samples = [s for s in self._samples if s[0] < current_time][-1:] + [(current_time, float(m_r))]
+        load = self._load(samples)
+        t_end = current_time + step_size
+        try:
+            z, h, _ = self._integrator.advance(self._rhs(load), current_time, self._z, t_end, self._h)
+        except ArithmeticError as e:
+            return self.discard(f"InductionMotor '{self.instance_name}': step from t = {current_time:.9g} s "
+                                f"refused, last good state kept: {e}")
+        self._z, self._h, self._t, self._samples = z, h, t_end, samples
+        self._publish(t_end, z, load)
+        return True
+
+    # -- outputs -------------------------------------------------------------
+    def _publish(self, t, z, load):
+        drive = self._drive
+        y = z[:drive.n_states]
+        m_r = load(t)
+        w_m = drive.i * y[1]
+        if drive.model == "kloss":
+            T, I, P = drive.motor.torque(w_m, t), 0.0, 0.0
+        else:
+            T, I, P = drive.motor.dq_outputs(t, y[2:6])
+        psi_ddot = (drive.i * T + m_r) / drive.J_total
+        values = (y[0], y[1], psi_ddot) + platform_state(drive.l, y[0], y[1], psi_ddot)
+        for (name, _, _), v in zip(KINEMATICS, values):
+            setattr(self, name, float(v))
+        ws = drive.motor.synchronous_speed_at(t)
+        self.w_motor, self.n_motor = float(w_m), float(w_m / RPM)
+        self.slip = float((ws - w_m) / ws) if ws > 0.0 else 0.0
+        self.T_motor, self.I_motor, self.P_el = float(T), float(I), float(P)
+        self.P_motor = float(T * w_m)
+        self.W_motor = float(z[-1])
+        self.E_drive = float(drive.kinetic_energy(y))
+
+    # -- state save/restore ------------------------------------------------
+    def internal_state(self):
+        return {"t": self._t, "z": [float(v) for v in self._z] if self._z is not None else None,
+                "h": self._h, "samples": [list(s) for s in self._samples]}
+
+    def restore_internal_state(self, s):
+        self._t = s["t"]
+        self._z = None if s["z"] is None else np.array(s["z"], dtype=float)
+        self._h = s["h"]
+        self._samples = [tuple(v) for v in s["samples"]]
