@@ -162,7 +162,7 @@ class InductionMotor(Slave):
     def setup_experiment(self, start_time, stop_time, tolerance):
         self._t = float(start_time)
 
-    def exit_initialization_mode(self):
+    def initialise(self):
         try:
             motor = MotorData(
                 rated_power=self.P_rated, rated_speed=self.n_rated, rated_voltage=self.U_rated,

@@ -54,15 +54,7 @@ class MotorStartup(Slave):
         self.set_default_experiment(0.0, 10.0, 1e-3)
         self._law = None
 
-    def enter_initialization_mode(self):
-        # publish the start values already here: importers such as libcosim read
-        # outputs and pass them on while every FMU is still initialising
-        self._initialise()
-
-    def exit_initialization_mode(self):
-        self._initialise()
-
-    def _initialise(self):
+    def initialise(self):
         try:
             self._law = CrankStartup(l=self.l, n0=self.n0, t0=self.t0)
             for name, unit in (("m_platform", "kg"), ("J_crank", "kg.m2")):

@@ -88,6 +88,10 @@ class BallInShell(Slave):
           "refused (fmi2Discard) because the platform motion cannot be extrapolated accurately over "
           "them. 0 = automatic: 1/20 of the ball's natural period 2 pi sqrt(7 (R - r) / (5 g))", "s",
           vmin=0.0)
+        p("corrector", "parameter", True, "Predictor-corrector (input modes 1 and 2): once the inputs "
+          "at the end of a step are known, re-integrate the steps inside the input window (1 step with "
+          "derivative inputs, 5 with positions only) along the interpolating fit, so extrapolation "
+          "errors do not accumulate; costs that many extra integrations per step")
         descriptions = {
             "x1O": ("Platform point O, x in the fixed frame (crank axis at the origin)", "m"),
             "y1O": ("Platform point O, y in the fixed frame", "m"),
@@ -128,7 +132,7 @@ class BallInShell(Slave):
                                  f"({', '.join(f'{k} = {v}' for k, v in table.items())}), got {value!r}")
         return table[value]
 
-    def exit_initialization_mode(self):
+    def initialise(self):
         try:
             ball = Ball(r=self.r, R=self.R, m=self.m, g=self.g, mu=self.mu,
                         rolling_resistance=self.delta, drag=self.c_drag)
@@ -141,12 +145,19 @@ class BallInShell(Slave):
                 raise ParameterError(f"max_step must be >= 0 and finite (0 = automatic), "
                                      f"got max_step = {self.max_step!r} s")
             self._max_step = self.max_step or 0.05 * 2.0 * math.pi / ball.omega_small
-            self._inputs = InputReconstruction(self._choice("input_mode", INPUT_MODES))
+            mode = self._choice("input_mode", INPUT_MODES)
+            self._inputs = InputReconstruction(mode)
             self._inputs.push(*self._sample(self._start_time))
+            self._correct = bool(self.corrector) and mode != "hold"
         except (ValueError, ArithmeticError) as e:
             self.error(f"BallInShell '{self.instance_name}': initialisation failed: {e}")
             raise
-        self._publish(self._state, self._inputs.state(self._start_time))
+        # corrected states at the times of the samples in the reconstruction window
+        self._history = [self._state]
+        out = self._outputs_at(self._state, self._start_time)
+        self._publish(out)
+        if not self._initialising:  # report once, at the exit of initialisation mode
+            self._report(self._start_time, None, out, (True, True))
 
     _start_time = 0.0
 
@@ -164,32 +175,70 @@ class BallInShell(Slave):
                 f"exceeds max_step = {self._max_step:.4g} s (1/20 of the ball's natural period unless "
                 f"set), over which the platform motion cannot be extrapolated accurately; use a "
                 f"smaller step, or set max_step if you accept the error")
+        if abs(current_time - self._state.t) > 1e-9 * max(1.0, abs(current_time)):
+            return self.discard(f"BallInShell '{self.instance_name}': doStep at t = {current_time:.9g} s "
+                                f"but the state is at t = {self._state.t:.9g} s; steps must be contiguous "
+                                f"(restore an FMU state to go back)")
         try:
             self._inputs.push(*self._sample(current_time))
             self._inputs.prepare()
-            new_state = self._model.advance(self._state, t_end, self._inputs.accel)
-            platform = self._inputs.state(t_end)
+            history = self._corrected_history(current_time)
+            state = history[-1]
+            confirmed = self._outputs_at(state, current_time)
+            predicted = self._model.advance(state, t_end, self._inputs.accel)
+            out = self._outputs_at(predicted, t_end)
         except (ValueError, ArithmeticError) as e:
             # a valid sample recorded before the failure is harmless: a retry at the
             # same time replaces it
             return self.discard(f"BallInShell '{self.instance_name}': step from t = {current_time:.9g} s "
                                 f"refused, last good state kept: {e}")
-        self._state = new_state
-        self._publish(new_state, platform, current_time)
+        self._history = history
+        self._state = predicted
+        self._publish(out)
+        self._report(current_time, self._t_prev, confirmed, self._confirmed)
+        self._t_prev = current_time
         return True
 
+    _t_prev = None
+
+    def _corrected_history(self, t_now):
+        """Corrector: integrate the current fit from the corrected state at the oldest
+        sample of the window up to t_now, through every sample time. Over the window the
+        fit interpolates, so each step is redone until its samples leave the window (at
+        the start this also repairs the first steps, taken when few samples existed).
+        Without the corrector, or if the window's oldest state is unknown, the predicted
+        state at t_now is used as it is."""
+        times = [smp[0] for smp in self._inputs.samples]
+        by_time = {st.t: st for st in self._history}
+        if not self._correct or times[0] not in by_time:
+            return [self._state]
+        out = [by_time[times[0]]]
+        for t in times[1:]:
+            out.append(self._model.advance(out[-1], t, self._inputs.accel))
+        if abs(out[-1].t - t_now) > 1e-9 * max(1.0, abs(t_now)):  # the window ends at t_now
+            return [self._state]
+        return out
+    _confirmed = (True, True)
+
     # -- outputs -------------------------------------------------------------
-    def _publish(self, state, platform, t_prev=None):
-        x, y, _, _, ax, ay = platform
-        out = self._model.outputs(state, ax, ay, x, y)
-        was_contact, was_rolling = self.contact, self.rolling
+    def _outputs_at(self, state, t):
+        """Outputs of a state at time t, with the platform motion reconstructed at t."""
+        x, y, _, _, ax, ay = self._inputs.state(t)
+        return self._model.outputs(state, ax, ay, x, y)
+
+    def _publish(self, out):
         for name, _, _ in OUTPUTS:
             v = getattr(out, name)
             setattr(self, name, v if math.isfinite(v) else BIG)
         self.contact, self.rolling = bool(out.contact), bool(out.rolling)
         self.P_diss = out.P_diss
-        when = f"at t = {state.t:.9g} s" if t_prev is None else \
-            f"between t = {t_prev:.9g} s and {state.t:.9g} s"
+
+    def _report(self, t, t_prev, out, before):
+        """Log loss of contact and onset of slip, judged at communication point t
+        with the true inputs there (the published flags use extrapolated inputs)."""
+        was_contact, was_rolling = before
+        self._confirmed = (bool(out.contact), bool(out.rolling))
+        when = f"at t = {t:.9g} s" if t_prev is None else f"between t = {t_prev:.9g} s and {t:.9g} s"
         if was_contact and not out.contact:
             self.warn(f"BallInShell '{self.instance_name}': contact lost {when} (N = {out.N:.6g} N): "
                       f"the ball leaves the wall and the rolling model no longer holds")
@@ -200,9 +249,13 @@ class BallInShell(Slave):
     # -- state save/restore ------------------------------------------------
     def internal_state(self):
         return {"state": self._state.to_dict(), "inputs": self._inputs.get_state(),
-                "start": self._start_time}
+                "start": self._start_time, "t_prev": self._t_prev, "confirmed": list(self._confirmed),
+                "history": [st.to_dict() for st in self._history]}
 
     def restore_internal_state(self, s):
         self._state = BallState.from_dict(s["state"])
         self._inputs.set_state(s["inputs"])
         self._start_time = s["start"]
+        self._t_prev = s["t_prev"]
+        self._confirmed = tuple(s["confirmed"])
+        self._history = [BallState.from_dict(d) for d in s["history"]]

@@ -301,7 +301,8 @@ def test_cosimulated_dol_start_matches_the_coupled_solution(fmu_build_dir, dol_r
            "N": np.max(np.abs(res.column("ball.N") - dol_run["N"]))}
     for key, bound in bounds.items():
         assert err[key] < bound, (key, err[key])
-    if m_input == 1:  # holding the load is measurably worse than extrapolating it
-        assert err["P"] > 5e-4
+    if m_input == 1:  # holding the load is measurably worse than extrapolating it (the crank
+        # speed shows it; the ball's corrector hides most of it in the contact point)
+        assert err["psi_dot"] > 1e-4
     # and the co-simulation tells the same story: the ball slides within the first 20 ms
     assert np.any(res.column("ball.rolling")[:20] < 0.5)

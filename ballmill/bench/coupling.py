@@ -98,24 +98,30 @@ def _figure(rows, file):
 GUIDE = """\
 ## What this means for a user
 
-* **Derivative inputs (input_mode 1, the default).** The ball fits a quintic
-  through (x, v, a) at the last two communication points and extrapolates it
-  over the step. On smooth motion that is fourth order; on the fast start the
-  error falls as about H^2 because the first step has only one sample (the
-  acceleration is held over it while the crank's jerk is 2 w0 l / t0^2). The
-  project's default step, 2 ms, gives 4e-7 m and 3e-4 N; 10 ms still meets
-  1e-5 m.
+BallInShell is a predictor-corrector: over a step it extrapolates the
+platform motion from the samples it has (predictor, which gives the outputs
+at the end of the step); when the next inputs arrive it redoes the steps
+inside its input window along the now interpolating fit (corrector), so
+extrapolation errors do not accumulate in the state (`corrector = true`, the
+default; see the parameter's description).
+
+* **Derivative inputs (input_mode 1, the default).** A quintic through
+  (x, v, a) at the last two communication points. The contact point's error
+  falls as H^3 (1e-9 m at 2 ms, 1e-6 m at 20 ms). The force outputs at a
+  communication point come from the predictor, so a kink in the drive law
+  shows in them: the crank law's jerk jumps at t0, which costs N an error
+  proportional to H (3e-4 N at 2 ms, 1.3e-3 N at 10 ms). Keep H <= 5 ms where
+  N matters to 1e-3 N; the contact point allows 20 ms and more.
 * **Positions only (input_mode 2)**, what a tool without derivative outputs
-  or a measured CSV gives: the ball fits a quintic through the last six
-  positions. The crank law's acceleration jumps from 0 to 2 w0 l / t0 at t = 0,
-  which no polynomial through positions can see until three samples exist:
-  the first steps use a wrong acceleration and the error is first order,
-  about 0.7 mm at H = 1 ms. Expect that whenever the motion starts (or
-  changes) with a jump in acceleration; on motions that start smoothly the
-  extrapolation is fourth order like the derivative path. Where you can,
-  connect vx1O .. ay1O.
-* **Hold (input_mode 3)** holds the acceleration over the step: first order,
-  about 1 mm at 1 ms, as DESIGN.md warns. Kept only as the baseline.
+  or a measured CSV gives: a quintic through the last six positions, and the
+  corrector redoes the last five steps. The crank law's acceleration jumps at
+  t = 0 and its jerk at t0; positions cannot see either until the window has
+  samples on both sides, and the error falls as H^2: 4e-6 m and 5e-4 N at
+  1 ms, 1.6e-5 m and 1.1e-3 N at 2 ms. On motions without such kinks it is
+  much smaller. Where you can, connect vx1O .. ay1O.
+* **Hold (input_mode 3)** holds the acceleration over the step and has no
+  corrector: first order, about 1 mm at 1 ms, as DESIGN.md warns. Kept only
+  as the baseline.
 """
 
 

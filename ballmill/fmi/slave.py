@@ -141,6 +141,33 @@ class Slave(Fmi2Slave):
             structure.remove(init)
         return root
 
+    # -- initialisation ----------------------------------------------------
+    _initialising = False
+
+    def initialise(self) -> None:
+        """Subclasses: build the model from the parameters and publish the
+        outputs at the start time from the current inputs. Called at the exit
+        of initialisation mode and on every read during it, so that a master
+        that iterates over connected FMUs in initialisation mode (libcosim,
+        ballmill's runner) sees outputs consistent with the inputs it set."""
+
+    def enter_initialization_mode(self):
+        self._initialising = True
+
+    def exit_initialization_mode(self):
+        self._initialising = False
+        self.initialise()
+
+    def get_real(self, vrs):
+        if self._initialising:
+            self.initialise()
+        return super().get_real(vrs)
+
+    def get_boolean(self, vrs):
+        if self._initialising:
+            self.initialise()
+        return super().get_boolean(vrs)
+
     # -- state save/restore ------------------------------------------------
     def internal_state(self) -> dict:
         """Subclasses: everything beyond the registered variables, as plain data."""

@@ -96,13 +96,7 @@ class InputReconstruction:
                 if self.mode == "derivatives":
                     rows.append((1, tau)); bx.append(vx * hs); by.append(vy * hs)
                     rows.append((2, tau)); bx.append(ax * hs * hs); by.append(ay * hs * hs)
-            n = len(rows)
-            M = np.zeros((n, n))
-            for i, (der, tau) in enumerate(rows):
-                for j in range(der, n):
-                    coef = math.perm(j, der)
-                    M[i, j] = coef * tau ** (j - der)
-            c = np.linalg.solve(M, np.array([bx, by]).T)
+            c = self._inverse(tuple(rows)) @ np.array([bx, by]).T
             self._cx, self._cy = tuple(c[:, 0]), tuple(c[:, 1])
         self._dirty = False
         # derivative coefficient tuples for fast evaluation
@@ -110,6 +104,25 @@ class InputReconstruction:
         self._dy = self._deriv(self._cy)
         self._ddx = self._deriv(self._dx)
         self._ddy = self._deriv(self._dy)
+
+    _INVERSES: dict = {}  # constraint pattern -> inverse matrix; equal spacing repeats one pattern
+
+    @classmethod
+    def _inverse(cls, rows):
+        """Inverse of the confluent Vandermonde matrix of the constraints (derivative order,
+        tau): row i asks d^der/dtau^der of sum c_j tau^j at tau_i. Cached per pattern."""
+        key = tuple((der, round(tau, 12)) for der, tau in rows)
+        inv = cls._INVERSES.get(key)
+        if inv is None:
+            n = len(rows)
+            M = np.zeros((n, n))
+            for i, (der, tau) in enumerate(rows):
+                for j in range(der, n):
+                    M[i, j] = math.perm(j, der) * tau ** (j - der)
+            inv = np.linalg.inv(M)
+            if len(cls._INVERSES) < 256:
+                cls._INVERSES[key] = inv
+        return inv
 
     @staticmethod
     def _deriv(c):

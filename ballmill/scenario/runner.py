@@ -3,7 +3,8 @@
 Fixed-step Jacobi scheme: at each communication point t_k every connected
 output is read and written to its inputs, then every instance steps to
 t_k + H. Instances are initialised in dependency order (sources first), so
-the outputs recorded at the start time already see their inputs. Table
+the outputs recorded at the start time already see their inputs; feedback
+loops are iterated to a fixed point in initialisation mode. Table
 sources (CSV) are interpolated with a cubic spline at each point.
 
 A step an FMU refuses (fmi2Discard, e.g. a non-finite input or the paper
@@ -23,6 +24,7 @@ import numpy as np
 
 from . import spec as _spec
 
+INIT_PASSES = 5  # at most, for the fixed-point iteration over connections in initialisation mode
 STATUS = {0: "ok", 1: "warning", 2: "discard", 3: "error", 4: "fatal", 5: "pending"}
 
 
@@ -248,17 +250,26 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
             f.set_parameters()
             f.fmu.setupExperiment(startTime=sc.start, stopTime=sc.stop)
             f.fmu.enterInitializationMode()
+        # initialisation mode: outputs follow the inputs (see ballmill.fmi.slave), so pass
+        # values around until they settle; a loop through the connections converges in a few
+        # passes because the fed-back quantities (reaction torque) barely move the sources
         values = {}
-        for name in order:  # sources first: each sees its inputs before it computes its outputs
-            if name in tables:
-                values[name] = tables[name].values(wanted[name], t)
-                continue
-            vrs, srcs = setters[name]
-            ready = [(vr, values[s][k]) for vr, (s, k) in zip(vrs, srcs) if s in values]
-            if ready:  # inputs fed back from a later instance keep their start values here
-                fmus[name].fmu.setReal([vr for vr, _ in ready], [v for _, v in ready])
-            fmus[name].fmu.exitInitializationMode()
-            values[name] = getters[name]()
+        for _ in range(INIT_PASSES):
+            previous = {n: list(v) for n, v in values.items()}
+            for name in order:
+                if name in tables:
+                    values[name] = tables[name].values(wanted[name], t)
+                    continue
+                vrs, srcs = setters[name]
+                ready = [(vr, values[s][k]) for vr, (s, k) in zip(vrs, srcs) if s in values]
+                if ready:  # inputs fed back from a later instance keep their start values on pass 1
+                    fmus[name].fmu.setReal([vr for vr, _ in ready], [v for _, v in ready])
+                values[name] = getters[name]()
+            if values == previous:
+                break
+        for name in order:
+            if name in fmus:
+                fmus[name].fmu.exitInitializationMode()
         init_time = time.perf_counter() - wall0
         bar = _Progress(sc.stop - sc.start, progress)
         n_steps = int(round((sc.stop - sc.start) / sc.step))
