@@ -163,14 +163,19 @@ def load(name_or_path: str, overrides: list[str] = (), models: dict | None = Non
         record.append(tuple(str(text).split(".", 1)))
 
     scenario = Scenario(path=path, name=path.stem, description=str(doc.get("description", "")),
-                        start=float(start or 0.0), stop=float(stop or 0.0), step=float(step or 0.0),
+                        start=_seconds(start), stop=_seconds(stop), step=_seconds(step),
                         instances=instances, connections=connections, record=record,
                         plots=list(doc.get("plots", [])), summary=dict(doc.get("summary", {})))
-    if models is not None and not problems:
+    if models is not None:  # check even when other sections have problems: report them all at once
         problems += check(scenario, models, record_spec is None)
     if problems:
         raise ScenarioError(problems)
     return scenario
+
+
+def _seconds(v) -> float:
+    """An experiment time as a float; 0.0 for a value already reported as bad."""
+    return float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else 0.0
 
 
 def _load_table(inst: Instance, key: str, bad):
@@ -216,8 +221,13 @@ def check(sc: Scenario, models: dict, record_all: bool) -> list[str]:
                             f"(built models: {', '.join(sorted(models))})")
     if problems:
         return problems
-    variables = {name: _variables(inst, models) for name, inst in sc.instances.items()}
+    # instances already reported as unusable (no fmu/table, unreadable table) are left out here
+    broken = {n for n, i in sc.instances.items()
+              if (i.fmu is None and i.table is None) or (i.table is not None and i.data is None)}
+    variables = {name: _variables(inst, models) for name, inst in sc.instances.items() if name not in broken}
     for name, inst in sc.instances.items():
+        if name in broken:
+            continue
         for param, value in inst.parameters.items():
             key = f"{where}: instances.{name}.parameters.{param}"
             info = variables[name].get(param)
@@ -236,6 +246,8 @@ def check(sc: Scenario, models: dict, record_all: bool) -> list[str]:
     for i, (si, sv, di, dv) in enumerate(sc.connections):
         key = f"{where}: connections[{i}] ({si}.{sv} -> {di}.{dv})"
         for inst, var, role in ((si, sv, "output"), (di, dv, "input")):
+            if inst in broken:
+                continue  # already reported
             if inst not in variables:
                 problems.append(f"{key}: no instance {inst!r}")
             elif variables[inst].get(var, (None,))[0] != role:
@@ -249,15 +261,15 @@ def check(sc: Scenario, models: dict, record_all: bool) -> list[str]:
             problems.append(f"{key}: input {di}.{dv} is connected twice")
         seen_inputs.add((di, dv))
     if record_all:
-        sc.record = [(n, v) for n, inst in sc.instances.items() for v, c in variables[n].items()
+        sc.record = [(n, v) for n in variables for v, c in variables[n].items()
                      if c[0] == "output" and c[1] in ("Real", "Boolean", "Integer")]
     for i, (inst, var) in enumerate(sc.record):
-        if inst not in variables or var not in variables[inst]:
+        if inst not in broken and (inst not in variables or var not in variables[inst]):
             problems.append(f"{where}: record.variables[{i}]: no variable {inst}.{var}")
     recorded = {f"{a}.{b}" for a, b in sc.record} | {"time"}
     for i, plot in enumerate(sc.plots):
         for var in [plot.get("x", "time")] + list(plot.get("y", [])):
-            if var not in recorded:
+            if var not in recorded and var.split(".", 1)[0] not in broken:
                 problems.append(f"{where}: plots[{i}]: {var!r} is not recorded")
         if not plot.get("file"):
             problems.append(f"{where}: plots[{i}].file: expected a PNG file name")
