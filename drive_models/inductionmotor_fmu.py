@@ -26,6 +26,16 @@ non-finite M_reaction, or a failing integration, refuses the step
 """
 from __future__ import annotations
 
+import os
+import sys
+
+# An earlier FMU in this process may have imported ballmill from its own, since deleted,
+# resources folder (fmpy removes them after a run): forget it, so that the import below
+# finds this FMU's copy (or an installed ballmill) again.
+if not os.path.exists(getattr(sys.modules.get("ballmill"), "__file__", None) or os.curdir):
+    for _name in [n for n in sys.modules if n.split(".")[0] == "ballmill"]:
+        del sys.modules[_name]
+
 import math
 import re
 

@@ -10,6 +10,16 @@ torque and power the drive must supply to follow the law:
 """
 from __future__ import annotations
 
+import os
+import sys
+
+# An earlier FMU in this process may have imported ballmill from its own, since deleted,
+# resources folder (fmpy removes them after a run): forget it, so that the import below
+# finds this FMU's copy (or an installed ballmill) again.
+if not os.path.exists(getattr(sys.modules.get("ballmill"), "__file__", None) or os.curdir):
+    for _name in [n for n in sys.modules if n.split(".")[0] == "ballmill"]:
+        del sys.modules[_name]
+
 from ballmill.fmi.slave import Slave
 from ballmill.physics import CrankStartup
 

@@ -189,6 +189,11 @@ class Slave(Fmi2Slave):
             self.restore_internal_state(copy.deepcopy(internal))
 
     # -- logging helpers ---------------------------------------------------
+    def log(self, msg, status=Fmi2Status.ok, category=None, debug=None):
+        # pythonfmu hands the message to the FMI logger as a printf format string
+        # (cppfmu's Logger::Log): a literal '%' must travel as '%%'
+        super().log(str(msg).replace("%", "%%"), status, category)
+
     def warn(self, msg: str):
         self.log(msg, Fmi2Status.warning)
 
