@@ -191,11 +191,11 @@ class BallInShell(Slave):
                                 f"(restore an FMU state to go back)")
         try:
             self._inputs.push(*self._sample(current_time))
-            self._inputs.prepare()
-            history = self._corrected_history(current_time)
+            accel = self._inputs.accel_function()
+            history = self._corrected_history(current_time, accel)
             state = history[-1]
             confirmed = self._outputs_at(state, current_time)
-            predicted = self._model.advance(state, t_end, self._inputs.accel)
+            predicted = self._model.advance(state, t_end, accel)
             out = self._outputs_at(predicted, t_end)
         except (ValueError, ArithmeticError) as e:
             # a valid sample recorded before the failure is harmless: a retry at the
@@ -211,7 +211,7 @@ class BallInShell(Slave):
 
     _t_prev = None
 
-    def _corrected_history(self, t_now):
+    def _corrected_history(self, t_now, accel):
         """Corrector: integrate the current fit from the corrected state at the oldest
         sample of the window up to t_now, through every sample time. Over the window the
         fit interpolates, so each step is redone until its samples leave the window (at
@@ -224,7 +224,7 @@ class BallInShell(Slave):
             return [self._state]
         out = [by_time[times[0]]]
         for t in times[1:]:
-            out.append(self._model.advance(out[-1], t, self._inputs.accel))
+            out.append(self._model.advance(out[-1], t, accel))
         if abs(out[-1].t - t_now) > 1e-9 * max(1.0, abs(t_now)):  # the window ends at t_now
             return [self._state]
         return out

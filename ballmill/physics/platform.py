@@ -104,6 +104,24 @@ class InputReconstruction:
         self._dy = self._deriv(self._cy)
         self._ddx = self._deriv(self._dx)
         self._ddy = self._deriv(self._dy)
+        self._accel_fn = self._compile_accel()
+
+    def _compile_accel(self):
+        """a(t) as a closure over the cubic's coefficients in physical time (the
+        integrator calls it at every stage, so it avoids loops and attribute look-ups)."""
+        hs, t0 = self._hs, self._t0
+        ax = [c / hs ** (j + 2) for j, c in enumerate(self._ddx)]
+        ay = [c / hs ** (j + 2) for j, c in enumerate(self._ddy)]
+        if len(ax) > 4 or len(ay) > 4:
+            horner = self._horner
+            return lambda t: (horner(ax, t - t0), horner(ay, t - t0))
+        x0, x1, x2, x3 = ax + [0.0] * (4 - len(ax))
+        y0, y1, y2, y3 = ay + [0.0] * (4 - len(ay))
+
+        def accel(t):
+            s = t - t0
+            return x0 + s * (x1 + s * (x2 + s * x3)), y0 + s * (y1 + s * (y2 + s * y3))
+        return accel
 
     _INVERSES: dict = {}  # constraint pattern -> inverse matrix; equal spacing repeats one pattern
 
@@ -141,12 +159,15 @@ class InputReconstruction:
             self._fit()
 
     def accel(self, t):
-        """(ax, ay) [m/s2] at time t (t >= the last sample: extrapolation)."""
+        """(ax, ay) [m/s2] at time t (beyond the last sample: extrapolation)."""
         if self._dirty:
             self._fit()
-        tau = (t - self._t0) / self._hs
-        h2 = self._hs * self._hs
-        return self._horner(self._ddx, tau) / h2, self._horner(self._ddy, tau) / h2
+        return self._accel_fn(t)
+
+    def accel_function(self):
+        """The current fit's a(t) as a plain function, for an integrator's inner loop."""
+        self.prepare()
+        return self._accel_fn
 
     def state(self, t):
         """(x, y, vx, vy, ax, ay) of the reconstructed motion at time t."""
