@@ -9,10 +9,13 @@ figures in benchmarks/figures/):
 2. the monolithic fast start (CrankStartup(0.5, 60, 2.5), 10 s, outputs
    every 0.01 s) against a converged reference, for a grid of formulations,
    methods and tolerances/steps: max contact-point error, max N error, wall
-   time (median of repeats), steps and evaluations;
+   time (median of repeats), steps and evaluations; the vector settings
+   both in pure Python (``kernel="python"``) and through the library's
+   compiled kernel (``kernel="c"``, family "library (C kernel)");
 3. two peers on the same problem in the same run: "paper-literal" (the
    paper's coordinates and Cramer solve under scipy's solve_ivp RK45) and
-   "compiled" (the library's algorithm generated as C, built with gcc -O2);
+   "compiled" (the kernel's C, ballmill/physics/_kernel.c, as a standalone
+   program with a generated main, built with gcc -O2);
 4. Pareto fronts, the time of each family at a 1e-6 m contact-point error
    and the ratios, and where the library's time goes.
 
@@ -57,7 +60,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--work", type=Path, default=None,
                    help="scratch directory for the C peer (default: <root>/benchmarks/_work)")
     p.add_argument("--repeats", type=int, default=None,
-                   help="timed repeats per setting, median reported (default 5; quick 3; minimum 3)")
+                   help="timed rounds (one run of every setting per round), median reported (default 9; quick 3; minimum 3)")
     p.add_argument("--target", type=float, default=1e-6,
                    help="contact-point error for the headline comparison [m] (default 1e-6)")
     p.add_argument("--cc", default="gcc", help="C compiler for the compiled peer (default gcc)")
@@ -97,7 +100,7 @@ def main(argv=None) -> int:
     else:
         out = args.out or root / "BENCHMARKS.md"
         figures = args.figures or root / "benchmarks" / "figures"
-    cfg = Config.quick() if args.quick else Config.full()
+    cfg = Config.quick_run() if args.quick else Config.full_run()
     if args.repeats is not None:
         cfg.repeats = args.repeats
     cfg.target = args.target

@@ -53,3 +53,11 @@ def info(root: Path, cc: str = "gcc") -> list[tuple[str, str]]:
         ("git", (commit + (" + uncommitted changes in ballmill/" if dirty else "")) if commit else "n/a"),
     ]
     return rows
+
+
+def load():
+    """1-, 5- and 15-minute load averages (None where unavailable)."""
+    try:
+        return os.getloadavg()
+    except (AttributeError, OSError):
+        return None

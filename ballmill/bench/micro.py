@@ -53,6 +53,12 @@ def rhs_cases(problem: Problem, repeats: int, min_time: float):
     cra = PaperFormulation(ball, cramer=True)
     f_model = vec_model.rhs(drive.accel)
     f_lit, _ = literal.make_rhs(problem)
+
+    class _NoList(np.ndarray):  # an array whose tolist() hands back numpy scalars
+        def tolist(self):
+            return list(self.view(np.ndarray))
+
+    f_lit_np = (lambda t, y: f_lit(t, y.view(_NoList)))
     y_nd = sv.y.copy()
     yp_nd = sp.y.copy()
     cases = [
@@ -63,7 +69,8 @@ def rhs_cases(problem: Problem, repeats: int, min_time: float):
         ("omega_dot_cramer alone", lambda: omega_dot_cramer(ball, yp[0], yp[1], yp[2], yp[3], yp[4], ax, ay)),
         ("CrankStartup.accel(t)", lambda: drive.accel(t)),
         ("BallModel.rhs f(t, y): accel + tolist + vector derivative", lambda: f_model(t, y_nd)),
-        ("paper-literal f(t, y) (inline drive + Cramer, returns list)", lambda: f_lit(t, yp_nd)),
+        ("paper-literal f(t, y) (inline drive + Cramer, y.tolist(), returns list)", lambda: f_lit(t, yp_nd)),
+        ("the same with y unpacked as numpy scalars (no tolist)", lambda: f_lit_np(t, yp_nd)),
     ]
     rows = []
     for name, fn in cases:
@@ -99,9 +106,17 @@ def advance_cases(problem: Problem, repeats: int, min_time: float):
     return rows
 
 
-def _python_env(root: Path):
+def _package_parent() -> Path:
+    """The directory holding the imported ballmill package (what PYTHONPATH needs)."""
+    import ballmill
+
+    return Path(ballmill.__file__).resolve().parents[1]
+
+
+def _python_env():
     env = dict(os.environ)
-    env["PYTHONPATH"] = str(root) + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+    parent = str(_package_parent())
+    env["PYTHONPATH"] = parent + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
     return env
 
 
@@ -116,7 +131,8 @@ def startup(root: Path, repeats: int):
     """Wall time of fresh interpreters [s], median of repeats: bare, import, first step."""
     import time
 
-    env = _python_env(root)
+    env = _python_env()
+    cwd = str(_package_parent())
     cases = [
         ("python -c pass (bare interpreter)", "pass"),
         ("python -c 'import numpy'", "import numpy"),
@@ -128,7 +144,7 @@ def startup(root: Path, repeats: int):
         walls = []
         for i in range(repeats + 1):
             t0 = time.perf_counter()
-            proc = subprocess.run([sys.executable, "-c", code], env=env, cwd=str(root),
+            proc = subprocess.run([sys.executable, "-c", code], env=env, cwd=cwd,
                                   capture_output=True, text=True)
             wall = time.perf_counter() - t0
             if proc.returncode != 0:
@@ -137,9 +153,3 @@ def startup(root: Path, repeats: int):
                 walls.append(wall)
         rows.append((name, statistics.median(walls), min(walls)))
     return rows
-
-
-def rhs_numpy_overhead():
-    """Sanity number used in the report: np.asarray of a 6-tuple [us]."""
-    t = (1.0, 2.0, 3.0, 4.0, 5.0, 6.0)
-    return per_call_us(lambda: np.asarray(t, dtype=float), 5, 0.05)[0]

@@ -108,31 +108,65 @@ def library_model(problem: Problem, formulation: str, method: str, param: float)
     return BallModel(problem.ball, formulation=formulation, method=method, tol=param)
 
 
-def run_library(problem: Problem, formulation: str, method: str, param: float):
-    """One monolithic run of the public driver; (Sample, model, trajectory)."""
+KERNEL_FAMILY = "library (C kernel)"
+
+
+def run_library(problem: Problem, formulation: str, method: str, param: float, kernel: str = "python"):
+    """One monolithic run of the public driver; (Sample, model, trajectory).
+    kernel: simulate's kernel argument ("python": the pure-Python path, "c": the compiled kernel)."""
     model = library_model(problem, formulation, method, param)
-    traj = simulate(model, problem.drive, t_end=problem.t_end, dt=problem.dt)
+    traj = simulate(model, problem.drive, t_end=problem.t_end, dt=problem.dt, kernel=kernel)
     P = np.column_stack([traj["xP"], traj["yP"], traj["zP"]]) if traj.out else np.empty((0, 3))
     N = traj["N"] if traj.out else np.empty(0)
     return Sample(P, N), model, traj
 
 
-def bench_library(problem: Problem, ref: Sample, formulation: str, method: str, param: float,
-                  repeats: int) -> RunResult:
-    res = RunResult(f"library ({formulation})", method, fmt_setting(method, param), param)
-    last = {}
-
-    def once():
-        sample, model, traj = run_library(problem, formulation, method, param)
-        last.update(sample=sample, model=model, traj=traj)
-
-    res.wall, res.walls, _ = median_time(once, repeats)
-    traj, model = last["traj"], last["model"]
+def prepare_library(problem: Problem, ref: Sample, formulation: str, method: str,
+                    param: float, kernel: str = "python") -> RunResult:
+    """One untimed run: errors, step counts, and the closure that repeats the run
+    (timed later, round-robin with the other settings: see `time_round_robin`)."""
+    family = KERNEL_FAMILY if kernel == "c" else f"library ({formulation})"
+    res = RunResult(family, method, fmt_setting(method, param), param)
+    sample, model, traj = run_library(problem, formulation, method, param, kernel)
     res.ok, res.message = traj.success, traj.message
-    res.err_P, res.err_N = errors(last["sample"], ref)
+    res.err_P, res.err_N = errors(sample, ref)
     res.steps, res.rejected, res.nfev = model.info.steps, model.info.rejected, model.info.nfev
-    res.extra["sample"] = last["sample"]
+    res.extra["sample"] = sample
+    res.extra["rerun"] = lambda: run_library(problem, formulation, method, param, kernel)
     return res
+
+
+def round_order(items, k: int):
+    """``items`` in the order of round k: a fixed pseudo-random permutation per round,
+    so that which setting follows which changes from round to round. The first run of
+    a family after a stretch of other work finds cold caches (a compiled-kernel run
+    right after Python runs takes up to about 1.6x as long as one after another
+    kernel run); shuffled, every setting meets that about equally often."""
+    import random
+
+    order = list(items)
+    random.Random(1000 + k).shuffle(order)
+    return order
+
+
+def time_round_robin(results, repeats: int, progress=None, label: str = ""):
+    """Time every result's rerun ``repeats`` times, one run of each setting per
+    round (order shuffled from round to round: `round_order`), so that a burst of
+    load from other processes spreads over all settings instead of falling on
+    one; wall = median over the rounds."""
+    todo = [r for r in results if r.ok and "rerun" in r.extra]
+    walls = {id(r): [] for r in todo}
+    for k in range(repeats):
+        for r in round_order(todo, k):
+            t0 = time.perf_counter()
+            r.extra["rerun"]()
+            walls[id(r)].append(time.perf_counter() - t0)
+        if progress:
+            progress(f"{label}timing round {k + 1}/{repeats} done ({len(todo)} settings)")
+    for r in todo:
+        r.walls = walls[id(r)]
+        r.wall = statistics.median(r.walls)
+    return results
 
 
 # ---------------------------------------------------------------------------

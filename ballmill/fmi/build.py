@@ -71,7 +71,9 @@ def _stage(dest: Path) -> Path:
         target = pkg / item
         target.parent.mkdir(parents=True, exist_ok=True)
         if src.is_dir():
-            shutil.copytree(src, target, ignore=shutil.ignore_patterns("__pycache__"))
+            # the compiled kernel (and its source) serve monolithic runs only: FMUs stay pure Python
+            shutil.copytree(src, target, ignore=shutil.ignore_patterns(
+                "__pycache__", "*.so", "*.pyd", "*.dylib", "*.c"))
         else:
             shutil.copy2(src, target)
     return pkg

@@ -7,10 +7,15 @@ fmu_src/ and drive_models/ and the scenario runner build on this package.
     model = BallModel(Ball())                  # the paper's ball, vector form
     traj = simulate(model, CrankStartup(t0=2.5), t_end=10.0, dt=0.01)
     traj["zP"], traj["N"]
+
+Monolithic runs use a compiled kernel (`fast`, built from _kernel.c at install
+time) when it is available and covers the run, with the same results bit for
+bit; ``KERNEL_AVAILABLE`` says whether it is, ``KERNEL_REASON`` why not.
 """
 from .drives import Circle, CrankStartup, Fixed, Harmonic
 from .equations import PaperFormulation, VectorFormulation, make_formulation, omega_dot_cramer
 from .errors import FormulationLimitError, InputError, ParameterError, StepFailure
+from .fast import KernelUnavailable
 from .integrators import METHODS, Integrator
 from .model import BallModel, BallState, Trajectory, simulate
 from .outputs import Outputs, energy, evaluate, spin
@@ -19,8 +24,18 @@ from .platform import MODES as INPUT_MODES, InputReconstruction
 
 __all__ = [
     "Ball", "BallModel", "BallState", "Circle", "CrankStartup", "Fixed", "FormulationLimitError",
-    "Harmonic", "INPUT_MODES", "InputError", "InputReconstruction", "Integrator", "METHODS",
+    "Harmonic", "INPUT_MODES", "InputError", "InputReconstruction", "Integrator", "KERNEL_AVAILABLE",
+    "KERNEL_REASON", "KernelUnavailable", "METHODS",
     "Outputs", "PaperFormulation", "ParameterError", "StepFailure", "Trajectory",
     "VectorFormulation", "energy", "evaluate", "make_formulation", "omega_dot_cramer",
     "simulate", "spin", "steel_ball_mass",
 ]
+
+
+def __getattr__(name):
+    # KERNEL_AVAILABLE (bool) and KERNEL_REASON (str, '' when available): looked up in
+    # fast, which loads the compiled kernel on first use rather than on import
+    if name in ("KERNEL_AVAILABLE", "KERNEL_REASON"):
+        from . import fast
+        return getattr(fast, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

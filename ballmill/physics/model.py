@@ -146,17 +146,41 @@ class Trajectory:
         return self.out[name]
 
 
+KERNELS = ("auto", "c", "python")
+
+
 def simulate(model: BallModel, motion, t_end: float, dt: float, state: BallState | None = None,
-             outputs: bool = True) -> Trajectory:
+             outputs: bool = True, kernel: str = "auto") -> Trajectory:
     """Monolithic run: the ball driven by a platform motion with exact
     derivatives (``motion.state(t) -> (x, y, vx, vy, ax, ay)``), sampled every
     dt up to t_end. Stops early (success False, with the message) when the
-    formulation or the integrator gives up."""
+    formulation or the integrator gives up.
+
+    kernel: ``"auto"`` (default) runs in the compiled kernel (`ballmill.physics.fast`)
+    when it is built and covers the run (vector formulation; CrankStartup, Fixed,
+    Harmonic or Circle; DOP853, RK45 or RK4; with or without losses), else in
+    Python; ``"c"`` insists (`fast.KernelUnavailable` with the reason when it
+    cannot); ``"python"`` never uses it. Both give the same Trajectory, bit for bit.
+    """
     if not (dt > 0 and math.isfinite(dt)):
         raise ValueError(f"dt must be positive and finite, got {dt!r} s")
+    if kernel not in KERNELS:
+        raise ValueError(f"kernel must be one of {KERNELS}, got {kernel!r}")
     state = state or model.initial()
     n_steps = int(round((t_end - state.t) / dt))
     times = state.t + dt * np.arange(n_steps + 1)
+    if kernel != "python":
+        from . import fast
+
+        why = fast.applicable(model, motion, state)
+        if not why and n_steps < 1:
+            why = "no interval to integrate"
+        if not why:
+            ys, arr, success, message, last = fast.simulate(model, motion, times, state, outputs)
+            out = {name: arr[:, j] for j, name in enumerate(_out.Outputs._fields)} if outputs else {}
+            return Trajectory(times[:last + 1], ys, out, success, message, model.info)
+        if kernel == "c":
+            raise fast.KernelUnavailable(f"simulate(kernel='c'): {why}")
     ys = np.empty((n_steps + 1, state.y.size))
     outs = []
     accel = motion.accel
@@ -166,7 +190,7 @@ def simulate(model: BallModel, motion, t_end: float, dt: float, state: BallState
             try:
                 state = model.advance(state, float(t), accel)
             except ArithmeticError as e:
-                success, message, last = False, f"stopped at t = {times[i - 1]:.6g} s: {e}", i - 1
+                success, message, last = False, _stopped(times, i, e), i - 1
                 break
         ys[i] = state.y
         if outputs:
@@ -178,3 +202,22 @@ def simulate(model: BallModel, motion, t_end: float, dt: float, state: BallState
         arr = np.array([tuple(o) for o in outs], dtype=float)
         out = {name: arr[:, j] for j, name in enumerate(_out.Outputs._fields)}
     return Trajectory(times, ys, out, success, message, model.info)
+
+
+def _stopped(times, i, e) -> str:
+    return f"stopped at t = {times[i - 1]:.6g} s: {e}"
+
+
+def record_python(model: BallModel, motion, times, state: BallState, i: int, ys, outs):
+    """One interval of `simulate`'s loop in Python, times[i - 1] -> times[i], recorded
+    in row i of ys and outs (None: no outputs). Returns (ok, message, state); the
+    compiled kernel hands over the intervals it cannot do through this."""
+    try:
+        state = model.advance(state, float(times[i]), motion.accel)
+    except ArithmeticError as e:
+        return False, _stopped(times, i, e), state
+    ys[i] = state.y
+    if outs is not None:
+        x, yy, _, _, ax, ay = motion.state(float(times[i]))
+        outs[i] = tuple(model.outputs(state, ax, ay, x, yy))
+    return True, "completed", state
