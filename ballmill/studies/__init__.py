@@ -1,4 +1,5 @@
 """Studies that measure the models against each other; each writes a page in docs/.
 
+    python -m ballmill.studies.coupling     coupling error of BallInShell against the step, per input path
     python -m ballmill.studies.induction    induction motor: coupling error, starts compared
 """

@@ -6,7 +6,7 @@ the acceleration (3) — at a range of communication steps, and compares the
 contact point and N with a converged monolithic solution of the library on
 the same grid. Writes docs/coupling.md and docs/figures/coupling_error.png.
 
-    python -m ballmill.bench.coupling [--quick]
+    python -m ballmill.studies.coupling [--quick]
 """
 from __future__ import annotations
 
@@ -131,7 +131,7 @@ def _report(rows, t_end, file):
         "",
         f"Fast start (t0 = 2.5 s, {t_end:g} s simulated), MotorStartup -> BallInShell through fmpy, "
         "against a monolithic library solution (DOP853, tol 1e-13) on the same grid. Written by "
-        "`python -m ballmill.bench.coupling`.",
+        "`python -m ballmill.studies.coupling`.",
         "",
         "![coupling error](figures/coupling_error.png)",
         "",
