@@ -41,7 +41,7 @@ import re
 
 import numpy as np
 
-from ballmill.fmi.slave import Slave
+from ballmill.fmi.slave import CRANK_KINEMATICS, Slave
 from ballmill.physics.errors import ParameterError
 from ballmill.physics.integrators import Integrator
 from ballmill.physics.motor import RPM, CrankDrive
@@ -56,17 +56,8 @@ NAMES = {"rated_power": "P_rated", "rated_speed": "n_rated", "rated_voltage": "U
          "rated_frequency": "f_rated", "rated_current": "I_rated", "power_factor": "cos_phi",
          "efficiency": "eta", "breakdown_ratio": "Tb_ratio", "stator_copper_share": "Rs_share"}
 
-KINEMATICS = (
-    ("psi", "rad", "Crank angle"),
-    ("psi_dot", "rad/s", "Crank angular speed"),
-    ("psi_ddot", "rad/s2", "Crank angular acceleration (i T_motor + M_reaction) / J_total"),
-    ("x1O", "m", "Platform point O, x (crank axis at the origin)"),
-    ("y1O", "m", "Platform point O, y"),
-    ("vx1O", "m/s", "Platform velocity x"),
-    ("vy1O", "m/s", "Platform velocity y"),
-    ("ax1O", "m/s2", "Platform acceleration x"),
-    ("ay1O", "m/s2", "Platform acceleration y"),
-)
+KINEMATICS = tuple((name, unit, "Crank angular acceleration (i T_motor + M_reaction) / J_total")
+                   if name == "psi_ddot" else (name, unit, desc) for name, unit, desc in CRANK_KINEMATICS)
 FEEDTHROUGH = ("psi_ddot", "ax1O", "ay1O")  # depend on M_reaction at initialisation
 
 
@@ -162,13 +153,6 @@ class InductionMotor(Slave):
         self._samples = []  # last (t, M_reaction) at communication points
 
     # -- life cycle --------------------------------------------------------
-    def _choice(self, name, table):
-        value = getattr(self, name)
-        if value not in table:
-            raise ParameterError(f"{name} must be one of {sorted(table)} "
-                                 f"({', '.join(f'{k} = {v}' for k, v in table.items())}), got {value!r}")
-        return table[value]
-
     def setup_experiment(self, start_time, stop_time, tolerance):
         self._t = float(start_time)
 
@@ -178,11 +162,11 @@ class InductionMotor(Slave):
                 rated_power=self.P_rated, rated_speed=self.n_rated, rated_voltage=self.U_rated,
                 rated_frequency=self.f_rated, pole_pairs=self.pole_pairs, rated_current=self.I_rated,
                 power_factor=self.cos_phi, efficiency=self.eta, breakdown_ratio=self.Tb_ratio,
-                J_rotor=self.J_rotor, start=self._choice("start_mode", STARTS), ramp_time=self.ramp_time,
+                J_rotor=self.J_rotor, start=self.choice("start_mode", STARTS), ramp_time=self.ramp_time,
                 u_start=self.u_start, f_start=self.f_start, stator_copper_share=self.Rs_share)
             self._drive = CrankDrive(motor=motor, i=self.i, J_crank=self.J_crank, m_platform=self.m_platform,
-                                     l=self.l, model=self._choice("model", MODELS))
-            self._choice("M_input", M_INPUTS)
+                                     l=self.l, model=self.choice("model", MODELS))
+            self.choice("M_input", M_INPUTS)
             y0 = self._drive.initial_state()
             self._z = np.concatenate([y0, [0.0]])
             w_scale = motor.synchronous_speed / self._drive.i

@@ -20,20 +20,10 @@ if not os.path.exists(getattr(sys.modules.get("ballmill"), "__file__", None) or 
     for _name in [n for n in sys.modules if n.split(".")[0] == "ballmill"]:
         del sys.modules[_name]
 
-from ballmill.fmi.slave import Slave
+from ballmill.fmi.slave import CRANK_KINEMATICS, Slave
 from ballmill.physics import CrankStartup
 
-KINEMATICS = (
-    ("psi", "rad", "Crank angle"),
-    ("psi_dot", "rad/s", "Crank angular speed"),
-    ("psi_ddot", "rad/s2", "Crank angular acceleration"),
-    ("x1O", "m", "Platform point O, x (crank axis at the origin)"),
-    ("y1O", "m", "Platform point O, y"),
-    ("vx1O", "m/s", "Platform velocity x"),
-    ("vy1O", "m/s", "Platform velocity y"),
-    ("ax1O", "m/s2", "Platform acceleration x"),
-    ("ay1O", "m/s2", "Platform acceleration y"),
-)
+KINEMATICS = CRANK_KINEMATICS
 
 
 class MotorStartup(Slave):

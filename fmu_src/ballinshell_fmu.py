@@ -138,19 +138,12 @@ class BallInShell(Slave):
         self._inputs = None
 
     # -- life cycle --------------------------------------------------------
-    def _choice(self, name, table):
-        value = getattr(self, name)
-        if value not in table:
-            raise ParameterError(f"{name} must be one of {sorted(table)} "
-                                 f"({', '.join(f'{k} = {v}' for k, v in table.items())}), got {value!r}")
-        return table[value]
-
     def initialise(self):
         try:
             ball = Ball(r=self.r, R=self.R, m=self.m, g=self.g, mu=self.mu,
                         rolling_resistance=self.delta, drag=self.c_drag)
-            self._model = BallModel(ball, formulation=self._choice("formulation", FORMULATIONS),
-                                    method=self._choice("integrator", METHODS),
+            self._model = BallModel(ball, formulation=self.choice("formulation", FORMULATIONS),
+                                    method=self.choice("integrator", METHODS),
                                     tol=self.tolerance, h_fixed=self.h_fixed)
             self._state = self._model.initial(self.xC0, self.yC0, (self.wx0, self.wy0, self.wz0),
                                               t0=self._start_time)
@@ -158,7 +151,7 @@ class BallInShell(Slave):
                 raise ParameterError(f"max_step must be >= 0 and finite (0 = automatic), "
                                      f"got max_step = {self.max_step!r} s")
             self._max_step = self.max_step or 0.05 * 2.0 * math.pi / ball.omega_small
-            mode = self._choice("input_mode", INPUT_MODES)
+            mode = self.choice("input_mode", INPUT_MODES)
             self._inputs = InputReconstruction(mode)
             self._inputs.push(*self._sample(self._start_time))
             self._correct = bool(self.corrector) and mode != "hold"

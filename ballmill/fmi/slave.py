@@ -46,6 +46,19 @@ UNITS = {
     "N.s/m": {"kg": 1, "s": -1},
 }
 
+# the crank and platform outputs every drive FMU provides (BallInShell's inputs)
+CRANK_KINEMATICS = (
+    ("psi", "rad", "Crank angle"),
+    ("psi_dot", "rad/s", "Crank angular speed"),
+    ("psi_ddot", "rad/s2", "Crank angular acceleration"),
+    ("x1O", "m", "Platform point O, x (crank axis at the origin)"),
+    ("y1O", "m", "Platform point O, y"),
+    ("vx1O", "m/s", "Platform velocity x"),
+    ("vy1O", "m/s", "Platform velocity y"),
+    ("ax1O", "m/s2", "Platform acceleration x"),
+    ("ay1O", "m/s2", "Platform acceleration y"),
+)
+
 _CAUSALITY = {"parameter": Fmi2Causality.parameter, "input": Fmi2Causality.input,
               "output": Fmi2Causality.output, "local": Fmi2Causality.local}
 _TYPES = {float: Real, int: Integer, bool: Boolean}
@@ -93,6 +106,15 @@ class Slave(Fmi2Slave):
         self.register_variable(kind(name, causality=_CAUSALITY[causality], description=description,
                                     variability=variability))
         self._meta[name] = {"unit": unit, "min": vmin, "max": vmax, "depends": depends or ()}
+
+    def choice(self, name: str, table: dict):
+        """The meaning of an enumerated Integer parameter, or a ValueError naming
+        the value and the allowed ones."""
+        value = getattr(self, name)
+        if value not in table:
+            raise ValueError(f"{name} must be one of {sorted(table)} "
+                             f"({', '.join(f'{k} = {v}' for k, v in table.items())}), got {value!r}")
+        return table[value]
 
     def set_default_experiment(self, start: float, stop: float, step: float, tolerance: float | None = None):
         self.default_experiment = DefaultExperiment(start, stop, step, tolerance)
