@@ -314,6 +314,7 @@ def markdown(d) -> str:
 
     if d.get("cosim_lines"):
         add("\n".join(d["cosim_lines"]) + "\n")
+    add(_defaults(d))
 
     add("## Reproduce\n")
     add("```\nballmill bench            # full run, writes BENCHMARKS.md and benchmarks/figures/\n"
@@ -372,4 +373,46 @@ def _profile_notes(d) -> str:
                  f"paper-literal and {tl / tk:.0f}x faster than pure Python; its cheapest setting meeting the "
                  f"target ({kc.method} {kc.setting}) costs {kc.wall / max(kc.nfev, 1) * 1e9:.0f} ns per "
                  f"evaluation, everything included.")
+    return "\n".join(L) + "\n"
+
+
+def _defaults(d) -> str:
+    """The project's defaults, read off this run's fronts, and why."""
+    def row(rows, family, method, param):
+        return next((r for r in rows if r.family == family and r.method == method and r.param == param
+                     and r.ok), None)
+
+    lib, kern = d.get("library", []), d.get("kernel", [])
+    dop = row(lib, "library (vector)", "DOP853", 1e-9)
+    rk45 = row(lib, "library (vector)", "RK45", 1e-7)
+    kdop = row(kern, KERNEL_FAMILY, "DOP853", 1e-9)
+    L = ["## Defaults, and why\n"]
+    if dop and rk45:
+        k = f"; {kdop.wall * 1e3:.2f} ms through the compiled kernel" if kdop else ""
+        L.append(f"- **Library (`BallModel`): vector formulation, DOP853, tol 1e-9.** On the fast start its "
+                 f"error against the converged reference is {dop.err_P:.1e} m (below 1e-12 m: on the 0.01 s "
+                 f"grid it takes the reference's steps), in {dop.wall * 1e3:.1f} ms in pure Python{k}. "
+                 f"RK45 at tol 1e-7 is cheaper in pure Python ({rk45.err_P:.1e} m in {rk45.wall * 1e3:.1f} ms), "
+                 f"but with the kernel every setting costs about a millisecond, and the adaptive 8th-order "
+                 f"method is the one that stays accurate where the problem gets hard (near-impulsive "
+                 f"starts, the ball thrown over the equator, hour-long runs: tests/test_extremes.py). The "
+                 f"vector formulation is the default because it is valid on the whole sphere; the paper's "
+                 f"is offered as the paper's model and a cross-check.")
+    rows = d.get("cosim_rows") or []
+    by = {(r["setting"], r["step"]): r for r in rows}
+    a = by.get(("derivative inputs, RK45 tol 1e-8 (default)", 0.002))
+    b = by.get(("derivative inputs, DOP853 tol 1e-9", 0.002))
+    c = by.get(("derivative inputs, RK45 tol 1e-8 (default)", 0.02))
+    if a and b:
+        L.append(f"- **BallInShell FMU: RK45 tol 1e-8, derivative inputs, corrector on; scenarios step "
+                 f"2 ms.** In co-simulation the coupling error dominates: RK45 at 1e-8 gives the same "
+                 f"contact point ({a['dP']:.1e} m) and N ({a['dN']:.1e} N) as DOP853 at 1e-9 in "
+                 f"{a['wall']:.2f} s instead of {b['wall']:.2f} s. A 2 ms step keeps N within "
+                 f"{a['dN']:.0e} N of the monolithic solution (the issue asks for 1e-3 N) and the main "
+                 f"job within a second or two"
+                 + (f"; where only the contact point matters, 20 ms gives {c['dP']:.0e} m in "
+                    f"{c['wall']:.2f} s." if c else "."))
+    L.append("- **Derivative inputs over positions only** wherever the source has them: at the same step "
+             "the positions-only path is orders of magnitude less accurate on the crank law "
+             "(table above, and docs/coupling.md).\n")
     return "\n".join(L) + "\n"

@@ -182,6 +182,7 @@ def run(cfg: Config, root: Path, out: Path, figures: Path, work: Path, progress)
         scene, forces = cosim.scene_costs(3 if cfg.quick else 5)
         lit_1e5 = analysis.time_at_error(lit, 1e-5).time
         data["cosim_lines"] = cosim.report(rows, start, scene, forces, lit_1e5)
+        data["cosim_rows"] = rows
 
     figures.mkdir(parents=True, exist_ok=True)
     fig = figures / "error_vs_time.png"
