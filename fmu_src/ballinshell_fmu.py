@@ -131,6 +131,12 @@ class BallInShell(Slave):
           "material the chamber carries", "N.s/m", vmin=0.0)
         p("P_diss", "output", 0.0, "Power dissipated by rolling resistance and drag (0 without them)",
           "W", depends=INPUTS)
+        p("coupling_error", "output", 0.0, "Estimated error of the communication step: distance "
+          "between the contact point predicted at the last communication point and the one the "
+          "corrector computed there with the true inputs (0 without the corrector)", "m", vmin=0.0,
+          depends=INPUTS)
+        p("coupling_warn", "parameter", 1e-4, "coupling_error above which a warning is logged (once): "
+          "the communication step is too long for how fast the inputs change", "m", vmin=0.0)
         self.set_default_experiment(0.0, 10.0, 1e-3)
         self._model = None
         self._max_step = math.inf
@@ -160,6 +166,7 @@ class BallInShell(Slave):
             raise
         # corrected states at the times of the samples in the reconstruction window
         self._history = [self._state]
+        self._coupling_warned, self.coupling_error = False, 0.0
         out = self._outputs_at(self._state, self._start_time)
         self._publish(out)
         if not self._initialising:  # report once, at the exit of initialisation mode
@@ -198,6 +205,17 @@ class BallInShell(Slave):
             # same time replaces it
             return self.discard(f"BallInShell '{self.instance_name}': step from t = {current_time:.9g} s "
                                 f"refused, last good state kept: {e}")
+        if self._correct and history[-1] is not self._state:
+            # a-posteriori estimate of the step's error: predicted vs corrected state at t_k
+            (px, py, pz), (qx, qy, qz) = self._model.nw(self._state)[0], self._model.nw(history[-1])[0]
+            self.coupling_error = self.R * math.sqrt((px - qx) ** 2 + (py - qy) ** 2 + (pz - qz) ** 2)
+            if self.coupling_error > self.coupling_warn and not self._coupling_warned:
+                self._coupling_warned = True
+                self.warn(f"BallInShell '{self.instance_name}': at t = {current_time:.9g} s the contact "
+                          f"point predicted over the last step was off by {self.coupling_error:.3g} m "
+                          f"(> coupling_warn = {self.coupling_warn:g} m): the communication step is too "
+                          f"long for how fast the platform motion changes; outputs between "
+                          f"communication points carry errors of that size (warned once)")
         self._history = history
         self._state = predicted
         self._publish(out)
@@ -206,6 +224,7 @@ class BallInShell(Slave):
         return True
 
     _t_prev = None
+    _coupling_warned = False
 
     def _corrected_history(self, t_now, accel):
         """Corrector: integrate the current fit from the corrected state at the oldest
@@ -256,7 +275,7 @@ class BallInShell(Slave):
     def internal_state(self):
         return {"state": self._state.to_dict(), "inputs": self._inputs.get_state(),
                 "start": self._start_time, "t_prev": self._t_prev, "confirmed": list(self._confirmed),
-                "history": [st.to_dict() for st in self._history]}
+                "history": [st.to_dict() for st in self._history], "warned": self._coupling_warned}
 
     def restore_internal_state(self, s):
         self._state = BallState.from_dict(s["state"])
@@ -265,3 +284,4 @@ class BallInShell(Slave):
         self._t_prev = s["t_prev"]
         self._confirmed = tuple(s["confirmed"])
         self._history = [BallState.from_dict(d) for d in s["history"]]
+        self._coupling_warned = s["warned"]
