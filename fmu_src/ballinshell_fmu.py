@@ -9,6 +9,11 @@ validity of the model (contact, rolling). Losses to the ground material
 (rolling resistance ``delta``, viscous drag ``c_drag``; 0 by default) are
 parameters, and ``P_diss`` reports the power they take.
 
+The integration between communication points (BallModel.advance along the
+reconstructed input's cubic) runs in the compiled kernel bundled with the FMU
+(ballmill/physics/_kernel.c) when it loads on this platform, and in Python
+otherwise (or with BALLMILL_NO_KERNEL=1), with the same results bit for bit.
+
 Each do_step computes into a scratch state and keeps it only on success:
 a refused step (non-finite input, the paper formulation at the equator, an
 integrator failure) returns fmi2Discard with the reason in the log and

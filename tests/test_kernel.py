@@ -53,7 +53,8 @@ def test_availability_is_reported():
 
 
 def test_kernel_loads_on_first_use_only():
-    """Importing the library (as an FMU does) does not load the shared library."""
+    """Importing the library (as an FMU does) does not load the shared library, nor does
+    advancing with a motion's accel (only InputReconstruction's polynomial goes to C)."""
     import subprocess
     import sys
 

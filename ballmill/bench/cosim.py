@@ -155,11 +155,21 @@ def report(rows, startup_s, scene, forces_us, literal_at_1e5, target=1e-5) -> li
     """Markdown lines for BENCHMARKS.md."""
     ok = [r for r in rows if r["success"] and r["dP"] <= target]
     best = min(ok, key=lambda r: r["wall"]) if ok else None
+    from ballmill.physics import fast
+
+    if fast.KERNEL_AVAILABLE:
+        kernel = ("BallInShell integrates between communication points in the compiled kernel "
+                  "(`BallModel.advance` along the reconstructed input's cubic, the Python path's results "
+                  "bit for bit; the FMUs bundle the kernel and fall back to Python where it cannot load); "
+                  "the paper formulation always integrates in Python.")
+    else:
+        kernel = (f"BallInShell integrates in pure Python (compiled kernel unavailable: "
+                  f"{fast.KERNEL_REASON}).")
     lines = ["## Co-simulation through fmpy (MotorStartup -> BallInShell)", "",
              "The fast start as two FMUs coupled by `ballmill run`'s master (Jacobi, fixed step), "
              "against the converged monolithic solution on the same grid. Wall time is a whole run: "
              "FMU extraction, instantiation and initialisation (also shown apart) plus the steps. "
-             "Medians of round-robin repeats.", ""]
+             "Medians of round-robin repeats. " + kernel, ""]
     if best:
         ratio = f"{best['wall'] / literal_at_1e5:.2f}x the" if literal_at_1e5 else "(no paper-literal time)"
         lines += [f"- **coupled at {target:g} m contact-point error**: {best['wall']:.3f} s "

@@ -5,6 +5,15 @@ drive_models/ (drives). Each FMU bundles the parts of this package it needs
 (``ballmill.physics`` and ``ballmill.fmi.slave``) in its resources, so a
 built FMU needs only numpy and scipy from the importing Python, not an
 installed ballmill.
+
+The bundle includes the compiled kernel as it is built here (the
+``_kernel*`` extension beside ``ballmill/physics/fast.py``), provided it is
+the build of the ``_kernel.c`` beside it (checked here, with fast.py's checks;
+the source itself stays out of the bundle, so that the FMU's fast.py skips
+that check and its hashing at load time): BallInShell's ``BallModel.advance``
+then integrates in C. Where that library cannot be used (another OS,
+architecture, Python or C library, a damaged file), the FMU's fast.py says
+why and the FMU runs in pure Python with the same results.
 """
 from __future__ import annotations
 
@@ -43,12 +52,31 @@ def model_name(script: Path) -> str:
     raise BuildError(f"{script}: no 'class X(Slave)' found")
 
 
+# the compiled kernel's source and builds (their changes make a bundle out of date)
+KERNEL_FILES = ("_kernel.c", "_kernel.*.so", "_kernel.*.pyd", "_kernel.so", "_kernel.pyd", "_kernel.dylib")
+
+
+def _kernel_files(directory: Path) -> list[Path]:
+    return sorted({f for pattern in KERNEL_FILES for f in directory.glob(pattern) if f.is_file()})
+
+
 def _sources(script: Path) -> list[Path]:
     files = [script]
     for item in BUNDLED:
         p = PACKAGE_DIR / item
-        files += list(p.rglob("*.py")) if p.is_dir() else [p]
+        files += (list(p.rglob("*.py")) + _kernel_files(p)) if p.is_dir() else [p]
     return files
+
+
+def kernel_to_bundle() -> tuple[Path | None, str]:
+    """(the compiled kernel library to bundle, '') or (None, why none)."""
+    from ballmill.physics import fast
+
+    path = fast._find_library()
+    if path is None:
+        return None, "no compiled kernel built (pip install -e . with a C compiler)"
+    why = fast.check_library(path)
+    return (None, why) if why else (path, "")
 
 
 def fmu_path(name: str, build_dir: Path | None = None) -> Path:
@@ -63,20 +91,23 @@ def up_to_date(script: Path, build_dir: Path | None = None) -> bool:
     return all(src.stat().st_mtime <= built for src in _sources(script))
 
 
-def _stage(dest: Path) -> Path:
-    """Copy the bundled part of the package into dest/ballmill."""
+def _stage(dest: Path) -> tuple[Path, str]:
+    """Copy the bundled part of the package into dest/ballmill, with the compiled
+    kernel if it passes `kernel_to_bundle`. Returns (package folder, why no kernel or '')."""
     pkg = dest / "ballmill"
     for item in BUNDLED:
         src = PACKAGE_DIR / item
         target = pkg / item
         target.parent.mkdir(parents=True, exist_ok=True)
         if src.is_dir():
-            # the compiled kernel (and its source) serve monolithic runs only: FMUs stay pure Python
             shutil.copytree(src, target, ignore=shutil.ignore_patterns(
-                "__pycache__", "*.so", "*.pyd", "*.dylib", "*.c"))
+                "__pycache__", "*.so", "*.pyd", "*.dylib", "*.c", "*.o"))
         else:
             shutil.copy2(src, target)
-    return pkg
+    lib, why = kernel_to_bundle()
+    if lib is not None:
+        shutil.copy2(lib, pkg / "physics" / lib.name)
+    return pkg, why
 
 
 def validate(fmu: Path) -> list[str]:
@@ -92,7 +123,7 @@ def build_one(script: Path, build_dir: Path | None = None) -> Path:
     out_dir = Path(build_dir or ROOT / "build")
     out_dir.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="ballmill_stage_") as tmp:
-        pkg = _stage(Path(tmp))
+        pkg, _ = _stage(Path(tmp))
         fmu = FmuBuilder.build_FMU(script, dest=out_dir, project_files=[pkg],
                                    canGetAndSetFMUstate=True, canSerializeFMUstate=True)
     problems = validate(Path(fmu))
@@ -111,6 +142,7 @@ def build_all(build_dir: Path | None = None, force: bool = False, log=print) -> 
             built.append(fmu_path(model_name(script), build_dir))
             continue
         fmu = build_one(script, build_dir)
-        log(f"built and validated: {fmu}")
+        why = kernel_to_bundle()[1]
+        log(f"built and validated: {fmu}" + (f" (without the compiled kernel: {why})" if why else ""))
         built.append(fmu)
     return built

@@ -8,9 +8,11 @@ fmu_src/ and drive_models/ and the scenario runner build on this package.
     traj = simulate(model, CrankStartup(t0=2.5), t_end=10.0, dt=0.01)
     traj["zP"], traj["N"]
 
-Monolithic runs use a compiled kernel (`fast`, built from _kernel.c at install
-time) when it is available and covers the run, with the same results bit for
-bit; ``KERNEL_AVAILABLE`` says whether it is, ``KERNEL_REASON`` why not.
+Monolithic runs, and `BallModel.advance` driven by InputReconstruction's cubic
+input (the BallInShell FMU's steps), use a compiled kernel (`fast`, built from
+_kernel.c at install time) when it is available and covers the run, with the
+same results bit for bit; ``KERNEL_AVAILABLE`` says whether it is,
+``KERNEL_REASON`` why not.
 """
 from .drives import Circle, CrankStartup, Fixed, Harmonic
 from .equations import PaperFormulation, VectorFormulation, make_formulation, omega_dot_cramer

@@ -15,6 +15,11 @@
  * into fused multiply-adds (build with -ffp-contract=off) the results are the
  * Python path's bit for bit. tests/test_kernel.py checks that.
  *
+ * One interval at a time (bm_advance_interval) serves BallModel.advance, e.g.
+ * in the BallInShell FMU, when the platform acceleration is the cubic
+ * polynomial of platform.InputReconstruction (motion BM_POLY: only a(t) is
+ * known, evaluated in the closure's operation order).
+ *
  * Plain C99, no Python C API in the functions: ballmill/physics/fast.py calls
  * them through ctypes. Built by setup.py as the extension module
  * ballmill.physics._kernel (BALLMILL_KERNEL_MODULE defined: the PyInit at the
@@ -47,20 +52,22 @@
 #define BM_SOURCE_HASH 0ULL /* setup.py defines it: first 60 bits of this file's sha256 */
 #endif
 
-#define BM_ABI 1
+#define BM_ABI 2
 #define BM_NY 6      /* states: nx, ny, nz, wx, wy, wz */
 #define BM_NOUT 22   /* fields of outputs.Outputs */
 #define BM_NS_MAX 12 /* stages of the largest tableau (DOP853) */
 
-enum { BM_FIXED = 0, BM_CRANK = 1, BM_HARMONIC = 2, BM_CIRCLE = 3 };
+enum { BM_FIXED = 0, BM_CRANK = 1, BM_HARMONIC = 2, BM_CIRCLE = 3, BM_POLY = 4 };
+#define BM_NMP 9 /* motion parameters */
 
 /* Everything a run needs; filled by fast.py (ctypes mirror: fast._Problem). */
 typedef struct {
     /* platform motion */
-    int motion;       /* BM_FIXED, BM_CRANK, BM_HARMONIC, BM_CIRCLE */
-    double mp[8];     /* crank: l, w0, t0; circle: l, w;
-                         harmonic: x_amp, x_omega, y_amp, y_omega, x_phase, y_phase,
-                         x_omega**2, y_omega**2 (powers taken in Python) */
+    int motion;       /* BM_FIXED, BM_CRANK, BM_HARMONIC, BM_CIRCLE, BM_POLY */
+    double mp[BM_NMP]; /* crank: l, w0, t0; circle: l, w;
+                          harmonic: x_amp, x_omega, y_amp, y_omega, x_phase, y_phase,
+                          x_omega**2, y_omega**2 (powers taken in Python);
+                          poly: t0, x0, x1, x2, x3, y0, y1, y2, y3 (a(t) only) */
     /* right-hand side (the formulation's ball) */
     int rhs_lossy;
     double rhs_lam, rhs_r, rhs_g, rhs_k;
@@ -138,6 +145,13 @@ static void bm_motion_state(const bm_problem *P, double t, double o[6])
         o[3] = l * w * c;
         o[4] = -l * w * w * c;
         o[5] = -l * w * w * s;
+        return;
+    }
+    case BM_POLY: { /* platform.InputReconstruction._compile_accel's closure: a(t) only */
+        double s = t - p[0];
+        o[0] = NAN; o[1] = NAN; o[2] = NAN; o[3] = NAN; /* not known (and not needed by bm_rhs) */
+        o[4] = p[1] + s * (p[2] + s * (p[3] + s * p[4]));
+        o[5] = p[5] + s * (p[6] + s * (p[7] + s * p[8]));
         return;
     }
     default: /* BM_FIXED */
@@ -490,6 +504,28 @@ BM_EXPORT long long bm_simulate(const bm_problem *P, const double *times, long l
         }
     }
     return n - 1;
+}
+
+/* BallModel.advance: one interval t -> t_end for the motion `motion` with the
+ * parameters io[9..17] (instead of P's), as Integrator.advance does it.
+ * io: t, t_end, h, y[6], motion parameters[9]. On success (1) io[2] and io[3..8]
+ * hold the step to try next and the state at t_end; *st (zeroed here) the work.
+ * 0: Python must do the interval (it fails there, or needs the initial step);
+ * io is then unchanged. */
+BM_EXPORT int bm_advance_interval(const bm_problem *P, int motion, double *io, bm_stats *st)
+{
+    bm_problem Q = *P;
+    bm_tab T;
+    double y[BM_NY], h = io[2];
+    Q.motion = motion;
+    memcpy(Q.mp, io + 3 + BM_NY, sizeof Q.mp);
+    bm_tab_make(&Q, &T);
+    memcpy(y, io + 3, sizeof y);
+    st->steps = 0; st->rejected = 0; st->nfev = 0;
+    if (!bm_advance(&Q, &T, io[0], y, io[1], &h, st)) return 0;
+    io[2] = h;
+    memcpy(io + 3, y, sizeof y);
+    return 1;
 }
 
 /* Hairer-Wanner starting step as Integrator.initial_step (means summed left to

@@ -1,4 +1,4 @@
-"""The compiled kernel for monolithic runs: `simulate` in C when it can be.
+"""The compiled kernel: `simulate`, and `BallModel.advance` on a polynomial input, in C.
 
 ``_kernel.c`` (beside this file) holds the vector formulation (with the
 optional rolling resistance and drag), the outputs, the platform motions
@@ -15,16 +15,28 @@ and the run is one it covers (`applicable`), and Python otherwise;
 ``kernel="c"`` insists (`KernelUnavailable` with the reason), ``"python"``
 never uses it. ``KERNEL_AVAILABLE`` / ``KERNEL_REASON`` / ``KERNEL_PATH`` say
 whether the build is there and usable, why not, and which file it is. The
-library is loaded on first use (the first `simulate`, or the first look at
-those names), not on import: FMUs, which only advance a BallModel, never load
-it. Setting the environment variable ``BALLMILL_NO_KERNEL=1`` (before that
-first use) switches the kernel off.
+library is loaded on first use (the first `simulate`, the first `advance`
+below, or the first look at those names), not on import. Setting the
+environment variable ``BALLMILL_NO_KERNEL=1`` (before that first use) switches
+the kernel off.
+
+`advance` does one `BallModel.advance` interval in the kernel when the
+platform acceleration is InputReconstruction's cubic closure (``accel.poly``:
+t0 and the coefficients; the kernel's motion BM_POLY evaluates it in the
+closure's operation order): what the BallInShell FMU does twice per
+communication step. It keeps a problem structure per model (rebuilt when the
+model's integrator settings change) and returns the same y and step size, bit
+for bit, and adds the same work to ``model.info``, as `Integrator.advance`
+would. The FMUs bundle the built library (ballmill/fmi/build.py); where it
+cannot be loaded they run in Python. ``BallModel(kernel="python")`` keeps a
+model in Python.
 
 What stays in Python: the adaptive methods' initial step size (one call at the
-start of a run, so that numpy's way of summing is kept), and any interval the
-kernel cannot complete: it stops at the last good output point and the Python
-integrator redoes that interval, so that a failing run stops with exactly the
-Python path's exception, message and step counts.
+start of a run, or when a state carries no step size, so that numpy's way of
+summing is kept), and any interval the kernel cannot complete: `simulate` stops
+at the last good output point and `advance` gives the interval back, and the
+Python integrator redoes it, so that a failure raises exactly the Python path's
+exception, with its message and step counts.
 """
 from __future__ import annotations
 
@@ -33,6 +45,7 @@ import importlib.machinery
 import math
 import numbers
 import os
+import struct
 from pathlib import Path
 
 import numpy as np
@@ -45,7 +58,7 @@ from .outputs import Outputs
 __all__ = ["KERNEL_AVAILABLE", "KERNEL_REASON", "KERNEL_PATH", "KernelUnavailable", "applicable",
            "simulate"]
 
-ABI = 1
+ABI = 2
 NY = 6
 NOUT = len(Outputs._fields)
 NS_MAX = 12
@@ -60,7 +73,7 @@ class _Problem(ctypes.Structure):
     """ctypes mirror of bm_problem in _kernel.c (same fields, same order)."""
 
     _fields_ = [
-        ("motion", ctypes.c_int), ("mp", ctypes.c_double * 8),
+        ("motion", ctypes.c_int), ("mp", ctypes.c_double * 9),
         ("rhs_lossy", ctypes.c_int),
         ("rhs_lam", ctypes.c_double), ("rhs_r", ctypes.c_double), ("rhs_g", ctypes.c_double),
         ("rhs_k", ctypes.c_double), ("rhs_loss", ctypes.c_double * 9),
@@ -89,13 +102,14 @@ _dp = ctypes.POINTER(ctypes.c_double)
 
 
 def source_hash(path: Path = SOURCE) -> int | None:
-    """The first 60 bits of the sha256 of _kernel.c, as setup.py embeds them in the build."""
-    import hashlib
-
+    """The first 60 bits of the sha256 of _kernel.c, as setup.py embeds them in the build
+    (None without the file: an FMU's bundle, checked when it was built, has none)."""
     try:
         data = path.read_bytes()
     except OSError:
         return None
+    import hashlib  # only here: importing it costs milliseconds
+
     return int(hashlib.sha256(data).hexdigest()[:15], 16)
 
 
@@ -116,28 +130,46 @@ def _load():
     if path is None:
         return None, None, ("not built: no ballmill/physics/_kernel extension next to fast.py "
                             "(installed without a C compiler? reinstall with one: pip install -e .)")
+    lib, reason = _open(path)
+    return lib, path, reason
+
+
+def check_library(path: Path, source: Path = SOURCE) -> str:
+    """'' when the library at ``path`` loads here and is a build of ``source`` for this
+    fast.py (ABI, structure size, source hash), else why not. Ignores BALLMILL_NO_KERNEL
+    (ballmill.fmi.build bundles only a library that passes)."""
+    if source_hash(source) is None:
+        return f"no kernel source {source} to check {Path(path).name} against"
+    return _open(Path(path), source)[1]
+
+
+def _open(path: Path, source: Path = SOURCE):
+    """(library or None, reason): the library at path, loaded and checked; against the
+    source only where the source is there (an FMU's bundle has none)."""
     try:
         lib = ctypes.CDLL(str(path))
     except OSError as e:
-        return None, path, f"cannot load {path.name}: {e}"
+        return None, f"cannot load {path.name}: {e}"
     try:
         lib.bm_abi.restype = ctypes.c_int
         lib.bm_problem_size.restype = ctypes.c_size_t
         lib.bm_source_hash.restype = ctypes.c_ulonglong
         abi, size, built_hash = lib.bm_abi(), lib.bm_problem_size(), lib.bm_source_hash()
     except AttributeError as e:
-        return None, path, f"{path.name} is not the ballmill kernel ({e})"
+        return None, f"{path.name} is not the ballmill kernel ({e})"
     if abi != ABI or size != ctypes.sizeof(_Problem):
-        return None, path, (f"{path.name} was built from another version of _kernel.c (ABI {abi}, "
-                            f"problem size {size}; expected ABI {ABI}, size {ctypes.sizeof(_Problem)}); "
-                            f"rebuild it: pip install -e .")
-    src_hash = source_hash()
+        return None, (f"{path.name} was built from another version of _kernel.c (ABI {abi}, "
+                      f"problem size {size}; expected ABI {ABI}, size {ctypes.sizeof(_Problem)}); "
+                      f"rebuild it: pip install -e .")
+    src_hash = source_hash(source)
     if src_hash is not None and built_hash != src_hash:
-        return None, path, (f"{path.name} is stale: it was built from a different _kernel.c than the one "
-                            f"beside it; rebuild it: pip install -e .")
+        return None, (f"{path.name} is stale: it was built from a different _kernel.c than the one "
+                      f"beside it; rebuild it: pip install -e .")
     lib.bm_simulate.restype = ctypes.c_longlong
     lib.bm_simulate.argtypes = [ctypes.POINTER(_Problem), _dp, ctypes.c_longlong, ctypes.c_longlong,
                                 ctypes.c_int, _dp, _dp, _dp, _dp, ctypes.POINTER(_Stats)]
+    lib.bm_advance_interval.restype = ctypes.c_int
+    lib.bm_advance_interval.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p]
     lib.bm_initial_step.restype = ctypes.c_double
     lib.bm_initial_step.argtypes = [ctypes.POINTER(_Problem), ctypes.c_double, _dp, ctypes.c_double]
     lib.bm_eval_rhs.restype = None
@@ -146,7 +178,7 @@ def _load():
     lib.bm_eval_motion.argtypes = [ctypes.POINTER(_Problem), ctypes.c_double, _dp]
     lib.bm_eval_outputs.restype = None
     lib.bm_eval_outputs.argtypes = [ctypes.POINTER(_Problem), _dp] + [ctypes.c_double] * 4 + [_dp]
-    return lib, path, ""
+    return lib, ""
 
 
 _STATE = None  # (library or None, path or None, reason), once loaded
@@ -202,6 +234,19 @@ def _motion_params(motion):
 
 def applicable(model, motion, state=None) -> str:
     """'' when `simulate` can run this model and motion in the kernel, else why not."""
+    why = _model_reason(model)
+    if why:
+        return why
+    kind, _ = _motion_params(motion)
+    if kind is None:
+        return _motion_params(motion)[1]
+    if state is not None and np.shape(state.y) != (NY,):
+        return f"state of shape {np.shape(state.y)}"
+    return ""
+
+
+def _model_reason(model) -> str:
+    """'' when the kernel reproduces this model's right-hand side and integrator, else why not."""
     from .model import BallModel  # model.py imports this module lazily
 
     if _kernel() is None:
@@ -222,20 +267,17 @@ def applicable(model, motion, state=None) -> str:
     if (d is not None) != lossy or (d is not None and getattr(d, "__func__", None)
                                     is not VectorFormulation._derivative_lossy):
         return "formulation with a replaced right-hand side"
-    kind, _ = _motion_params(motion)
-    if kind is None:
-        return _motion_params(motion)[1]
-    if state is not None and np.shape(state.y) != (NY,):
-        return f"state of shape {np.shape(state.y)}"
     return ""
 
 
 def _problem(model, motion) -> _Problem:
+    """The problem structure; ``motion=None``: no motion (`advance` passes its own)."""
     P = _Problem()
-    kind, mp = _motion_params(motion)
-    P.motion = kind
-    for i, v in enumerate(mp):
-        P.mp[i] = v
+    if motion is not None:
+        kind, mp = _motion_params(motion)
+        P.motion = kind
+        for i, v in enumerate(mp):
+            P.mp[i] = v
     fb = model.form.ball
     P.rhs_lam, P.rhs_r, P.rhs_g, P.rhs_k = model.form._consts
     if _lossy(fb):
@@ -340,6 +382,136 @@ def simulate(model, motion, times: np.ndarray, state, outputs: bool):
     info.rejected += stats.rejected
     info.nfev += stats.nfev
     return ys, outs, success, message, n - 1
+
+
+# ----------------------------------------------------------------------------
+# one interval: BallModel.advance with a polynomial platform acceleration
+MOTION_POLY = 4  # BM_POLY in _kernel.c
+_IO = 3 + NY + 9  # t, t_end, h, y, motion parameters (bm_advance_interval's io)
+
+
+_BallState = None  # model.BallState, set on first use (model.py imports this module)
+
+
+class _Advance:
+    """What `advance` keeps per model: the problem structure and the buffers it
+    hands the kernel, valid while ``key`` (the model's integrator settings) holds.
+    One model, one buffer: a model is not advanced from two threads at once (an
+    FMU instance has its own model; FMI does not call one instance concurrently)."""
+
+    __slots__ = ("key", "why", "scale", "P", "io", "pack", "stats", "call", "args", "adaptive", "h_fixed")
+
+
+def _advance_key(model, lib):
+    """Everything of a model that the kernel's problem depends on (compared by value or
+    identity); the Python path reads these afresh at every call, so a change rebuilds."""
+    form, integ = model.form, model.integrator
+    fd = getattr(form, "__dict__", {})
+    return (lib, type(model), type(model).rhs, form, fd.get("_ball"), fd.get("derivative"), integ,
+            integ.tab, integ.adaptive, integ.tol, integ.h_fixed, integ.h_max, integ.max_steps,
+            id(integ.scale), integ.project, integ.check)
+
+
+def _advance_setup(model, key, lib) -> _Advance:
+    global _BallState
+    from .model import BallModel, BallState
+
+    _BallState = BallState
+    c = _Advance()
+    c.key = key
+    c.scale = model.integrator.scale  # held, so that its id in the key cannot be reused
+    c.why = _model_reason(model)
+    if not c.why and type(model).rhs is not BallModel.rhs:
+        c.why = "model with a replaced rhs"
+    if not c.why:
+        integ = model.integrator
+        c.P = _problem(model, None)
+        c.io = np.zeros(_IO)
+        c.pack = struct.Struct(f"{_IO}d").pack_into
+        c.stats = _Stats()
+        # a function object of its own without argtypes, called with ready-made C arguments
+        # (pointers into objects that c owns): the cheapest ctypes call
+        c.call = lib._FuncPtr(("bm_advance_interval", lib))
+        c.call.restype = ctypes.c_int
+        c.args = (ctypes.byref(c.P), MOTION_POLY, ctypes.c_void_p(c.io.ctypes.data), ctypes.byref(c.stats))
+        c.adaptive = bool(integ.adaptive)
+        c.h_fixed = integ.h_fixed
+    model.__dict__["_fast_advance"] = c
+    return c
+
+
+def advance_reason(model, state, t_end, accel) -> str:
+    """'' when `advance` can do this interval in the kernel, else why not."""
+    lib = _kernel()
+    if lib is None:
+        return f"compiled kernel unavailable: {_STATE[2]}"
+    poly = getattr(accel, "poly", None)
+    if poly is None:
+        return ("platform acceleration without polynomial coefficients (the kernel takes "
+                "InputReconstruction's cubic closure, accel.poly)")
+    key = _advance_key(model, lib)
+    c = model.__dict__.get("_fast_advance")
+    if c is None or c.key != key:
+        c = _advance_setup(model, key, lib)
+    if c.why:
+        return c.why
+    y = state.y
+    if type(y) is not np.ndarray or y.shape != (NY,) or y.dtype != np.float64:
+        return f"state of shape {np.shape(y)} and type {getattr(y, 'dtype', type(y))}"
+    if not (isinstance(state.t, float) and isinstance(t_end, float)):
+        return "times that are not floats"
+    return ""
+
+
+def advance(model, state, t_end, accel):
+    """`BallModel.advance` in the kernel, for a platform acceleration that is
+    InputReconstruction's cubic closure (``accel.poly``): the new BallState with
+    the same y and h bit for bit, and the same work added to ``model.info``; or
+    None when Python must do the interval: the kernel cannot (`advance_reason`),
+    there is nothing to integrate, or a step fails (Python then redoes the interval
+    and raises with its own message; the state is a pure input, so nothing is lost)."""
+    lib = _kernel()
+    poly = getattr(accel, "poly", None)
+    if lib is None or poly is None:
+        return None
+    key = _advance_key(model, lib)
+    c = model.__dict__.get("_fast_advance")
+    if c is None or c.key != key:
+        c = _advance_setup(model, key, lib)
+    if c.why:
+        return None
+    t, y = state.t, state.y
+    if (type(y) is not np.ndarray or y.shape != (NY,) or y.dtype != np.float64
+            or not (isinstance(t, float) and isinstance(t_end, float))):
+        return None
+    span = t_end - t
+    if not span > 0.0:
+        return None  # nothing to integrate (or a NaN time): Python's own early return
+    h = state.h
+    extra_nfev = 0
+    if c.adaptive:
+        if h is None or not (h > 0.0 and math.isfinite(h)):
+            # the initial step, by the Python integrator (as its advance would)
+            f = model.rhs(accel)
+            y0 = np.array(y, dtype=float)
+            f0 = f(t, y0)
+            if not all(map(math.isfinite, f0)):
+                return None
+            h = model.integrator.initial_step(f, t, y0, np.asarray(f0, dtype=float), span)
+            extra_nfev = 1
+    else:
+        h = math.nan  # RK4 does not read it
+    io = c.io
+    t0, xs, ys = poly
+    c.pack(io, 0, t, t_end, h, *y.tolist(), t0, *xs, *ys)
+    if not c.call(*c.args):
+        return None
+    st = c.stats
+    info = model.info
+    info.steps += st.steps
+    info.rejected += st.rejected
+    info.nfev += st.nfev + extra_nfev
+    return _BallState(float(t_end), io[3:9].copy(), float(io[2]) if c.adaptive else c.h_fixed)
 
 
 # ----------------------------------------------------------------------------

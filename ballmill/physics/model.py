@@ -13,6 +13,7 @@ from typing import Callable
 
 import numpy as np
 
+from . import fast
 from . import outputs as _out
 from .equations import make_formulation
 from .errors import ParameterError
@@ -40,6 +41,9 @@ class BallState:
         return cls(float(d["t"]), np.array(d["y"], dtype=float), d["h"])
 
 
+KERNELS = ("auto", "c", "python")
+
+
 @dataclass
 class StepInfo:
     steps: int = 0
@@ -55,11 +59,22 @@ class BallModel:
     method: 'DOP853' (default), 'RK45' or 'RK4' (fixed step ``h_fixed``).
     tol: relative tolerance of the adaptive methods.
     cramer: paper formulation only: solve for omega' by Cramer's rule.
+    kernel: how `advance` integrates an interval whose platform acceleration is
+        InputReconstruction's cubic closure (``accel.poly``; the FMU's case):
+        ``"auto"`` (default) in the compiled kernel (`ballmill.physics.fast`) when
+        it is built and covers the model (vector formulation, the library's
+        integrator), else in Python; ``"python"`` always in Python; ``"c"``
+        insists (`fast.KernelUnavailable` with the reason when it cannot). The
+        results are the same bit for bit. Other accelerations (a motion's
+        ``accel``) always run in Python here; `simulate` has its own ``kernel``.
     """
 
     def __init__(self, ball: Ball, formulation: str = "vector", method: str = "DOP853",
                  tol: float = 1e-9, h_fixed: float = 1e-3, equator_margin: float = 0.02,
-                 cramer: bool = False, h_max: float | None = None):
+                 cramer: bool = False, h_max: float | None = None, kernel: str = "auto"):
+        if kernel not in KERNELS:
+            raise ValueError(f"kernel must be one of {KERNELS}, got {kernel!r}")
+        self.kernel = kernel
         self.ball = ball
         opts = {"equator_margin": equator_margin, "cramer": cramer} if formulation == "paper" else {}
         self.form = make_formulation(formulation, ball, **opts)
@@ -115,12 +130,31 @@ class BallModel:
     def advance(self, state: BallState, t_end: float, accel: Callable[[float], tuple]) -> BallState:
         """Integrate from state.t to t_end with platform acceleration accel(t).
         Returns a new state; raises StepFailure or FormulationLimitError and
-        then leaves ``state`` as it was."""
+        then leaves ``state`` as it was. With InputReconstruction's cubic closure
+        as accel, in the compiled kernel (see ``kernel`` in the class docstring)."""
+        if self.kernel != "python" and hasattr(accel, "poly"):
+            new = fast.advance(self, state, t_end, accel)
+            if new is not None:
+                return new
+            if self.kernel == "c":
+                why = fast.advance_reason(self, state, t_end, accel)
+                if why:
+                    raise fast.KernelUnavailable(f"BallModel(kernel='c').advance: {why}")
+            # else: nothing to integrate, or a step fails: Python does it (and raises)
+        elif self.kernel == "c":
+            raise fast.KernelUnavailable(f"BallModel(kernel='c').advance: "
+                                         f"{fast.advance_reason(self, state, t_end, accel)}")
         y, h, st = self.integrator.advance(self.rhs(accel), state.t, state.y, t_end, state.h)
         self.info.steps += st.steps
         self.info.rejected += st.rejected
         self.info.nfev += st.nfev
         return BallState(float(t_end), y, h)
+
+    def __getstate__(self):
+        # the compiled kernel's buffers (fast.advance) hold addresses: never copy them
+        d = dict(self.__dict__)
+        d.pop("_fast_advance", None)
+        return d
 
     def outputs(self, state: BallState, ax: float, ay: float, xO: float = 0.0, yO: float = 0.0):
         n, w = self.form.to_nw(state.y)
@@ -146,9 +180,6 @@ class Trajectory:
         return self.out[name]
 
 
-KERNELS = ("auto", "c", "python")
-
-
 def simulate(model: BallModel, motion, t_end: float, dt: float, state: BallState | None = None,
              outputs: bool = True, kernel: str = "auto") -> Trajectory:
     """Monolithic run: the ball driven by a platform motion with exact
@@ -170,8 +201,6 @@ def simulate(model: BallModel, motion, t_end: float, dt: float, state: BallState
     n_steps = int(round((t_end - state.t) / dt))
     times = state.t + dt * np.arange(n_steps + 1)
     if kernel != "python":
-        from . import fast
-
         why = fast.applicable(model, motion, state)
         if not why and n_steps < 1:
             why = "no interval to integrate"

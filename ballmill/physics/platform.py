@@ -108,7 +108,12 @@ class InputReconstruction:
 
     def _compile_accel(self):
         """a(t) as a closure over the cubic's coefficients in physical time (the
-        integrator calls it at every stage, so it avoids loops and attribute look-ups)."""
+        integrator calls it at every stage, so it avoids loops and attribute look-ups).
+
+        The cubic closure carries its coefficients as ``accel.poly = (t0, (x0, x1, x2,
+        x3), (y0, y1, y2, y3))`` (floats, the values it computes with): `BallModel.advance`
+        then integrates in the compiled kernel, which evaluates a(t) in the same
+        operation order. The Horner fallback (higher degrees) has no ``poly``."""
         hs, t0 = self._hs, self._t0
         ax = [c / hs ** (j + 2) for j, c in enumerate(self._ddx)]
         ay = [c / hs ** (j + 2) for j, c in enumerate(self._ddy)]
@@ -121,6 +126,8 @@ class InputReconstruction:
         def accel(t):
             s = t - t0
             return x0 + s * (x1 + s * (x2 + s * x3)), y0 + s * (y1 + s * (y2 + s * y3))
+        accel.poly = (float(t0), (float(x0), float(x1), float(x2), float(x3)),
+                      (float(y0), float(y1), float(y2), float(y3)))
         return accel
 
     _INVERSES: dict = {}  # constraint pattern -> inverse matrix; equal spacing repeats one pattern
