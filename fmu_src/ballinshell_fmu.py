@@ -230,6 +230,7 @@ class BallInShell(Slave):
 
     _t_prev = None
     _coupling_warned = False
+    _fields = None
 
     def _corrected_history(self, t_now, accel):
         """Corrector: integrate the current fit from the corrected state at the oldest
@@ -257,9 +258,13 @@ class BallInShell(Slave):
         return self._model.outputs(state, ax, ay, x, y)
 
     def _publish(self, out):
-        for name, _, _ in OUTPUTS:
-            v = getattr(out, name)
-            setattr(self, name, v if math.isfinite(v) else BIG)
+        fields = out._fields
+        if fields is not self._fields:  # the index of each output in an Outputs tuple, once
+            self._fields, self._index = fields, [(name, fields.index(name)) for name, _, _ in OUTPUTS]
+        isfinite = math.isfinite
+        for name, i in self._index:
+            v = out[i]
+            setattr(self, name, v if isfinite(v) else BIG)
         self.contact, self.rolling = bool(out.contact), bool(out.rolling)
         self.P_diss = out.P_diss
 

@@ -515,6 +515,59 @@ def advance(model, state, t_end, accel):
 
 
 # ----------------------------------------------------------------------------
+# outputs of one state: BallModel.outputs in the kernel
+class _Outs:
+    """What `outputs` keeps per model: the problem (only its ball part is read) and the
+    buffers, valid while the model's ball and formulation are those it was made for."""
+
+    __slots__ = ("ball", "form", "lib", "P", "Pref", "y", "o", "call")
+
+
+_Outputs = None  # outputs.Outputs, set on first use
+
+
+def _outputs_setup(model, lib):
+    global _Outputs
+    from .outputs import Outputs
+
+    _Outputs = Outputs
+    c = _Outs()
+    c.ball, c.form, c.lib = model.ball, model.form, lib
+    c.P = _problem(model, None)
+    c.Pref = ctypes.byref(c.P)
+    c.y = (ctypes.c_double * NY)()
+    c.o = (ctypes.c_double * NOUT)()
+    c.call = lib._FuncPtr(("bm_eval_outputs", lib))
+    c.call.restype = None
+    c.call.argtypes = (ctypes.c_void_p, ctypes.c_void_p, ctypes.c_double, ctypes.c_double,
+                       ctypes.c_double, ctypes.c_double, ctypes.c_void_p)
+    model.__dict__["_fast_outputs"] = c
+    return c
+
+
+def outputs(model, state, ax, ay, xO, yO):
+    """`BallModel.outputs` (outputs.evaluate) in the kernel, the same Outputs bit for bit
+    (bm_outputs keeps evaluate's operation order), or None when Python must do it: no
+    kernel, a formulation other than the library's 'vector' one (whose y is n, omega), a
+    state that is not 6 floats."""
+    lib = _kernel()
+    if lib is None:
+        return None
+    c = model.__dict__.get("_fast_outputs")
+    if c is None or c.ball is not model.ball or c.form is not model.form or c.lib is not lib:
+        if type(model.form) is not VectorFormulation or type(model.form).to_nw is not VectorFormulation.to_nw:
+            return None
+        c = _outputs_setup(model, lib)
+    y = state.y
+    if type(y) is not np.ndarray or y.shape != (NY,) or y.dtype != np.float64:
+        return None
+    c.y[:] = y.tolist()
+    c.call(c.Pref, c.y, ax, ay, xO, yO, c.o)
+    o = c.o[:]
+    return _Outputs(*o[:19], o[19] != 0.0, o[20] != 0.0, o[21])
+
+
+# ----------------------------------------------------------------------------
 # single evaluations (tests)
 def eval_rhs(P: _Problem, t: float, y) -> tuple:
     yy = np.ascontiguousarray(y, dtype=float)

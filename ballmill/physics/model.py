@@ -157,6 +157,12 @@ class BallModel:
         return d
 
     def outputs(self, state: BallState, ax: float, ay: float, xO: float = 0.0, yO: float = 0.0):
+        """`outputs.evaluate` of a state; in the compiled kernel (the same values bit for
+        bit) unless ``kernel == "python"`` or the kernel cannot do it."""
+        if self.kernel != "python":
+            out = fast.outputs(self, state, ax, ay, xO, yO)
+            if out is not None:
+                return out
         n, w = self.form.to_nw(state.y)
         return _out.evaluate(self.ball, n, w, ax, ay, xO, yO)
 

@@ -26,6 +26,7 @@ import numpy as np
 from .errors import InputError
 
 MODES = ("derivatives", "positions", "hold")
+
 DEFAULT_POINTS = {"derivatives": 2, "positions": 6, "hold": 1}
 
 
@@ -88,16 +89,22 @@ class InputReconstruction:
             self._cx, self._cy = (x, vx, 0.5 * ax), (y, vy, 0.5 * ay)
             self._hs = 1.0
         else:
-            rows, bx, by = [], [], []
             hs = self._hs
-            for (t, x, y, vx, vy, ax, ay) in s:
-                tau = (t - tk) / hs
-                rows.append((0, tau)); bx.append(x); by.append(y)
-                if self.mode == "derivatives":
-                    rows.append((1, tau)); bx.append(vx * hs); by.append(vy * hs)
-                    rows.append((2, tau)); bx.append(ax * hs * hs); by.append(ay * hs * hs)
-            c = self._inverse(tuple(rows)) @ np.array([bx, by]).T
-            self._cx, self._cy = tuple(c[:, 0]), tuple(c[:, 1])
+            deriv = self.mode == "derivatives"
+            taus = tuple([(smp[0] - tk) / hs for smp in s])
+            inv = self._ROWS.get((deriv, taus))
+            if inv is None:
+                inv = self._inverse_rows(deriv, taus)
+            if deriv:
+                bx, by = [], []
+                for (_, x, y, vx, vy, ax, ay) in s:
+                    bx += (x, vx * hs, ax * hs * hs)
+                    by += (y, vy * hs, ay * hs * hs)
+            else:
+                bx = [smp[1] for smp in s]
+                by = [smp[2] for smp in s]
+            c = inv @ np.array([bx, by]).T  # numpy's product: the coefficients as before, bit for bit
+            self._cx, self._cy = tuple(c[:, 0].tolist()), tuple(c[:, 1].tolist())
         self._dirty = False
         # derivative coefficient tuples for fast evaluation
         self._dx = self._deriv(self._cx)
@@ -131,6 +138,19 @@ class InputReconstruction:
         return accel
 
     _INVERSES: dict = {}  # constraint pattern -> inverse matrix; equal spacing repeats one pattern
+    _ROWS: dict = {}  # (derivatives?, exact taus) -> the inverse, as _fit uses it
+
+    @classmethod
+    def _inverse_rows(cls, deriv, taus):
+        rows = []
+        for tau in taus:
+            rows.append((0, tau))
+            if deriv:
+                rows += ((1, tau), (2, tau))
+        inv = cls._inverse(tuple(rows))
+        if len(cls._ROWS) < 1024:
+            cls._ROWS[(deriv, taus)] = inv
+        return inv
 
     @classmethod
     def _inverse(cls, rows):
@@ -151,7 +171,7 @@ class InputReconstruction:
 
     @staticmethod
     def _deriv(c):
-        return tuple(j * c[j] for j in range(1, len(c))) or (0.0,)
+        return tuple([j * c[j] for j in range(1, len(c))]) or (0.0,)
 
     @staticmethod
     def _horner(c, tau):

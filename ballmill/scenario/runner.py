@@ -169,22 +169,56 @@ class _FmuInstance:
                 self.fmu.setString([v.valueReference], [str(value)])
 
     def getter(self, names):
-        """A function returning the values of these variables (Reals and Booleans)."""
+        """A function returning the values of these variables (Reals and Booleans).
+
+        The value-reference and value arrays are built once and the FMI functions called
+        with them directly (fmpy's getReal builds both anew at every call)."""
+        from fmpy.fmi2 import fmi2Boolean, fmi2Integer, fmi2Real, fmi2ValueReference
+        fmu = self.fmu
         reals = [(i, self.vars[n].valueReference) for i, n in enumerate(names) if self.vars[n].type == "Real"]
         others = [(i, self.vars[n].valueReference, self.vars[n].type) for i, n in enumerate(names)
                   if self.vars[n].type != "Real"]
-        rvr = [vr for _, vr in reals]
-        n_total = len(names)
+        n_total, n_real = len(names), len(reals)
+        rvr = (fmi2ValueReference * n_real)(*[vr for _, vr in reals])
+        rval = (fmi2Real * n_real)()
+        get_real = fmu.fmi2GetReal
+        plain = not others and [i for i, _ in reals] == list(range(n_total))
+        if plain:
+            def get():
+                get_real(fmu.component, rvr, n_real, rval)
+                return rval[:]
+            return get
+        bvr = [(i, fmi2ValueReference(vr), kind) for i, vr, kind in others]
+        bval, ival = fmi2Boolean(), fmi2Integer()
 
         def get():
             out = [0.0] * n_total
-            if rvr:
-                for (i, _), v in zip(reals, self.fmu.getReal(rvr)):
+            if n_real:
+                get_real(fmu.component, rvr, n_real, rval)
+                for (i, _), v in zip(reals, rval):
                     out[i] = v
-            for i, vr, kind in others:
-                out[i] = float((self.fmu.getBoolean if kind == "Boolean" else self.fmu.getInteger)([vr])[0])
+            for i, vr, kind in bvr:
+                if kind == "Boolean":
+                    fmu.fmi2GetBoolean(fmu.component, ctypes.byref(vr), 1, ctypes.byref(bval))
+                    out[i] = float(bval.value)
+                else:
+                    fmu.fmi2GetInteger(fmu.component, ctypes.byref(vr), 1, ctypes.byref(ival))
+                    out[i] = float(ival.value)
             return out
         return get
+
+    def setter(self, vrs):
+        """A function setting these Real variables to a list of values (arrays built once)."""
+        from fmpy.fmi2 import fmi2Real, fmi2ValueReference
+        fmu = self.fmu
+        n = len(vrs)
+        varr = (fmi2ValueReference * n)(*vrs)
+        kind = fmi2Real * n
+        set_real = fmu.fmi2SetReal
+
+        def put(values):
+            set_real(fmu.component, varr, n, kind(*values))
+        return put
 
     def close(self):
         import shutil
@@ -234,13 +268,15 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
             setters[di][1].append((si, wanted[si].index(sv)))
         record_index = [(a, wanted[a].index(b)) for a, b in sc.record]
 
+        puts = [(fmus[n].setter(vrs), srcs) for n, (vrs, srcs) in setters.items() if vrs]
+        sources = [(n, getters[n], None) if n in fmus else (n, None, tables[n]) for n in sc.instances]
+
         def collect(t):
-            return {n: (getters[n]() if n in fmus else tables[n].values(wanted[n], t)) for n in sc.instances}
+            return {n: (get() if get is not None else table.values(wanted[n], t)) for n, get, table in sources}
 
         def push(values):
-            for n, (vrs, srcs) in setters.items():
-                if vrs:
-                    fmus[n].fmu.setReal(vrs, [values[s][k] for s, k in srcs])
+            for put, srcs in puts:
+                put([values[s][k] for s, k in srcs])
 
         t = sc.start
         for name in order:
