@@ -102,7 +102,9 @@ def plot(res: RunResult, out_dir: Path) -> list[Path]:
         xname = spec.get("x", "time")
         x = res.column(xname)
         for yname in spec["y"]:
-            ax.plot(x, res.column(yname), lw=0.8 if len(x) > 2000 else 1.2, label=yname)
+            y = res.column(yname)
+            y = np.where(np.abs(y) >= 1e299, np.nan, y)  # 1e300 stands for "infinite" (no contact)
+            ax.plot(x, y, lw=0.8 if len(x) > 2000 else 1.2, label=yname)
         ax.set_xlabel(spec.get("xlabel", "time [s]" if xname == "time" else xname))
         ax.set_ylabel(spec.get("ylabel", ", ".join(spec["y"])))
         ax.set_title(spec.get("title", ""))
