@@ -121,3 +121,20 @@ def test_adaptive_error_follows_tolerance():
     for tol, err in errs.items():
         assert err < 10 * tol * w_scale, (tol, err)
     assert errs[1e-9] < errs[1e-6] / 100
+
+
+@pytest.mark.parametrize("method, bound", [("DOP853", 1e-9), ("RK45", 1e-9), ("RK4", 1e-10)])
+def test_a_system_above_the_generated_kernels_uses_the_numpy_step(method, bound):
+    """20 uncoupled oscillators (40 states > SMALL_SYSTEM): x(t) = cos(w t) exactly.
+    Bounds: tol 1e-10 (adaptive) and h = 1 ms RK4 (error ~ (w h)^4 w t / 120 ~ 1e-12)."""
+    from ballmill.physics.integrators import SMALL_SYSTEM, Integrator
+    w = np.linspace(1.0, 3.0, 20)
+    assert 2 * w.size > SMALL_SYSTEM
+
+    def f(t, y):
+        return np.concatenate([y[20:], -w**2 * y[:20]])
+
+    y0 = np.concatenate([np.ones(20), np.zeros(20)])
+    y, _, stats = Integrator(method, tol=1e-10, h_fixed=1e-3).advance(f, 0.0, y0, 2.0, None)
+    assert np.max(np.abs(y[:20] - np.cos(w * 2.0))) < bound
+    assert stats.steps > 0 and y0[0] == 1.0  # input untouched

@@ -308,81 +308,39 @@ class Integrator:
         span = t_end - t
         if span <= 0.0:
             return y, h, stats
-        if y.ndim == 1 and y.size <= SMALL_SYSTEM and (self.scale is None or self.scale.shape == y.shape):
-            return self._advance_small(f, t, y, t_end, h, stats)
-        f0 = np.asarray(f(t, y), dtype=float)
-        stats.nfev += 1
-        if not np.all(np.isfinite(f0)):
-            # no step size can help: the state or the input is already unusable
-            raise StepFailure(f"{self.method}: non-finite derivative at t = {t:.9g} s "
-                              f"(state or input not finite)")
-        if not self.adaptive:
-            n = max(1, math.ceil(span / self.h_fixed - 1e-9))
-            hh = span / n
-            for i in range(n):
-                ti = t + i * hh
-                if i:
-                    f0 = np.asarray(f(ti, y), dtype=float)
-                    stats.nfev += 1
-                K, y_new = self._stages(f, ti, y, hh, f0)
-                stats.nfev += self.tab.n_stages - 1
-                if not np.all(np.isfinite(y_new)):
-                    raise StepFailure(f"RK4 step at t = {ti:.9g} s produced non-finite values "
-                                      f"(step {hh:.3g} s); reduce the step")
-                y = self.project(y_new)
-                self.check(y)
-                stats.steps += 1
-            return y, self.h_fixed, stats
+        if y.ndim != 1:
+            raise ValueError(f"the state must be a 1-D sequence of floats, got shape {y.shape}")
+        return self._advance(f, t, y, t_end, h, stats)
 
-        if h is None or not (h > 0.0 and math.isfinite(h)):
-            h = self.initial_step(f, t, y, f0, span)
-            stats.nfev += 1
-        order = self.tab.order
-        h_min_abs = 1e-14 * max(1.0, abs(t_end))
-        while t < t_end:
-            if stats.steps + stats.rejected >= self.max_steps:
-                raise StepFailure(f"{self.method}: more than {self.max_steps} internal steps "
-                                  f"between t = {t:.9g} s and {t_end:.9g} s")
-            h = min(h, self.h_max)
-            last = t + h >= t_end - 1e-12 * max(1.0, abs(t_end))
-            hh = t_end - t if last else h
-            K, y_new = self._stages(f, t, y, hh, f0)
-            f_new = np.asarray(f(t + hh, y_new), dtype=float)
-            stats.nfev += self.tab.n_stages
-            K[-1] = f_new
-            err = self._error_norm(K, hh, y, y_new)
-            if not math.isfinite(err) or not np.all(np.isfinite(y_new)):
-                stats.rejected += 1
-                h = 0.2 * hh
-                if not h >= h_min_abs:  # also catches a NaN step
-                    raise StepFailure(f"{self.method}: non-finite values at t = {t:.9g} s "
-                                      f"even with step {hh:.3g} s")
-                continue
-            if err <= 1.0:
-                factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / order))
-                t = t_end if last else t + hh
-                y = self.project(y_new)
-                self.check(y)
-                f0 = f_new
-                stats.steps += 1
-                # keep the controller's step, not the clipped one, for the next interval
-                h = max(h, hh * factor) if last else hh * factor
-            else:
-                stats.rejected += 1
-                h = hh * max(0.2, 0.9 * err ** (-1.0 / order))
-                if not h >= h_min_abs:
-                    raise StepFailure(f"{self.method}: step size underflow at t = {t:.9g} s "
-                                      f"(tolerance {self.tol:g} not met with step {hh:.3g} s)")
-        return y, h, stats
+    def _numpy_step(self):
+        """The step function for systems larger than SMALL_SYSTEM, with the same
+        contract as the generated kernels (see `_kernel`), built on numpy."""
+        adaptive = self.adaptive
 
-    def _advance_small(self, f, t, y, t_end, h, stats):
-        """`advance` for a small system with a generated scalar kernel: the same
-        steps, step-size control and hooks as the numpy path below it."""
+        def step(f, t, yl, h, k0, tol, scale, tols, arr):
+            y = np.asarray(yl, dtype=float)
+            K, y_new = self._stages(f, t, y, h, np.asarray(k0, dtype=float))
+            finite = bool(np.all(np.isfinite(y_new)))
+            if not adaptive:
+                return y_new.tolist(), finite
+            k = np.asarray(f(t + h, y_new), dtype=float)
+            K[-1] = k
+            err = self._error_norm(K, h, y, y_new)
+            return y_new.tolist(), tuple(k.tolist()), err, finite and math.isfinite(err)
+        return step
+
+    def _advance(self, f, t, y, t_end, h, stats):
+        """The step-size driver of `advance`. Each step is one call of a step
+        function: a generated scalar kernel for small systems (numpy's per-call
+        overhead outweighs the arithmetic there), numpy above SMALL_SYSTEM."""
         n = y.size
         c = getattr(self, "_small", None)  # kernel and scale tuples, rebuilt if tol or scale change
         if c is None or c[0] != n or c[1] != self.tol or c[2] is not self.scale:
             scaled = self.scale is not None
-            c = self._small = (n, self.tol, self.scale, _kernel(self.method, n, scaled),
+            generated = n <= SMALL_SYSTEM and (not scaled or self.scale.shape == y.shape)
+            scaled = scaled and generated
+            c = self._small = (n, self.tol, self.scale,
+                               _kernel(self.method, n, scaled) if generated else self._numpy_step(),
                                tuple(self.scale.tolist()) if scaled else None,
                                tuple((self.tol * self.scale).tolist()) if scaled else None)
         _, tol, _, step, scale, tols = c
