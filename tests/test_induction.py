@@ -13,21 +13,18 @@ The FMUs come from the session's temporary build (conftest.py).
 """
 from __future__ import annotations
 
-import ctypes
 import math
-import shutil
 
 import numpy as np
 import pytest
-from fmpy import extract, read_model_description, simulate_fmu
+from fmpy import read_model_description, simulate_fmu
 from fmpy.fmi1 import FMICallException
-from fmpy.fmi2 import (FMU2Slave, calloc, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
-                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, free)
 from fmpy.validation import validate_fmu
 
 from ballmill.physics import Ball, evaluate
-from ballmill.physics.coupled import CoupledSystem, simulate_coupled
+from ballmill.physics.coupled import simulate_coupled
 from ballmill.physics.motor import CrankDrive, InductionMotor, simulate_runup
+from fmu_instance import Instance
 
 DISCARD, ERROR = 2, 3
 KLOSS_DOL = CrankDrive()
@@ -102,46 +99,6 @@ def test_a_feather_light_ball_leaves_the_drive_as_simulate_runup_has_it():
 
 
 # -- the FMU ---------------------------------------------------------------------------------
-class Instance:
-    """An InductionMotor instance on fmpy's FMU2Slave, log collected."""
-
-    def __init__(self, path, name, **parameters):
-        self.md = read_model_description(str(path))
-        self.unzipdir = extract(str(path))
-        self.vars = {v.name: v for v in self.md.modelVariables}
-        self.messages = []
-        self.callbacks = fmi2CallbackFunctions()
-        self._logger = fmi2CallbackLoggerTYPE(
-            lambda env, inst, status, cat, msg: self.messages.append((status, msg.decode() if msg else "")))
-        self.callbacks.logger = self._logger
-        self.callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-        self.callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        from fmpy.logging import addLoggerProxy
-        addLoggerProxy(ctypes.byref(self.callbacks))
-        self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.unzipdir,
-                             modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
-        self.fmu.instantiate(callbacks=self.callbacks, loggingOn=True)
-        for key, value in parameters.items():
-            self.set(key, value)
-
-    def set(self, name, value):
-        v = self.vars[name]
-        if v.type == "Integer":
-            self.fmu.setInteger([v.valueReference], [int(value)])
-        else:
-            self.fmu.setReal([v.valueReference], [float(value)])
-
-    def reals(self, names):
-        return list(self.fmu.getReal([self.vars[n].valueReference for n in names]))
-
-    def close(self):
-        try:
-            self.fmu.terminate()
-        finally:
-            self.fmu.freeInstance()
-            shutil.rmtree(self.unzipdir, ignore_errors=True)
-
-
 @pytest.fixture
 def motor_instance(built_fmus):
     opened = []
@@ -214,21 +171,21 @@ def test_non_finite_load_is_refused_and_the_state_kept(motor_instance):
         inst.fmu.exitInitializationMode()
     expected, got = [], []
     for k in range(10):
-        ref.set("M_reaction", -5.0 - k)
+        ref.set(M_reaction=-5.0 - k)
         ref.fmu.doStep(k * H, H)
         expected.append(ref.reals(OUT))
     for k in range(10):
-        motor.set("M_reaction", -5.0 - k)
+        motor.set(M_reaction=-5.0 - k)
         if k == 4:
             before = motor.reals(OUT)
-            motor.set("M_reaction", float("nan"))
+            motor.set(M_reaction=float("nan"))
             with pytest.raises(FMICallException) as info:
                 motor.fmu.doStep(k * H, H)
             assert info.value.status == DISCARD
             msgs = [m for s, m in motor.messages if s == DISCARD]
             assert len(msgs) == 1 and "M_reaction must be finite" in msgs[0] and "nan" in msgs[0]
             assert motor.reals(OUT) == before
-            motor.set("M_reaction", -5.0 - k)
+            motor.set(M_reaction=-5.0 - k)
         motor.fmu.doStep(k * H, H)
         got.append(motor.reals(OUT))
     assert got == expected  # bitwise: the refused step left no trace, load history included
@@ -242,7 +199,7 @@ def test_fmu_state_save_restore_is_bitwise(motor_instance):
     H = 0.005
 
     def step(k, load=lambda t: -10.0 * math.sin(7.0 * t)):
-        motor.set("M_reaction", load(k * H))
+        motor.set(M_reaction=load(k * H))
         motor.fmu.doStep(k * H, H)
         return motor.reals(OUT)
 

@@ -94,7 +94,7 @@ def _evaluate_lossy(ball: Ball, n, w, ax, ay, xO, yO) -> Outputs:
     """
     nx, ny, nz = n
     wx, wy, wz = w
-    lam, r, d, R, m, g = ball.lam, ball.r, ball.d, ball.R, ball.m, ball.g
+    lam, d, R, m, g = ball.lam, ball.d, ball.R, ball.m, ball.g
     consts = loss_constants(ball)
     ndx = lam * (ny * wz - nz * wy)
     ndy = lam * (nz * wx - nx * wz)
