@@ -68,6 +68,14 @@ def _bench(args, rest) -> int:
     return bench.main(rest)
 
 
+def _scenario_arguments(p):
+    """What every command that reads a scenario accepts."""
+    p.add_argument("scenario", help="scenario name in scenarios/ (e.g. fast_start) or a .toml path")
+    p.add_argument("--set", action="append", metavar="INSTANCE.PARAM=VALUE",
+                   help="override a parameter, e.g. --set drive.t0=30 (repeatable)")
+    p.add_argument("--build-dir", help="where the FMUs are (default: build/)")
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="ballmill", description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -75,18 +83,12 @@ def main(argv=None) -> int:
     b.add_argument("--force", action="store_true", help="rebuild even when up to date")
     b.add_argument("--build-dir", help="where to put the FMUs (default: build/)")
     r = sub.add_parser("run", help="run a scenario (builds the FMUs if needed)")
-    r.add_argument("scenario", help="scenario name in scenarios/ (e.g. fast_start) or a .toml path")
+    _scenario_arguments(r)
     r.add_argument("--out", help="output folder (default: out/SCENARIO)")
-    r.add_argument("--set", action="append", metavar="INSTANCE.PARAM=VALUE",
-                   help="override a parameter, e.g. --set drive.t0=30 (repeatable)")
-    r.add_argument("--build-dir", help="where the FMUs are (default: build/)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     e = sub.add_parser("export-ssp", help="write a scenario as an SSP package (.ssp) for other FMI tools")
-    e.add_argument("scenario", help="scenario name in scenarios/ (e.g. fast_start) or a .toml path")
+    _scenario_arguments(e)
     e.add_argument("out", help="the .ssp file to write")
-    e.add_argument("--set", action="append", metavar="INSTANCE.PARAM=VALUE",
-                   help="override a parameter, e.g. --set drive.t0=30 (repeatable)")
-    e.add_argument("--build-dir", help="where the FMUs are (default: build/)")
     sub.add_parser("bench", help="speed/accuracy benchmarks -> BENCHMARKS.md (see ballmill bench -h)",
                    add_help=False)
     args, rest = parser.parse_known_args(argv)

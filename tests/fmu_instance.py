@@ -64,3 +64,22 @@ class Instance:
         finally:
             self.fmu.freeInstance()
             shutil.rmtree(self.unzipdir, ignore_errors=True)
+
+
+class Opened:
+    """Instances opened by a test, all closed at its end (used by the FMU fixtures)."""
+
+    def __init__(self):
+        self.instances: list[Instance] = []
+
+    def open(self, path, name, **parameters) -> Instance:
+        inst = Instance(path, name, **parameters)
+        self.instances.append(inst)
+        return inst
+
+    def close_all(self):
+        for inst in self.instances:
+            try:
+                inst.close()
+            except Exception:
+                pass

@@ -21,7 +21,7 @@ from fmpy.validation import validate_fmu
 from scipy.special import ellipk
 
 from ballmill.physics import Ball, BallModel, Fixed, simulate
-from fmu_instance import Instance
+from fmu_instance import Instance, Opened
 
 MODELS = ("BallInShell", "MotorStartup")
 BALL_OUTPUTS = ("xP", "yP", "zP", "N", "Fx", "Fy", "Fz", "M_reaction", "MAx", "MAy", "MAz",
@@ -33,18 +33,9 @@ DISCARD, WARNING, ERROR = 2, 1, 3
 @pytest.fixture
 def instances():
     """Open instances, closed after the test whatever happens."""
-    opened = []
-
-    def make(path, name, **parameters):
-        inst = Instance(path, name, **parameters)
-        opened.append(inst)
-        return inst
-    yield make
-    for inst in opened:
-        try:
-            inst.close()
-        except Exception:
-            pass
+    opened = Opened()
+    yield opened.open
+    opened.close_all()
 
 
 def platform_path(t):

@@ -24,7 +24,7 @@ from fmpy.validation import validate_fmu
 from ballmill.physics import Ball, evaluate
 from ballmill.physics.coupled import simulate_coupled
 from ballmill.physics.motor import CrankDrive, InductionMotor, simulate_runup
-from fmu_instance import Instance
+from fmu_instance import Opened
 
 DISCARD, ERROR = 2, 3
 KLOSS_DOL = CrankDrive()
@@ -101,18 +101,9 @@ def test_a_feather_light_ball_leaves_the_drive_as_simulate_runup_has_it():
 # -- the FMU ---------------------------------------------------------------------------------
 @pytest.fixture
 def motor_instance(built_fmus):
-    opened = []
-
-    def make(name="motor", **parameters):
-        inst = Instance(built_fmus["InductionMotor"], name, **parameters)
-        opened.append(inst)
-        return inst
-    yield make
-    for inst in opened:
-        try:
-            inst.close()
-        except Exception:
-            pass
+    opened = Opened()
+    yield lambda name="motor", **parameters: opened.open(built_fmus["InductionMotor"], name, **parameters)
+    opened.close_all()
 
 
 OUT = ("psi", "psi_dot", "psi_ddot", "x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O", "w_motor", "T_motor",
