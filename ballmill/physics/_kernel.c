@@ -566,6 +566,347 @@ BM_EXPORT void bm_eval_outputs(const bm_problem *P, const double *y, double ax, 
     bm_outputs(P, y, ax, ay, xO, yO, o);
 }
 
+/* ======================================================================
+ * The general model: a chamber with any rigid motion (turning.py, chamber.py;
+ * DESIGN.md section 10). Functions bmg_*, reached through fast_turning.py; they
+ * reuse the integrator helpers above (tableau rows, error norm, projection) but
+ * none of the translation-only functions' code paths, which stay as they are.
+ *
+ *   n'     = (R/d) Omega x n + lambda n x omega
+ *   omega' = k n x (a_A - g + R (Omega' x n + Omega x n') + r n' x omega)
+ *
+ * Motions: BMG_SPIN (chamber.Spin) and BMG_FIG1 (chamber.Fig1Machine with the
+ * angle laws CrankStartup or ConstantSpeed), in chamber.py's operation order.
+ * ====================================================================== */
+enum { BMG_SPIN = 1, BMG_FIG1 = 2 };
+enum { BMG_LAW_CONST = 0, BMG_LAW_CRANK = 1 };
+#define BMG_NCS 38  /* fields of chamber.ChamberState */
+#define BMG_NOUT 28 /* fields of turning.ChamberOutputs */
+
+/* Everything a general run needs; filled by fast_turning.py (ctypes mirror: _GProblem). */
+typedef struct {
+    bm_problem base; /* integrator settings only (its motion and ball fields are not read) */
+    int kind;        /* BMG_SPIN, BMG_FIG1 */
+    double sp[10];   /* spin: Omega[3], A[3], axis[3], |Omega| */
+    int frame_law, crank_law, parallel;
+    double frame_p[2], crank_p[2]; /* const: w, angle0; crank: w0, t0 */
+    double l, centre[3];
+    double c[6];  /* turning.constants: R/d, lambda, R, r, g, k */
+    double oc[10]; /* turning.out_constants: ... d, m, I, mu */
+} bmg_problem;
+
+/* drives.CrankStartup.angle / chamber.ConstantSpeed.angle */
+static void bmg_law(int law, const double *p, double t, double a[3])
+{
+    if (law == BMG_LAW_CONST) {
+        a[0] = p[1] + p[0] * t; a[1] = p[0]; a[2] = 0.0;
+        return;
+    }
+    double w0 = p[0], t0 = p[1];
+    if (t < 0.0) {
+        a[0] = 0.0; a[1] = 0.0; a[2] = 0.0;
+    } else if (t <= t0) {
+        double u = 1.0 - t / t0;
+        a[0] = -w0 * pow(t - t0, 3.0) / (3.0 * t0 * t0) + w0 * t - w0 * t0 / 3.0;
+        a[1] = w0 * (1.0 - u * u);
+        a[2] = 2.0 * w0 * u / t0;
+    } else {
+        a[0] = 2.0 / 3.0 * w0 * t0 + w0 * (t - t0); a[1] = w0; a[2] = 0.0;
+    }
+}
+
+/* Fig1Machine._kin: c, s, phi', phi'', psi', psi'' in k[0..5]; A, T, U */
+static void bmg_fig1_kin(const bmg_problem *G, double t, double k[6], double A[3], double T[3], double U[3])
+{
+    double ph[3], ps[3], a[3], ap[3], app[3];
+    bmg_law(G->frame_law, G->frame_p, t, ph);
+    bmg_law(G->crank_law, G->crank_p, t, ps);
+    double c = cos(ph[0]), s = sin(ph[0]);
+    double cp = cos(ps[0]), sp = sin(ps[0]);
+    double l = G->l, ox = G->centre[0], oy = G->centre[1], oz = G->centre[2];
+    if (G->parallel) {
+        a[0] = ox; a[1] = oy + l * cp; a[2] = oz + l * sp;
+        ap[0] = 0.0; ap[1] = -l * sp; ap[2] = l * cp;
+        app[0] = 0.0; app[1] = -l * cp; app[2] = -l * sp;
+    } else {
+        a[0] = ox + l * cp; a[1] = oy + l * sp; a[2] = oz;
+        ap[0] = -l * sp; ap[1] = l * cp; ap[2] = 0.0;
+        app[0] = -l * cp; app[1] = -l * sp; app[2] = 0.0;
+    }
+    A[0] = a[0]; A[1] = c * a[1] - s * a[2]; A[2] = s * a[1] + c * a[2];
+    T[0] = ap[0]; T[1] = c * ap[1] - s * ap[2]; T[2] = s * ap[1] + c * ap[2];
+    U[0] = app[0]; U[1] = c * app[1] - s * app[2]; U[2] = s * app[1] + c * app[2];
+    k[0] = c; k[1] = s; k[2] = ph[1]; k[3] = ph[2]; k[4] = ps[1]; k[5] = ps[2];
+}
+
+/* Fig1Machine._acc */
+static void bmg_fig1_acc(const double k[6], const double A[3], const double T[3], const double U[3],
+                         double *aA)
+{
+    double phd = k[2], phdd = k[3], psd = k[4], psdd = k[5];
+    aA[0] = psd * psd * U[0] + psdd * T[0];
+    aA[1] = -phdd * A[2] - phd * phd * A[1] - 2.0 * phd * psd * T[2] + psd * psd * U[1] + psdd * T[1];
+    aA[2] = phdd * A[1] - phd * phd * A[2] + 2.0 * phd * psd * T[1] + psd * psd * U[2] + psdd * T[2];
+}
+
+/* ChamberMotion.accel: a_A, Omega, Omega' */
+static void bmg_accel(const bmg_problem *G, double t, double kin[9])
+{
+    if (G->kind == BMG_SPIN) {
+        kin[0] = 0.0; kin[1] = 0.0; kin[2] = 0.0;
+        kin[3] = G->sp[0]; kin[4] = G->sp[1]; kin[5] = G->sp[2];
+        kin[6] = 0.0; kin[7] = 0.0; kin[8] = 0.0;
+        return;
+    }
+    double k[6], A[3], T[3], U[3];
+    bmg_fig1_kin(G, t, k, A, T, U);
+    bmg_fig1_acc(k, A, T, U, kin);
+    kin[3] = k[2]; kin[4] = 0.0; kin[5] = 0.0;
+    kin[6] = k[3]; kin[7] = 0.0; kin[8] = 0.0;
+}
+
+/* ChamberMotion.state: the 38 fields of ChamberState */
+static void bmg_state(const bmg_problem *G, double t, double *cs)
+{
+    memset(cs, 0, BMG_NCS * sizeof(double));
+    if (G->kind == BMG_SPIN) { /* Spin.state */
+        const double *p = G->sp;
+        double ex = p[6], ey = p[7], ez = p[8];
+        double ax = p[3], ay = p[4], az = p[5];
+        double th = p[9] * t;
+        double c = cos(th), s = sin(th);
+        double u = 1.0 - c;
+        cs[0] = ax; cs[1] = ay; cs[2] = az;
+        cs[9] = p[0]; cs[10] = p[1]; cs[11] = p[2];
+        cs[15] = c + u * ex * ex; cs[16] = u * ex * ey - s * ez; cs[17] = u * ex * ez + s * ey;
+        cs[18] = u * ey * ex + s * ez; cs[19] = c + u * ey * ey; cs[20] = u * ey * ez - s * ex;
+        cs[21] = u * ez * ex - s * ey; cs[22] = u * ez * ey + s * ex; cs[23] = c + u * ez * ez;
+        cs[24] = p[9];
+        cs[25] = ex; cs[26] = ey; cs[27] = ez;
+        cs[28] = ay * ez - az * ey; cs[29] = az * ex - ax * ez; cs[30] = ax * ey - ay * ex;
+        return;
+    }
+    double k[6], A[3], T[3], U[3];
+    bmg_fig1_kin(G, t, k, A, T, U);
+    double phd = k[2], psd = k[4];
+    cs[0] = A[0]; cs[1] = A[1]; cs[2] = A[2];
+    cs[3] = psd * T[0]; cs[4] = -phd * A[2] + psd * T[1]; cs[5] = phd * A[1] + psd * T[2];
+    bmg_fig1_acc(k, A, T, U, cs + 6);
+    cs[9] = phd; cs[12] = k[3];
+    cs[15] = 1.0; cs[19] = k[0]; cs[20] = -k[1]; cs[22] = k[1]; cs[23] = k[0];
+    cs[24] = phd; cs[25] = 1.0;
+    cs[31] = psd; cs[35] = T[0]; cs[36] = T[1]; cs[37] = T[2];
+}
+
+/* turning.derivative */
+static void bmg_derivative(const double *c, const double *y, const double *kin, double *f)
+{
+    double nx = y[0], ny = y[1], nz = y[2], wx = y[3], wy = y[4], wz = y[5];
+    double Rd = c[0], lam = c[1], R = c[2], r = c[3], g = c[4], k = c[5];
+    double ax = kin[0], ay = kin[1], az = kin[2], ox = kin[3], oy = kin[4], oz = kin[5];
+    double px = kin[6], py = kin[7], pz = kin[8];
+    double ndx = Rd * (oy * nz - oz * ny) + lam * (ny * wz - nz * wy);
+    double ndy = Rd * (oz * nx - ox * nz) + lam * (nz * wx - nx * wz);
+    double ndz = Rd * (ox * ny - oy * nx) + lam * (nx * wy - ny * wx);
+    double bx = ax + R * ((py * nz - pz * ny) + (oy * ndz - oz * ndy)) + r * (ndy * wz - ndz * wy);
+    double by = ay + R * ((pz * nx - px * nz) + (oz * ndx - ox * ndz)) + r * (ndz * wx - ndx * wz);
+    double bz = (az + g) + R * ((px * ny - py * nx) + (ox * ndy - oy * ndx)) + r * (ndx * wy - ndy * wx);
+    f[0] = ndx; f[1] = ndy; f[2] = ndz;
+    f[3] = k * (ny * bz - nz * by);
+    f[4] = k * (nz * bx - nx * bz);
+    f[5] = k * (nx * by - ny * bx);
+}
+
+static void bmg_rhs(const bmg_problem *G, double t, const double *y, double *f)
+{
+    double kin[9];
+    bmg_accel(G, t, kin);
+    bmg_derivative(G->c, y, kin, f);
+}
+
+/* turning.evaluate_c: the 28 fields of ChamberOutputs */
+static void bmg_outputs(const double *c, const double *y, const double *cs, double *o)
+{
+    double nx = y[0], ny = y[1], nz = y[2], wx = y[3], wy = y[4], wz = y[5];
+    double Rd = c[0], lam = c[1], R = c[2], r = c[3], g = c[4], k = c[5], d = c[6], m = c[7], I = c[8],
+           mu = c[9];
+    double Ax = cs[0], Ay = cs[1], Az = cs[2], vAx = cs[3], vAy = cs[4], vAz = cs[5];
+    double ax = cs[6], ay = cs[7], az = cs[8], ox = cs[9], oy = cs[10], oz = cs[11];
+    double px = cs[12], py = cs[13], pz = cs[14];
+    const double *q = cs + 15;
+    const double *w1 = cs + 25, *v1 = cs + 28, *w2 = cs + 32, *v2 = cs + 35;
+    double ndx = Rd * (oy * nz - oz * ny) + lam * (ny * wz - nz * wy);
+    double ndy = Rd * (oz * nx - ox * nz) + lam * (nz * wx - nx * wz);
+    double ndz = Rd * (ox * ny - oy * nx) + lam * (nx * wy - ny * wx);
+    double bx = ax + R * ((py * nz - pz * ny) + (oy * ndz - oz * ndy)) + r * (ndy * wz - ndz * wy);
+    double by = ay + R * ((pz * nx - px * nz) + (oz * ndx - ox * ndz)) + r * (ndz * wx - ndx * wz);
+    double bz = (az + g) + R * ((px * ny - py * nx) + (ox * ndy - oy * ndx)) + r * (ndx * wy - ndy * wx);
+    double wdx = k * (ny * bz - nz * by), wdy = k * (nz * bx - nx * bz), wdz = k * (nx * by - ny * bx);
+    double nddx = Rd * ((py * nz - pz * ny) + (oy * ndz - oz * ndy))
+                  + lam * (ndy * wz - ndz * wy + ny * wdz - nz * wdy);
+    double nddy = Rd * ((pz * nx - px * nz) + (oz * ndx - ox * ndz))
+                  + lam * (ndz * wx - ndx * wz + nz * wdx - nx * wdz);
+    double nddz = Rd * ((px * ny - py * nx) + (ox * ndy - oy * ndx))
+                  + lam * (ndx * wy - ndy * wx + nx * wdy - ny * wdx);
+    double Fx = m * (ax + d * nddx);
+    double Fy = m * (ay + d * nddy);
+    double Fz = m * ((az + d * nddz) + g);
+    double N = -(Fx * nx + Fy * ny + Fz * nz);
+    double ftx = Fx + N * nx, fty = Fy + N * ny, ftz = Fz + N * nz;
+    double Ft = sqrt(ftx * ftx + fty * fty + ftz * ftz);
+    int contact = N > 0.0;
+    double sx = -Fx, sy = -Fy, sz = -Fz;
+    double Px = Ax + R * nx, Py = Ay + R * ny, Pz = Az + R * nz;
+    double mx = Py * sz - Pz * sy, my = Pz * sx - Px * sz, mz = Px * sy - Py * sx;
+    double M1 = (w1[0] * mx + w1[1] * my + w1[2] * mz) + (v1[0] * sx + v1[1] * sy + v1[2] * sz);
+    double M2 = (w2[0] * mx + w2[1] * my + w2[2] * mz) + (v2[0] * sx + v2[1] * sy + v2[2] * sz);
+    double vpx = vAx + R * (oy * nz - oz * ny);
+    double vpy = vAy + R * (oz * nx - ox * nz);
+    double vpz = vAz + R * (ox * ny - oy * nx);
+    double vcx = vAx + d * ndx, vcy = vAy + d * ndy, vcz = vAz + d * ndz;
+    double E = 0.5 * m * (vcx * vcx + vcy * vcy + vcz * vcz) + 0.5 * I * (wx * wx + wy * wy + wz * wz)
+               + m * g * (Az + d * nz);
+    o[0] = Px; o[1] = Py; o[2] = Pz;
+    o[3] = R * (q[0] * nx + q[3] * ny + q[6] * nz);
+    o[4] = R * (q[1] * nx + q[4] * ny + q[7] * nz);
+    o[5] = R * (q[2] * nx + q[5] * ny + q[8] * nz) + R;
+    o[6] = Ax + d * nx; o[7] = Ay + d * ny; o[8] = Az + d * nz;
+    o[9] = wx; o[10] = wy; o[11] = wz;
+    o[12] = nx * wx + ny * wy + nz * wz;
+    o[13] = N; o[14] = Ft; o[15] = contact ? Ft / N : INFINITY;
+    o[16] = sx; o[17] = sy; o[18] = sz;
+    o[19] = q[0] * sx + q[3] * sy + q[6] * sz;
+    o[20] = q[1] * sx + q[4] * sy + q[7] * sz;
+    o[21] = q[2] * sx + q[5] * sy + q[8] * sz;
+    o[22] = M1; o[23] = M2;
+    o[24] = Fx * vpx + Fy * vpy + Fz * vpz;
+    o[25] = E;
+    o[26] = contact ? 1.0 : 0.0;
+    o[27] = (contact && Ft <= mu * N) ? 1.0 : 0.0;
+}
+
+/* bm_stages for the general right-hand side */
+static void bmg_stages(const bmg_problem *G, const bm_tab *T, double t, const double *y, double h,
+                       double K[][BM_NY], double *ynew)
+{
+    int ns = G->base.ns;
+    double yt[BM_NY];
+    for (int s = 1; s < ns; s++) {
+        for (int i = 0; i < BM_NY; i++) yt[i] = y[i] + bm_dot(&T->A[s], K, i) * h;
+        bmg_rhs(G, t + G->base.C[s] * h, yt, K[s]);
+    }
+    for (int i = 0; i < BM_NY; i++) ynew[i] = y[i] + h * bm_dot(&T->B, K, i);
+}
+
+/* bm_advance (Integrator.advance, the small-system path) for the general right-hand side */
+static int bmg_advance(const bmg_problem *G, const bm_tab *T, double t, double *y_io, double t_end,
+                       double *h_io, bm_stats *st)
+{
+    const bm_problem *P = &G->base;
+    double K[BM_NS_MAX + 1][BM_NY], y[BM_NY], ynew[BM_NY];
+    double span = t_end - t;
+    if (span <= 0.0) return 1;
+    memcpy(y, y_io, sizeof y);
+    bmg_rhs(G, t, y, K[0]);
+    st->nfev++;
+    if (!bm_all_finite(K[0])) return 0;
+    int ns = P->ns;
+    if (!P->adaptive) {
+        double q = ceil(span / P->h_fixed - 1e-9);
+        long long count = q < 1.0 ? 1 : (long long)q;
+        double hh = span / (double)count;
+        for (long long i = 0; i < count; i++) {
+            double ti = t + (double)i * hh;
+            if (i) {
+                bmg_rhs(G, ti, y, K[0]);
+                st->nfev++;
+            }
+            bmg_stages(G, T, ti, y, hh, K, ynew);
+            st->nfev += ns - 1;
+            if (!bm_all_finite(ynew)) return 0;
+            memcpy(y, ynew, sizeof y);
+            if (!bm_project(y)) return 0;
+            st->steps++;
+        }
+        memcpy(y_io, y, sizeof y);
+        *h_io = P->h_fixed;
+        return 1;
+    }
+    double h = *h_io;
+    if (!(h > 0.0 && isfinite(h))) return 0;
+    double order = (double)P->order;
+    double h_min_abs = 1e-14 * bm_pymax(1.0, fabs(t_end));
+    double t_last = t_end - 1e-12 * bm_pymax(1.0, fabs(t_end));
+    while (t < t_end) {
+        if (st->steps + st->rejected >= P->max_steps) return 0;
+        h = bm_pymin(h, P->h_max);
+        int last = t + h >= t_last;
+        double hh = last ? t_end - t : h;
+        bmg_stages(G, T, t, y, hh, K, ynew);
+        bmg_rhs(G, t + hh, ynew, K[ns]);
+        st->nfev += ns;
+        double err = bm_error(P, T, K, hh, y, ynew);
+        if (!(bm_all_finite(ynew) && isfinite(err))) {
+            st->rejected++;
+            h = 0.2 * hh;
+            if (!(h >= h_min_abs)) return 0;
+            continue;
+        }
+        if (err <= 1.0) {
+            double factor = err == 0.0 ? 10.0 : bm_pymin(10.0, 0.9 * pow(err, -1.0 / order));
+            t = last ? t_end : t + hh;
+            memcpy(y, ynew, sizeof y);
+            if (!bm_project(y)) return 0;
+            memcpy(K[0], K[ns], sizeof K[0]);
+            st->steps++;
+            h = last ? bm_pymax(h, hh * factor) : hh * factor;
+        } else {
+            st->rejected++;
+            h = hh * bm_pymax(0.2, 0.9 * pow(err, -1.0 / order));
+            if (!(h >= h_min_abs)) return 0;
+        }
+    }
+    memcpy(y_io, y, sizeof y);
+    *h_io = h;
+    return 1;
+}
+
+/* turning.simulate_general's loop, as bm_simulate (same contract; outputs: 28 per point) */
+BM_EXPORT long long bmg_simulate(const bmg_problem *G, const double *times, long long n, long long start,
+                                 int record_start, double *y, double *h, double *ys, double *outs,
+                                 bm_stats *total)
+{
+    double cs[BMG_NCS];
+    bm_tab T;
+    bm_tab_make(&G->base, &T);
+    for (long long i = start; i < n; i++) {
+        if (i > start) {
+            bm_stats st = {0, 0, 0};
+            if (!bmg_advance(G, &T, times[i - 1], y, times[i], h, &st)) return i - 1;
+            total->steps += st.steps;
+            total->rejected += st.rejected;
+            total->nfev += st.nfev;
+        } else if (!record_start) {
+            continue;
+        }
+        memcpy(ys + BM_NY * i, y, BM_NY * sizeof(double));
+        if (outs) {
+            bmg_state(G, times[i], cs);
+            bmg_outputs(G->oc, y, cs, outs + BMG_NOUT * i);
+        }
+    }
+    return n - 1;
+}
+
+/* single evaluations, for tests and the benchmark */
+BM_EXPORT void bmg_eval_rhs(const bmg_problem *G, double t, const double *y, double *f) { bmg_rhs(G, t, y, f); }
+BM_EXPORT void bmg_eval_state(const bmg_problem *G, double t, double *cs) { bmg_state(G, t, cs); }
+BM_EXPORT void bmg_eval_outputs(const bmg_problem *G, const double *y, const double *cs, double *o)
+{
+    bmg_outputs(G->oc, y, cs, o);
+}
+BM_EXPORT size_t bmg_problem_size(void) { return sizeof(bmg_problem); }
+
 /* what fast.py checks before it trusts this build */
 BM_EXPORT int bm_abi(void) { return BM_ABI; }
 BM_EXPORT size_t bm_problem_size(void) { return sizeof(bm_problem); }

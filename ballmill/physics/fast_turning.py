@@ -1,0 +1,244 @@
+"""The general (turning-chamber) model in the compiled kernel: what it owns.
+
+The bmg_* functions of _kernel.c mirror turning.py (right-hand side, outputs)
+and chamber.py (Spin, Fig1Machine with CrankStartup / ConstantSpeed laws) in
+the Python code's operation order, and run the library's integrators with the
+same step-size control; `simulate` here is turning.simulate_general's loop in C
+and gives the Python path's trajectory bit for bit (tests/test_turning_kernel.py).
+The library is the one fast.py loads and checks (same build, same source hash);
+this module only declares the general functions on it. As in fast.py, the
+adaptive methods' initial step is Python's, and an interval the kernel cannot
+complete is handed back to Python, which raises with its own message.
+"""
+from __future__ import annotations
+
+import ctypes
+import math
+import numbers
+
+import numpy as np
+
+from . import fast
+from .chamber import NSTATE, ConstantSpeed, Fig1Machine, Spin
+from .drives import CrankStartup
+from .fast import KernelUnavailable, _Stats, _dp
+from .integrators import Integrator, TABLEAUS
+
+__all__ = ["KernelUnavailable", "applicable", "simulate", "problem", "eval_rhs", "eval_state", "eval_outputs"]
+
+NY = 6
+NOUT = 28  # turning.ChamberOutputs
+
+
+class _GProblem(ctypes.Structure):
+    """ctypes mirror of bmg_problem in _kernel.c."""
+
+    _fields_ = [
+        ("base", fast._Problem),
+        ("kind", ctypes.c_int), ("sp", ctypes.c_double * 10),
+        ("frame_law", ctypes.c_int), ("crank_law", ctypes.c_int), ("parallel", ctypes.c_int),
+        ("frame_p", ctypes.c_double * 2), ("crank_p", ctypes.c_double * 2),
+        ("l", ctypes.c_double), ("centre", ctypes.c_double * 3),
+        ("c", ctypes.c_double * 6), ("oc", ctypes.c_double * 10),
+    ]
+
+
+_LIB = None  # (library, reason) once declared
+
+
+def _lib():
+    """The kernel library with the bmg_* functions declared, or None."""
+    global _LIB
+    if _LIB is None:
+        lib = fast._kernel()
+        reason = "" if lib is not None else f"compiled kernel unavailable: {fast._STATE[2]}"
+        if lib is not None:
+            try:
+                lib.bmg_problem_size.restype = ctypes.c_size_t
+                size = lib.bmg_problem_size()
+            except AttributeError:
+                lib, reason = None, "the built kernel has no general-model functions (rebuild: pip install -e .)"
+            else:
+                if size != ctypes.sizeof(_GProblem):
+                    lib, reason = None, (f"bmg_problem size {size} != {ctypes.sizeof(_GProblem)} "
+                                         f"(stale build; rebuild: pip install -e .)")
+        if lib is not None:
+            G = ctypes.POINTER(_GProblem)
+            lib.bmg_simulate.restype = ctypes.c_longlong
+            lib.bmg_simulate.argtypes = [G, _dp, ctypes.c_longlong, ctypes.c_longlong, ctypes.c_int,
+                                         _dp, _dp, _dp, _dp, ctypes.POINTER(_Stats)]
+            lib.bmg_eval_rhs.restype = None
+            lib.bmg_eval_rhs.argtypes = [G, ctypes.c_double, _dp, _dp]
+            lib.bmg_eval_state.restype = None
+            lib.bmg_eval_state.argtypes = [G, ctypes.c_double, _dp]
+            lib.bmg_eval_outputs.restype = None
+            lib.bmg_eval_outputs.argtypes = [G, _dp, _dp, _dp]
+        _LIB = (lib, reason)
+    return _LIB[0]
+
+
+def _real(*v):
+    return all(isinstance(x, numbers.Real) and not isinstance(x, bool) and math.isfinite(x) for x in v)
+
+
+def _law(law):
+    """(kind, params) of an angle law the kernel knows, or (None, reason)."""
+    if type(law) is CrankStartup and _real(law.n0, law.t0):
+        return 1, (float(law.w0), float(law.t0))
+    if type(law) is ConstantSpeed and _real(law.w, law.angle0):
+        return 0, (float(law.w), float(law.angle0))
+    return None, f"angle law {law!r} (the kernel knows CrankStartup and ConstantSpeed)"
+
+
+def _motion_reason(motion) -> str:
+    tp = type(motion)
+    if tp is Spin:
+        return ""
+    if tp is Fig1Machine:
+        for law in (motion.frame, motion.crank):
+            kind, why = _law(law)
+            if kind is None:
+                return why
+        return ""
+    return f"chamber motion {tp.__name__} (the kernel knows Spin and Fig1Machine)"
+
+
+def applicable(model, motion, state=None) -> str:
+    """'' when `simulate` can run this model and motion in the kernel, else why not."""
+    from .turning import ChamberModel, _project
+
+    if _lib() is None:
+        return _LIB[1]
+    if type(model) is not ChamberModel:
+        return f"model class {type(model).__name__}"
+    integ = model.integrator
+    if type(integ) is not Integrator or integ.method not in TABLEAUS or integ.project is not _project:
+        return "integrator is not the library's Integrator with ChamberModel's projection"
+    if integ.scale is None or integ.scale.shape != (NY,):
+        return "integrator without a 6-component scale"
+    why = _motion_reason(motion)
+    if why:
+        return why
+    if state is not None and np.shape(state.y) != (NY,):
+        return f"state of shape {np.shape(state.y)}"
+    return ""
+
+
+def problem(model, motion) -> _GProblem:
+    """The kernel's problem structure for a model and motion (checked with `applicable`)."""
+    why = applicable(model, motion)
+    if why:
+        raise KernelUnavailable(why)
+    G = _GProblem()
+    # the integrator part, filled as fast.py fills it (its motion and ball fields are unused)
+    base = fast._problem(_IntegratorOnly(model), None)
+    ctypes.memmove(ctypes.byref(G.base), ctypes.byref(base), ctypes.sizeof(base))
+    if type(motion) is Spin:
+        G.kind = 1
+        G.sp[:] = list(motion.Omega) + list(motion.A) + list(motion.axis) + [motion.rate]
+    else:
+        G.kind = 2
+        G.frame_law, fp = _law(motion.frame)
+        G.crank_law, cp = _law(motion.crank)
+        G.frame_p[:], G.crank_p[:] = list(fp), list(cp)
+        G.parallel = int(motion.parallel)
+        G.l = motion.l
+        G.centre[:] = list(motion.centre)
+    G.c[:] = [float(v) for v in model._c]
+    G.oc[:] = [float(v) for v in model._oc]
+    return G
+
+
+class _IntegratorOnly:
+    """What fast._problem reads of a model, for the integrator part: the integrator, and a
+    ball and formulation whose values the general functions do not read."""
+
+    def __init__(self, model):
+        from .equations import VectorFormulation
+
+        self.integrator = model.integrator
+        self.ball = model.ball
+        self.form = VectorFormulation(model.ball)
+
+
+def simulate(model, motion, times: np.ndarray, state, outputs: bool):
+    """turning.simulate_general's loop in the kernel; returns (ys, outs or None, success,
+    message, last). Call only when `applicable` says ''."""
+    from .model import BallState
+    from .turning import record_python
+
+    lib = _lib()
+    n = len(times)
+    G = problem(model, motion)
+    ys = np.empty((n, NY))
+    outs = np.empty((n, NOUT)) if outputs else None
+    times = np.ascontiguousarray(times, dtype=float)
+    y = np.array(state.y, dtype=float)
+    hbuf = np.empty(1)
+    stats = _Stats()
+    integ = model.integrator
+    h = state.h
+    extra_nfev = 0
+    if integ.adaptive and not (h is not None and h > 0.0 and math.isfinite(h)) and n > 1:
+        span = float(times[1]) - state.t
+        if span > 0.0:
+            f = model.rhs(motion)
+            y0 = np.array(state.y, dtype=float)
+            f0 = f(state.t, y0)
+            if all(map(math.isfinite, f0)):
+                h = integ.initial_step(f, state.t, y0, np.asarray(f0, dtype=float), span)
+                extra_nfev = 1
+    hbuf[0] = h if h is not None else math.nan
+    p_ys = ys.ctypes.data_as(_dp)
+    p_outs = outs.ctypes.data_as(_dp) if outputs else None
+    p_times, p_y, p_h = times.ctypes.data_as(_dp), y.ctypes.data_as(_dp), hbuf.ctypes.data_as(_dp)
+    info = model.info
+    start, record = 0, 1
+    while True:
+        last = lib.bmg_simulate(ctypes.byref(G), p_times, n, start, record, p_y, p_h, p_ys, p_outs,
+                                ctypes.byref(stats))
+        if last > 0 and extra_nfev:
+            stats.nfev += extra_nfev
+            extra_nfev = 0
+        if last == n - 1:
+            break
+        if last > start:
+            state = BallState(float(times[last]), y.copy(), float(hbuf[0]))
+        info.steps += stats.steps
+        info.rejected += stats.rejected
+        info.nfev += stats.nfev
+        stats = _Stats()
+        ok, message, state = record_python(model, motion, times, state, last + 1, ys, outs)
+        if not ok:
+            return ys[:last + 1], (outs[:last + 1] if outputs else None), False, message, last
+        y[:] = state.y
+        hbuf[0] = state.h if state.h is not None else math.nan
+        extra_nfev = 0
+        start, record = last + 1, 0
+    info.steps += stats.steps
+    info.rejected += stats.rejected
+    info.nfev += stats.nfev
+    return ys, outs, True, "completed", n - 1
+
+
+# single evaluations (tests, benchmark)
+def eval_rhs(G: _GProblem, t: float, y) -> tuple:
+    yy = np.ascontiguousarray(y, dtype=float)
+    f = np.empty(NY)
+    _lib().bmg_eval_rhs(ctypes.byref(G), t, yy.ctypes.data_as(_dp), f.ctypes.data_as(_dp))
+    return tuple(f.tolist())
+
+
+def eval_state(G: _GProblem, t: float) -> tuple:
+    o = np.empty(NSTATE)
+    _lib().bmg_eval_state(ctypes.byref(G), t, o.ctypes.data_as(_dp))
+    return tuple(o.tolist())
+
+
+def eval_outputs(G: _GProblem, y, cs) -> tuple:
+    yy = np.ascontiguousarray(y, dtype=float)
+    cc = np.ascontiguousarray(cs, dtype=float)
+    o = np.empty(NOUT)
+    _lib().bmg_eval_outputs(ctypes.byref(G), yy.ctypes.data_as(_dp), cc.ctypes.data_as(_dp),
+                            o.ctypes.data_as(_dp))
+    return tuple(o.tolist())
