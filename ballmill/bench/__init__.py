@@ -18,6 +18,10 @@ figures in benchmarks/figures/):
    program with a generated main, built with gcc -O2);
 4. Pareto fronts, the time of each family at a 1e-6 m contact-point error
    and the ratios, and where the library's time goes.
+7. a chamber that turns (bench/turning.py): the general model's cost per
+   step (Fig. 1 machine, spinning bowl, the same translation) against the
+   translation-only model, Python and compiled kernel, and what a scene
+   without rotation pays through simulate_chamber.
 
 Speed is measured here, never asserted in tests. ``--quick`` runs a reduced
 grid (about a minute) and by default writes to benchmarks/_work/ so that it

@@ -314,6 +314,8 @@ def markdown(d) -> str:
 
     if d.get("cosim_lines"):
         add("\n".join(d["cosim_lines"]) + "\n")
+    if d.get("turning_lines"):
+        add("\n".join(d["turning_lines"]) + "\n")
     add(_defaults(d))
 
     add("## Reproduce\n")

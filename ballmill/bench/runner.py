@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import analysis, cosim, literal, machine, micro, profiling, report
+from . import analysis, cosim, literal, machine, micro, profiling, report, turning
 from .compiled import Compiled
 from .problem import KERNEL_FAMILY, Problem, prepare_library, reference, round_order, time_round_robin
 
@@ -183,6 +183,10 @@ def run(cfg: Config, root: Path, out: Path, figures: Path, work: Path, progress)
         lit_1e5 = analysis.time_at_error(lit, 1e-5).time
         data["cosim_lines"] = cosim.report(rows, start, scene, forces, lit_1e5)
         data["cosim_rows"] = rows
+
+    # 7. a chamber that turns ------------------------------------------------------
+    progress("turning chamber: cost per step of the general model against the translation-only one")
+    data["turning_lines"] = turning.report(turning.measure(3 if cfg.quick else 7, cfg.micro_min_time))
 
     figures.mkdir(parents=True, exist_ok=True)
     fig = figures / "error_vs_time.png"

@@ -1,4 +1,4 @@
-"""ballmill.physics: the ball rolling without slip in a translating sphere.
+"""ballmill.physics: the ball rolling without slip in a moving spherical chamber.
 
 Plain Python and numpy, SI units, no FMI and no I/O. The FMU adapters in
 fmu_src/ and drive_models/ and the scenario runner build on this package.
@@ -8,12 +8,23 @@ fmu_src/ and drive_models/ and the scenario runner build on this package.
     traj = simulate(model, CrankStartup(t0=2.5), t_end=10.0, dt=0.01)
     traj["zP"], traj["N"]
 
+A chamber that moves in 3-D and turns (DESIGN.md section 10): the general model in
+turning.py (equations, outputs with the drives' reaction moments, first integrals) with
+the motions of chamber.py (Translation, Spin, Fig1Machine); `simulate_chamber` runs a
+scene, a Translation on the translation-only model above (unchanged), anything else on
+`ChamberModel` (compiled bmg_* functions when built, fast_turning.py).
+
+    from ballmill.physics import Ball, Fig1Machine, simulate_chamber
+    traj = simulate_chamber(Ball(), Fig1Machine(), t_end=10.0, dt=0.01)
+    traj["Pch_x"], traj["N"], traj["M1"], traj["M2"]
+
 Monolithic runs, and `BallModel.advance` driven by InputReconstruction's cubic
 input (the BallInShell FMU's steps), use a compiled kernel (`fast`, built from
 _kernel.c at install time) when it is available and covers the run, with the
 same results bit for bit; ``KERNEL_AVAILABLE`` says whether it is,
 ``KERNEL_REASON`` why not.
 """
+from .chamber import ChamberState, ConstantSpeed, Fig1Machine, Spin, Translation
 from .drives import Circle, CrankStartup, Fixed, Harmonic
 from .equations import PaperFormulation, VectorFormulation, make_formulation, omega_dot_cramer
 from .errors import FormulationLimitError, InputError, ParameterError, StepFailure
@@ -23,9 +34,11 @@ from .model import BallModel, BallState, Trajectory, simulate
 from .outputs import Outputs, energy, evaluate, spin
 from .params import Ball, steel_ball_mass
 from .platform import MODES as INPUT_MODES, InputReconstruction
+from .turning import ChamberModel, ChamberOutputs, simulate_chamber, simulate_general
 
 __all__ = [
-    "Ball", "BallModel", "BallState", "Circle", "CrankStartup", "Fixed", "FormulationLimitError",
+    "Ball", "BallModel", "BallState", "ChamberModel", "ChamberOutputs", "ChamberState", "Circle",
+    "ConstantSpeed", "Fig1Machine", "Spin", "Translation", "simulate_chamber", "simulate_general", "CrankStartup", "Fixed", "FormulationLimitError",
     "Harmonic", "INPUT_MODES", "InputError", "InputReconstruction", "Integrator", "KERNEL_AVAILABLE",
     "KERNEL_REASON", "KernelUnavailable", "METHODS",
     "Outputs", "PaperFormulation", "ParameterError", "StepFailure", "Trajectory",

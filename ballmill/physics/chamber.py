@@ -190,9 +190,11 @@ class Fig1Machine(ChamberMotion):
     fixed x1 axis by ``frame.angle(t)``, the cranks (length ``crank.l``) turn relative to
     the frame by ``crank.angle(t)``; ``arrangement`` 'perpendicular' (crank axes
     perpendicular to the frame's shaft, default) or 'parallel'; ``centre``: the crank
-    circle's centre in the frame's axes [m]."""
+    circle's centre in the frame's axes [m]; ``l``: the crank length [m] (default: the crank
+    law's own ``l``, as CrankStartup has one)."""
 
-    def __init__(self, frame=None, crank=None, arrangement: str = "perpendicular", centre=(0.0, 0.0, 0.0)):
+    def __init__(self, frame=None, crank=None, arrangement: str = "perpendicular", centre=(0.0, 0.0, 0.0),
+                 l: float | None = None):
         self.frame = ConstantSpeed(0.5) if frame is None else frame
         self.crank = CrankStartup(l=0.5, n0=60.0, t0=2.5) if crank is None else crank
         if arrangement not in ARRANGEMENTS:
@@ -201,7 +203,8 @@ class Fig1Machine(ChamberMotion):
             if not hasattr(law, "angle"):
                 raise ParameterError(f"{name} must be an angle law with angle(t) -> (angle, rate, "
                                      f"acceleration), got {law!r}")
-        l = getattr(self.crank, "l", None)
+        if l is None:
+            l = getattr(self.crank, "l", None)
         if not (isinstance(l, (int, float)) and math.isfinite(l) and l >= 0.0):
             raise ParameterError(f"crank.l must be a non-negative length in m, got {l!r}")
         self.l = float(l)

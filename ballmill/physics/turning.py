@@ -400,33 +400,33 @@ def simulate_chamber(ball: Ball, motion: ChamberMotion, t_end: float, dt: float,
 
 
 def translation_columns(ball: Ball, motion: Translation, traj: Trajectory) -> dict:
-    """ChamberOutputs columns of a translation-only run (its own outputs where they exist)."""
+    """ChamberOutputs columns of a translation-only run: its own outputs where they exist
+    (the contact point in the chamber's axes is its (xP, yP, zP), the crank's moment its
+    M_reaction), the rest from the platform's state (numpy over the grid)."""
     o = traj.out
-    n = len(traj.t)
     if not o:
         return {}
-    cs = np.array([motion.state(float(t)) for t in traj.t])
-    nv = traj.y[:, :3]
-    w = traj.y[:, 3:]
-    d, m, g, R = ball.d, ball.m, ball.g, ball.R
-    nd = ball.lam * np.cross(nv, w)
-    vc = cs[:, 3:6] + d * nd
-    vp = cs[:, 3:6]
-    F = -np.column_stack([o["Fx"], o["Fy"], o["Fz"]])
-    E = 0.5 * m * np.sum(vc * vc, axis=1) + 0.5 * ball.I * np.sum(w * w, axis=1) + m * g * (cs[:, 2] + d * nv[:, 2])
-    P = cs[:, 0:3] + R * nv
-    Fs = -F
-    mom = np.cross(P, Fs)
-    M1 = np.sum(cs[:, 25:28] * mom, axis=1) + np.sum(cs[:, 28:31] * Fs, axis=1)
-    M2 = np.sum(cs[:, 32:35] * mom, axis=1) + np.sum(cs[:, 35:38] * Fs, axis=1)
-    cols = {"Px": P[:, 0], "Py": P[:, 1], "Pz": P[:, 2], "Pch_x": o["xP"], "Pch_y": o["yP"], "Pch_z": o["zP"],
-            "Cx": cs[:, 0] + o["xC"], "Cy": cs[:, 1] + o["yC"], "Cz": cs[:, 2] - R + o["zC"],
+    platform = motion.platform
+    ps = np.array([platform.state(float(t)) for t in traj.t], dtype=float).reshape(-1, 6)
+    x, yy, vx, vy = ps[:, 0], ps[:, 1], ps[:, 2], ps[:, 3]
+    nv, w = traj.y[:, :3], traj.y[:, 3:]
+    d, m, g, R, zA = ball.d, ball.m, ball.g, ball.R, motion.zA
+    vc = d * ball.lam * np.cross(nv, w)
+    vc[:, 0] += vx
+    vc[:, 1] += vy
+    E = 0.5 * m * np.sum(vc * vc, axis=1) + 0.5 * ball.I * np.sum(w * w, axis=1) + m * g * (zA + d * nv[:, 2])
+    if hasattr(platform, "angle"):  # the crank (chamber.Translation's drive 1)
+        M1, M2 = o["M_reaction"], np.zeros_like(x)
+    else:  # the x and y motions: forces [N]
+        M1, M2 = o["Fx"], o["Fy"]
+    cols = {"Px": x + R * nv[:, 0], "Py": yy + R * nv[:, 1], "Pz": zA + R * nv[:, 2],
+            "Pch_x": o["xP"], "Pch_y": o["yP"], "Pch_z": o["zP"],
+            "Cx": x + o["xC"], "Cy": yy + o["yC"], "Cz": zA - R + o["zC"],
             "wx": o["wx"], "wy": o["wy"], "wz": o["wz"], "spin": np.sum(nv * w, axis=1),
             "N": o["N"], "Ft": o["Ft"], "friction_ratio": o["friction_ratio"],
             "Fx": o["Fx"], "Fy": o["Fy"], "Fz": o["Fz"], "Fch_x": o["Fx"], "Fch_y": o["Fy"], "Fch_z": o["Fz"],
-            "M1": M1, "M2": M2, "P_ball": np.sum(F * vp, axis=1), "E": E,
+            "M1": M1, "M2": M2, "P_ball": -(o["Fx"] * vx + o["Fy"] * vy), "E": E,
             "contact": o["contact"], "rolling": o["rolling"]}
-    assert len(cols) == len(ChamberOutputs._fields) and all(len(v) == n for v in cols.values())
     return {k: np.asarray(cols[k], dtype=float) for k in ChamberOutputs._fields}
 
 
