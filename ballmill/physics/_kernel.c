@@ -20,6 +20,11 @@
  * polynomial of platform.InputReconstruction (motion BM_POLY: only a(t) is
  * known, evaluated in the closure's operation order).
  *
+ * The general model of a chamber that moves in 3-D and turns (turning.py and
+ * chamber.py; DESIGN.md section 10) has functions of its own, bmg_* at the end
+ * of the file, reached through ballmill/physics/fast_turning.py; they share the
+ * integrator helpers but leave the translation-only functions as they are.
+ *
  * Plain C99, no Python C API in the functions: ballmill/physics/fast.py calls
  * them through ctypes. Built by setup.py as the extension module
  * ballmill.physics._kernel (BALLMILL_KERNEL_MODULE defined: the PyInit at the
