@@ -126,6 +126,18 @@ def test_simulate_chamber_keeps_the_translation_path():
         assert o.M1 == pytest.approx(got["M1"][i], rel=1e-9, abs=1e-12)
 
 
+def test_translation_scene_never_builds_the_general_model(monkeypatch):
+    """A scene without rotation must not pay for the general model: simulate_chamber does
+    not even construct it (and a turning scene does)."""
+    def refuse(*a, **k):
+        raise AssertionError("general model built for a translation scene")
+    monkeypatch.setattr(turning, "ChamberModel", refuse)
+    tr = turning.simulate_chamber(BALL, Translation(CrankStartup()), 1.0, 0.1)
+    assert tr.success and set(tr.out) == set(turning.ChamberOutputs._fields)
+    with pytest.raises(AssertionError, match="general model built"):
+        turning.simulate_chamber(BALL, Spin(), 1.0, 0.1)
+
+
 # --------------------------------------------------------------------------- power balance
 def _random_states(seed, count):
     rng = np.random.default_rng(seed)
@@ -165,6 +177,23 @@ def test_energy_changes_by_the_drives_work(name):
     swing = np.ptp(tr["E"])
     assert swing > 0.01  # the drives do work
     assert abs(dE - work) <= 1e-7 * swing
+
+
+def test_fig1_machine_with_the_frame_at_rest_is_the_papers_mill():
+    """phi = 0: the cranks turn in the horizontal plane, the machine is the paper's
+    translating platform. The general model on Fig1Machine and the translation-only model
+    on CrankStartup compute a_A by different formulas, so the runs agree to round-off, and the cranks' reaction moment M2 is the translation
+    model's M_reaction."""
+    crank = CrankStartup(l=0.5, n0=60.0, t0=2.5)
+    mo = Fig1Machine(frame=ConstantSpeed(0.0), crank=crank)
+    gen = turning.simulate_chamber(BALL, mo, 10.0, 0.01, xC0=0.02, tol=1e-11)
+    bm = BallModel(BALL, tol=1e-11)
+    ref = simulate(bm, crank, 10.0, 0.01, bm.initial(0.02, 0.0))
+    # measured 4e-15 / 5e-14 N / 3e-14 N m (round-off only: same steps); bounds 1000x that
+    assert np.abs(gen.y[:, :3] - ref.y[:, :3]).max() <= 1e-11
+    assert np.abs(gen["N"] - ref["N"]).max() <= 1e-10
+    assert np.abs(gen["M2"] - ref["M_reaction"]).max() <= 1e-10
+    assert np.abs(gen["M1"]).max() > 0.1  # the frame's shaft still holds the load's moment about x
 
 
 # --------------------------------------------------------------------------- first integrals
