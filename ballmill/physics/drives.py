@@ -89,6 +89,32 @@ class CrankStartup:
         return (w0 * t0 * s ** 4 * (2.5 - 3.0 * s + s * s), w0 * s ** 3 * (10.0 - 15.0 * s + 6.0 * s * s),
                 30.0 * w0 * s * s * u * u / t0)
 
+    def angles(self, t):
+        """`angle` over an array of times: (psi, psi', psi'') as arrays (numpy; for studies,
+        which need the drive's kinematics at every output sample)."""
+        import numpy as np
+
+        t = np.asarray(t, dtype=float)
+        w0, t0 = self.w0, self.t0
+        s = np.clip(t / t0, 0.0, 1.0)
+        u = 1.0 - s
+        if self.law == "quadratic":
+            c, rise = 2.0 / 3.0, (w0 * t0 * s * s * (1.0 - s / 3.0), w0 * (1.0 - u * u), 2.0 * w0 * u / t0)
+        else:
+            c = 0.5
+            rise = {"linear": lambda: (0.5 * w0 * t0 * s * s, w0 * s, np.full_like(s, w0 / t0)),
+                    "scurve": lambda: (w0 * t0 * s ** 3 * (1.0 - 0.5 * s), w0 * s * s * (3.0 - 2.0 * s),
+                                       6.0 * w0 * s * u / t0),
+                    "quintic": lambda: (w0 * t0 * s ** 4 * (2.5 - 3.0 * s + s * s),
+                                        w0 * s ** 3 * (10.0 - 15.0 * s + 6.0 * s * s),
+                                        30.0 * w0 * s * s * u * u / t0)}[self.law]()
+        before, after = t <= t0, t > t0
+        psi = np.where(before, rise[0], c * w0 * t0 + w0 * (t - t0))
+        wd = np.where(before, rise[1], w0)
+        wdd = np.where(before, rise[2], 0.0)
+        neg = t < 0.0
+        return np.where(neg, 0.0, psi), np.where(neg, 0.0, wd), np.where(neg, 0.0, wdd)
+
     def state(self, t: float):
         """(x, y, vx, vy, ax, ay) of the platform point O at time t."""
         psi, wd, wdd = self.angle(t)
