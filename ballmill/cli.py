@@ -99,12 +99,13 @@ def _sweep(args) -> int:
     except (spec.StudyError, ValueError) as e:
         print(f"ballmill sweep: {e}", file=sys.stderr)
         return 2
-    rate = res.computed / res.compute_s if res.compute_s > 0 and res.computed else 0.0
+    rate = res.computed / res.run_s if res.run_s > 0 and res.computed else 0.0
     print(json.dumps({"results": str(res.results), "points": len(res.rows), "computed": res.computed,
                       "skipped (already in the results)": res.skipped, "failed": res.failed,
                       "evaluator": res.evaluator, "executor": res.executor, "batch": res.batch,
                       "wall_s": round(res.wall_s, 3), "compute_s": round(res.compute_s, 3),
-                      "points_per_s": round(rate, 1), "plots": [str(p) for p in res.plots]}, indent=2))
+                      "points_per_s (first task to last result)": round(rate, 1),
+                      "timing": str(res.out_dir / "timing.json"), "plots": [str(p) for p in res.plots]}, indent=2))
     return 0
 
 

@@ -136,6 +136,7 @@ class Outcome:
     evaluator: str = ""
     batch: int = 0
     plots: list = field(default_factory=list)
+    run_s: float = 0.0  # from the first task to the last result
 
 
 class _Bar:
@@ -261,12 +262,15 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
         flush()
 
     c0 = time.perf_counter()
+    run_s = 0.0
     if todo:
         if scheduler == "in-process":
             executor = "in-process"
             nb = batch or _default_batch(len(todo), 1)
+            r0 = time.perf_counter()
             for k in range(0, len(todo), nb):
                 take(*run_batch(prepared, study.indicators, todo[k:k + nb]))
+            run_s = time.perf_counter() - r0
         else:
             from dask.distributed import Client, LocalCluster, as_completed
 
@@ -286,12 +290,14 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
                 nworkers = max(1, len(client.scheduler_info(n_workers=-1)["workers"]))
                 nb = batch or _default_batch(len(todo), nworkers)
                 executor += f" ({nworkers} worker(s) seen)"
+                r0 = time.perf_counter()
                 prep = client.scatter(prepared, broadcast=True)
                 futs = [client.submit(run_batch, prep, study.indicators, todo[k:k + nb], pure=False)
                         for k in range(0, len(todo), nb)]
                 for fut in as_completed(futs):
                     take(*fut.result())
                     fut.release()
+                run_s = time.perf_counter() - r0
             finally:
                 k1 = time.perf_counter()
                 client.close()
@@ -320,5 +326,11 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
         except Exception as e:  # noqa: BLE001 - the results stand without their plots
             log(f"plots not written: {type(e).__name__}: {e}")
     failed = sum(1 for r in new_rows if r.get("status") != "ok")
+    # how the time went (not part of the results, which do not depend on who computed them)
+    timing = {"prepare": setup_s, "cluster_start": split_total.pop("cluster_start", 0.0), "run": run_s,
+              "cluster_close": split_total.pop("cluster_close", 0.0), "write": write_s,
+              "points_computed": len(new_rows), "executor": executor, "batch": nb,
+              "sustained_points_per_s": len(new_rows) / run_s if run_s > 0 else None, "workers": split_total}
+    (out_dir / "timing.json").write_text(json.dumps(timing, indent=2))
     return Outcome(out_dir, results, rows, len(new_rows), skipped, failed, time.perf_counter() - wall0,
-                   setup_s, compute_s, write_s, split_total, executor, ev.kind, nb, plot_files)
+                   setup_s, compute_s, write_s, split_total, executor, ev.kind, nb, plot_files, run_s)
