@@ -84,7 +84,8 @@ def _sweep(args) -> int:
             raise spec.StudyError(["--range needs --sample lhs:N or random:N"])
         model = {k: v for k, v in (("kind", args.model), ("method", args.method), ("h", args.h),
                                    ("dt", args.dt), ("target_P", args.target)) if v is not None}
-        study = spec.load(args.study, set_=args.set or (), grid=grid or None, sample=sample, model=model)
+        study = spec.load(args.study, set_=args.set or (), grid=grid or None, sample=sample, model=model,
+                          stop=args.stop)
         if not study.swept:
             raise spec.StudyError(["nothing to sweep: give --grid inst.param=VALUES or --sample with --range "
                                    "(or a study file with [grid] or [sample])"])
@@ -165,6 +166,7 @@ def main(argv=None) -> int:
     w.add_argument("--set", action="append", metavar="INSTANCE.PARAM=VALUE",
                    help="a fixed override, as in ballmill run (repeatable)")
     w.add_argument("--out", help="output folder (default: out/sweep/STUDY); re-running resumes")
+    w.add_argument("--stop", type=float, help="simulate up to this time [s] instead of the scenario's stop")
     w.add_argument("--model", help="evaluator: auto (default), crank-kernel or cosim")
     w.add_argument("--method", help="kernel integrator: RK4 (default), RK45 or DOP853")
     w.add_argument("--h", type=float, help="RK4 first step [s] (default 0.01; halved per point to meet the target)")

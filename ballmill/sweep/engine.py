@@ -185,6 +185,10 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
         sc = _scen.load(study.scenario, study.set)
     except _scen.ScenarioError as e:
         raise StudyError(e.problems) from None
+    if study.stop is not None:
+        if study.stop <= sc.start:
+            raise StudyError([f"stop = {study.stop} s must be after the scenario's start {sc.start} s"])
+        sc.stop = study.stop
     for key in study.swept:
         inst = key.split(".", 1)[0]
         if inst not in sc.instances:

@@ -309,7 +309,7 @@ class Cosim(Evaluator):
         defaults = {n: {v.name: _start(v) for v in models[i.fmu].modelVariables if v.causality == "parameter"}
                     for n, i in sc.instances.items() if i.fmu}
         return CosimPrepared(path=str(sc.path), overrides=list(study.set), build_dir=build_dir, ball=ball,
-                             drive=drive, defaults=defaults, step=sc.step)
+                             drive=drive, defaults=defaults, step=sc.step, stop=study.stop)
 
 
 def _start(v):
@@ -328,7 +328,8 @@ class CosimPrepared(Prepared):
     drive: str | None
     defaults: dict
     step: float
-    timing: dict = field(default_factory=lambda: {"integration": 0.0, "error_estimate": 0.0})
+    stop: float | None = None
+    timing: dict = field(default_factory=lambda: {"integration": 0.0})
 
     @property
     def model(self):
@@ -340,6 +341,8 @@ class CosimPrepared(Prepared):
         c0 = time.perf_counter()
         sets = self.overrides + [f"{k}={_toml(v)}" for k, v in params.items()]
         sc, models, paths = runner.prepare(self.path, sets, self.build_dir, log=lambda m: None)
+        if self.stop is not None:
+            sc.stop = self.stop
         res = runner.run(sc, models, paths, progress=False, echo=False)
         self.timing["integration"] += time.perf_counter() - c0
         if not res.success:

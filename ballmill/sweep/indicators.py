@@ -9,7 +9,8 @@ window reference ("after", "drive.t0", ...) into seconds. From it:
   sample). The one place this rule lives (the FMU's latched `valid` output
   follows the same rule).
 * `statistic`: max, min, range, amplitude, rms, mean, abs_max or integral of a
-  series over a window [a, b]. It is None (not reported) when the window
+  series over a window [a, b] (seconds, or "start", "after", "stop",
+  "instance.parameter", each optionally with an offset: "after+10"). It is None (not reported) when the window
   reaches a sample at or after t_invalid: a statistic over a span where the
   model does not hold is never reported as physics. Extrema inside the window
   are refined by the parabola through the sample and its two neighbours, so
@@ -24,10 +25,13 @@ atan2(|P - C| in Oxy, zC - zP), which needs no radii) [deg].
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
+
+_OFFSET = re.compile(r"^(.+?)\s*([+-]\s*\d+(?:\.\d*)?(?:[eE][+-]?\d+)?)$")
 
 # name -> (unit, description); the order is the order of the results' columns
 BUILTIN = {
@@ -87,8 +91,12 @@ class Record:
             return float(ref)
         if ref in self.refs:
             return float(self.refs[ref])
+        m = _OFFSET.match(str(ref))
+        if m and m.group(1).strip() in self.refs:  # "after+10", "stop-5"
+            return float(self.refs[m.group(1).strip()]) + float(m.group(2).replace(" ", ""))
         raise KeyError(f"window reference {ref!r}: not a number of seconds, 'start', 'after', 'stop' "
-                       f"or a parameter of the scenario (known: {', '.join(sorted(self.refs))})")
+                       f"or a parameter of the scenario, optionally +- seconds "
+                       f"(known: {', '.join(sorted(self.refs))})")
 
 
 def validity(t, N, friction_ratio, mu: float):

@@ -5,6 +5,7 @@ command-line options; both become a `Study`:
 
     description = "t0 and n0 of the fast start"
     scenario = "fast_start"                 # a scenario name in scenarios/ or a path
+    stop = 40.0                             # optional: the scenario's experiment stop, replaced [s]
     set = { "ball.mu" = 0.3 }               # fixed overrides, as `ballmill run --set`
 
     [grid]                                  # a full grid over every key
@@ -29,7 +30,8 @@ command-line options; both become a `Study`:
     name = "xP_rms_late"
     variable = "ball.xP"
     stat = "rms"                            # max, min, range, amplitude, rms, mean, abs_max, integral
-    window = ["after", "stop"]              # numbers [s], "start", "after", "stop" or "inst.param"
+    window = ["after", "after+10"]          # numbers [s], "start", "after", "stop" or "inst.param",
+                                            # each with an optional offset in seconds
 
 `points()` lists the points in a fixed order (grid: the first key varies
 slowest; samples: from the seed), so a study gives the same points, indices
@@ -88,6 +90,7 @@ class Study:
     model: dict = field(default_factory=dict)  # kind, method, h, tolerance, dt
     indicators: list[Indicator] = field(default_factory=list)
     source: Path | None = None  # the study file, if any
+    stop: float | None = None  # overrides the scenario's experiment stop [s]
 
     @property
     def swept(self) -> list[str]:
@@ -119,7 +122,7 @@ class Study:
     def context(self, scenario_text: str, evaluator: str) -> dict:
         """What the results of this study depend on besides the points (stored with them)."""
         return {"scenario": self.scenario, "scenario_sha256": hashlib.sha256(scenario_text.encode()).hexdigest(),
-                "set": sorted(self.set), "model": dict(sorted(self.model.items())), "evaluator": evaluator,
+                "stop": self.stop, "set": sorted(self.set), "model": dict(sorted(self.model.items())), "evaluator": evaluator,
                 "indicators": [i.to_dict() for i in self.indicators]}
 
 
@@ -193,9 +196,13 @@ def _window_ok(w) -> bool:
 
 
 def build(scenario: str, *, name: str | None = None, description: str = "", set_=(), grid=None,
-          sample=None, model=None, indicators=(), source: Path | None = None, where: str = "study") -> Study:
+          sample=None, model=None, indicators=(), source: Path | None = None, where: str = "study",
+          stop: float | None = None) -> Study:
     """A checked Study (StudyError lists every problem)."""
     problems: list[str] = []
+    if stop is not None and not (isinstance(stop, (int, float)) and not isinstance(stop, bool)
+                                 and math.isfinite(stop) and stop > 0):
+        problems.append(f"{where}: stop: expected a positive number of seconds, got {stop!r}")
     g = {}
     for key, spec in (grid or {}).items():
         if not _check_key(key, where, problems):
@@ -286,7 +293,8 @@ def build(scenario: str, *, name: str | None = None, description: str = "", set_
     if problems:
         raise StudyError(problems)
     return Study(name=name or Path(str(scenario)).stem, scenario=str(scenario), description=description,
-                 set=list(set_), grid=g, sample=smp, model=m, indicators=inds, source=source)
+                 set=list(set_), grid=g, sample=smp, model=m, indicators=inds, source=source,
+                 stop=None if stop is None else float(stop))
 
 
 def resolve_study(name_or_path: str) -> Path | None:
@@ -306,19 +314,20 @@ def resolve_study(name_or_path: str) -> Path | None:
     return None
 
 
-def load(name_or_path: str, *, set_=(), grid=None, sample=None, model=None) -> Study:
+def load(name_or_path: str, *, set_=(), grid=None, sample=None, model=None, stop=None) -> Study:
     """A study from a study file or a scenario name, with command-line additions: ``set_``
     (overrides, appended), ``grid`` (axes, replacing the file's), ``sample``, ``model``."""
     path = resolve_study(name_or_path)
     if path is None:
         _scen.resolve(name_or_path)  # a clear error when it is no scenario either
-        return build(name_or_path, set_=list(set_), grid=grid, sample=sample, model=model, where="command line")
+        return build(name_or_path, set_=list(set_), grid=grid, sample=sample, model=model, where="command line",
+                     stop=stop)
     where = path.as_posix()
     doc = tomllib.loads(path.read_text())
-    unknown = set(doc) - {"description", "scenario", "set", "grid", "sample", "model", "indicators"}
+    unknown = set(doc) - {"description", "scenario", "stop", "set", "grid", "sample", "model", "indicators"}
     if unknown:
-        raise StudyError([f"{where}: unknown key(s) {sorted(unknown)}; expected description, scenario, set, "
-                          f"grid, sample, model, indicators"])
+        raise StudyError([f"{where}: unknown key(s) {sorted(unknown)}; expected description, scenario, stop, "
+                          f"set, grid, sample, model, indicators"])
     scen = doc["scenario"]
     cand = path.parent / scen
     if cand.is_file() or cand.with_suffix(".toml").is_file():
@@ -334,7 +343,8 @@ def load(name_or_path: str, *, set_=(), grid=None, sample=None, model=None) -> S
         g = {} if not grid else g
     mdl = {**(doc.get("model") or {}), **(model or {})}
     return build(scen, name=path.stem, description=str(doc.get("description", "")), set_=fixed, grid=g,
-                 sample=smp, model=mdl, indicators=doc.get("indicators", []), source=path, where=where)
+                 sample=smp, model=mdl, indicators=doc.get("indicators", []), source=path, where=where,
+                 stop=stop if stop is not None else doc.get("stop"))
 
 
 def _toml_value(v) -> str:
