@@ -309,7 +309,25 @@ class Cosim(Evaluator):
         defaults = {n: {v.name: _start(v) for v in models[i.fmu].modelVariables if v.causality == "parameter"}
                     for n, i in sc.instances.items() if i.fmu}
         return CosimPrepared(path=str(sc.path), overrides=list(study.set), build_dir=build_dir, ball=ball,
-                             drive=drive, defaults=defaults, step=sc.step, stop=study.stop)
+                             drive=drive, defaults=defaults, step=sc.step, stop=study.stop,
+                             extra=tuple(i.variable for i in study.indicators))
+
+
+BALL_NEEDED = ("N", "friction_ratio", "xP", "yP", "zP", "xC", "yC", "zC", "M_reaction", "coupling_error")
+DRIVE_NEEDED = ("psi_dot", "T_drive", "P_drive")
+
+
+def _record_needed(sc, models, ball, drive, extra):
+    """Add to the scenario's records what the indicators read (where the FMU has it)."""
+    have = set(sc.record)
+    want = [(ball, v) for v in BALL_NEEDED] + ([(drive, v) for v in DRIVE_NEEDED] if drive else [])
+    want += [tuple(v.split(".", 1)) for v in extra]
+    for inst, var in want:
+        if (inst, var) in have or inst not in sc.instances or sc.instances[inst].fmu is None:
+            continue
+        if any(v.name == var and v.causality == "output" for v in models[sc.instances[inst].fmu].modelVariables):
+            sc.record.append((inst, var))
+            have.add((inst, var))
 
 
 def _start(v):
@@ -329,6 +347,7 @@ class CosimPrepared(Prepared):
     defaults: dict
     step: float
     stop: float | None = None
+    extra: tuple = ()  # variables the study's own indicators read
     timing: dict = field(default_factory=lambda: {"integration": 0.0})
 
     @property
@@ -343,6 +362,7 @@ class CosimPrepared(Prepared):
         sc, models, paths = runner.prepare(self.path, sets, self.build_dir, log=lambda m: None)
         if self.stop is not None:
             sc.stop = self.stop
+        _record_needed(sc, models, self.ball, self.drive, self.extra)
         res = runner.run(sc, models, paths, progress=False, echo=False)
         self.timing["integration"] += time.perf_counter() - c0
         if not res.success:
