@@ -112,10 +112,10 @@ def _simulate_loop(n: int) -> float:
 
     t0s = np.linspace(1.5, 4.0, n)
     simulate(BallModel(Ball(), method="RK4", h_fixed=0.005), CrankStartup(0.5, 60.0, 2.5), 10.0, 0.01)
-    t = time.perf_counter()
+    t, c = time.perf_counter(), time.process_time()
     for t0 in t0s:
         simulate(BallModel(Ball(), method="RK4", h_fixed=0.005), CrankStartup(0.5, 60.0, float(t0)), 10.0, 0.01)
-    return n / (time.perf_counter() - t)
+    return n / (time.perf_counter() - t), (time.process_time() - c) / n
 
 
 def _run_loop(n: int, build_dir: Path) -> float:
@@ -140,7 +140,7 @@ def measure(quick: bool, progress=print, root: Path | None = None) -> dict:
         wall, js = _sweep(_grid(main_n) + ["--workers", "2"], work / "main", env)
         data["main"] = {"wall": wall, **js, "split": _split(work / "main")}
         progress(f"studies: plain loops over simulate and ballmill run")
-        data["loop_simulate"] = _simulate_loop(100 if quick else 400)
+        data["loop_simulate"], data["loop_simulate_cpu"] = _simulate_loop(100 if quick else 400)
         from ballmill.fmi import build as _build
 
         bdir = work / "fmus"
@@ -195,7 +195,8 @@ def report(data: dict) -> str:
              f"(target: 4000 points within 8 s); sustained **{_f(sustained, 4)} points/s** from the first task to "
              f"the last result (target: at least 1000 points/s on 2 cores).")
     L.append(f"- plain Python loop over `simulate` (same RK4 h = 0.005 s, no indicators, no error estimate, one "
-             f"core): {data['loop_simulate']:.0f} points/s; over `ballmill run` (a process and a co-simulation "
+             f"core): {data['loop_simulate']:.0f} points/s ({1e3 * data['loop_simulate_cpu']:.3f} ms CPU a point); "
+             f"over `ballmill run` (a process and a co-simulation "
              f"through the FMUs per point): {data['loop_run']:.2f} points/s.")
     L.append("")
     L.append("Where the time of that study goes:")
@@ -227,15 +228,25 @@ def report(data: dict) -> str:
         other = tot - w.get("integration", 0) - w.get("indicators", 0)
         L.append(f"| task overhead inside the worker (parameters, records, rows) | {other:.3f} | {1e3 * other / n:.3f} |")
         L.append(f"| all tasks | {tot:.3f} | {1e3 * tot / n:.3f} |")
+        cpu = w.get("task_cpu")
+        if cpu:
+            L.append(f"| all tasks, CPU time of the worker processes | {cpu:.3f} | {1e3 * cpu / n:.3f} |")
+            L.append("")
+            L.append(f"CPU time per point in the workers: {1e3 * cpu / n:.3f} ms, so two cores given wholly to the "
+                     f"workers would sustain about {2 * n / cpu:.0f} points/s (an estimate that load from other "
+                     f"processes does not inflate; the wall-clock numbers above are what this run saw).")
         L.append("")
     L.append("How the time grows with the number of points and workers:")
     L.append("")
-    L.append("| points | how | whole command [s] | first task to last result [s] | sustained [points/s] | batch |")
-    L.append("|---|---|---|---|---|---|")
+    L.append("| points | how | whole command [s] | cluster start [s] | first task to last result [s] | sustained "
+             "[points/s] | CPU per point in the workers [ms] | batch |")
+    L.append("|---|---|---|---|---|---|---|---|")
     for r in data["scaling"]:
         s = r["split"]
-        L.append(f"| {r['n']} | {r['label']} | {r['wall']:.2f} | {s.get('run', 0):.2f} | "
-                 f"{_f(s.get('sustained_points_per_s'), 4)} | {r.get('batch', '')} |")
+        cpu = s.get("workers", {}).get("task_cpu")
+        L.append(f"| {r['n']} | {r['label']} | {r['wall']:.2f} | {s.get('cluster_start', 0):.2f} | {s.get('run', 0):.2f} | "
+                 f"{_f(s.get('sustained_points_per_s'), 4)} | {_f(1e3 * cpu / r['n'] if cpu else None)} | "
+                 f"{r.get('batch', '')} |")
     if data.get("remote_error"):
         L.append("")
         L.append(f"Scheduler by address: not measured ({data['remote_error']}).")

@@ -27,7 +27,6 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 
@@ -132,8 +131,8 @@ def _window(rec: Record, a, b, n_valid: int):
     ta, tb = rec.time_of(a), rec.time_of(b)
     t = rec.t
     eps = 1e-9 * max(1.0, abs(tb))
-    i0 = int(np.searchsorted(t, ta - eps, side="left"))
-    i1 = int(np.searchsorted(t, tb + eps, side="right"))
+    i0 = int(t.searchsorted(ta - eps, side="left"))
+    i1 = int(t.searchsorted(tb + eps, side="right"))
     if i1 <= i0 or i1 > n_valid:
         return None
     return slice(i0, i1)
@@ -141,46 +140,49 @@ def _window(rec: Record, a, b, n_valid: int):
 
 def statistic(rec: Record, x: np.ndarray, stat: str, window, n_valid: int):
     """A statistic of x over the window, or None (see the module docstring)."""
-    sl = _window(rec, window[0], window[1], n_valid)
+    return _stat(rec.t, x, stat, _window(rec, window[0], window[1], n_valid))
+
+
+def _ext(t, x, sl: slice, sign: int) -> float:
+    """The largest (sign +1) or smallest (-1) value of x in the slice, refined by the parabola
+    through its neighbours when it lies at an interior sample of the slice."""
+    w = x[sl]
+    i = int(w.argmax()) if sign > 0 else int(w.argmin())
+    if 0 < i < len(w) - 1:
+        return _refine(t, x, sl.start + i, sign)
+    return float(w[i])
+
+
+def _stat(t, x, stat: str, sl):
     if sl is None:
         return None
-    t, w = rec.t, x[sl]
-    if stat in ("max", "min", "range", "amplitude", "abs_max"):
-        # refine with the neighbours inside the valid span (not past it)
-        lo, hi = sl.start, sl.stop
-        xs = x[max(0, lo - 1):min(n_valid, hi + 1)]
-        ts = t[max(0, lo - 1):min(n_valid, hi + 1)]
-        off = lo - max(0, lo - 1)
-
-        def ext(sign):
-            i = int(np.argmax(w)) if sign > 0 else int(np.argmin(w))
-            v = _refine(ts, xs, i + off, sign)
-            # a refined extremum only at an interior sample of the window
-            return v if 0 < i < len(w) - 1 else float(w[i])
-        if stat == "max":
-            return ext(1)
-        if stat == "min":
-            return ext(-1)
-        if stat == "abs_max":
-            return max(ext(1), -ext(-1))
-        mx, mn = ext(1), ext(-1)
-        return mx - mn if stat == "range" else 0.5 * (mx - mn)
+    if stat == "max":
+        return _ext(t, x, sl, 1)
+    if stat == "min":
+        return _ext(t, x, sl, -1)
+    if stat == "abs_max":
+        return max(_ext(t, x, sl, 1), -_ext(t, x, sl, -1))
+    if stat in ("range", "amplitude"):
+        d = _ext(t, x, sl, 1) - _ext(t, x, sl, -1)
+        return d if stat == "range" else 0.5 * d
+    w = x[sl]
     if stat == "rms":
-        return float(np.sqrt(np.mean(w * w)))
+        return float(np.sqrt(w.dot(w) / len(w)))
     if stat == "mean":
-        return float(np.mean(w))
+        return float(w.mean())
     if stat == "integral":
         tw = t[sl]
-        return float(np.sum(0.5 * (w[1:] + w[:-1]) * np.diff(tw))) if len(w) > 1 else 0.0
+        return float((0.5 * (w[1:] + w[:-1])).dot(np.diff(tw))) if len(w) > 1 else 0.0
     raise ValueError(f"unknown statistic {stat!r}")
 
 
 def builtin(rec: Record, n_valid: int) -> dict:
     """The BUILTIN indicators of a record (None where not reported)."""
     b = rec.ball + "."
-    after = ("after", "stop")
-    run = ("start", "stop")
-    st = lambda name, stat, win: statistic(rec, rec.get(name), stat, win, n_valid)  # noqa: E731
+    t = rec.t
+    after = _window(rec, "after", "stop", n_valid)  # each window found once
+    run = _window(rec, "start", "stop", n_valid)
+    st = lambda name, stat, sl: _stat(t, rec.get(name), stat, sl)  # noqa: E731
     out = {"N_max": st(b + "N", "max", run), "N_range_after": st(b + "N", "range", after)}
     inner, outer = st(b + "rhoP", "min", after), st(b + "rhoP", "max", after)
     out.update(ring_inner=inner, ring_outer=outer,
@@ -190,13 +192,13 @@ def builtin(rec: Record, n_valid: int) -> dict:
     if rec.drive is not None and f"{rec.drive}.T_drive" in rec.series:
         d = rec.drive + "."
         out.update(T_drive_peak=st(d + "T_drive", "abs_max", run), T_drive_rms=st(d + "T_drive", "rms", run),
-                   E_startup=st(d + "P_drive", "integral", ("start", "after")))
+                   E_startup=st(d + "P_drive", "integral", _window(rec, "start", "after", n_valid)))
     else:
         out.update(T_drive_peak=None, T_drive_rms=None, E_startup=None)
     return out
 
 
-def evaluate(rec: Record, custom=(), extra: Callable | None = None) -> dict:
+def evaluate(rec: Record, custom=()) -> dict:
     """Every indicator of a record: BUILTIN, then the custom ones, then valid and t_invalid."""
     b = rec.ball + "."
     valid, t_invalid, n_valid = validity(rec.t, rec.get(b + "N"), rec.get(b + "friction_ratio"), rec.mu)
