@@ -247,3 +247,49 @@ def test_cosim_points_agree_with_the_kernel(tmp_path, fmu_build_dir):
         for name, tol in (("N_range_after", 5e-3), ("N_max", 5e-3), ("ring_inner", 1e-5), ("ring_outer", 1e-5),
                           ("zP_max", 1e-5), ("theta_max_deg", 1e-3), ("T_drive_peak", 5e-3), ("E_startup", 0.05)):
             assert c[name] == pytest.approx(k[name], abs=tol), name
+
+
+# ----------------------------------------------------------------------------
+# a model of another kind plugs in without touching the engine
+class _ToyPrepared:
+    model = "toy: N = m g (1 + a sin t)"
+    timing: dict = {}
+
+    def run(self, params):
+        t = np.linspace(0.0, 10.0, 1001)
+        a = float(params["ball.m"])  # any parameter of the scenario, read as the toy pleases
+        zeros = np.zeros_like(t)
+        s = {"ball.N": 9.81 * (1 + 0.5 * a * np.sin(t)), "ball.friction_ratio": zeros}
+        s.update({f"ball.{k}": zeros for k in ("xP", "yP", "zP", "xC", "yC", "zC")})
+        rec = ind.Record(t, s, "ball", None, 0.3, {"start": 0.0, "stop": 10.0, "after": 0.0})
+        return rec, {"model": self.model, "error_P_m": 0.0, "error_N_N": 0.0, "error_method": "exact"}
+
+    def evaluate(self, rec, custom):
+        valid, t_inv, n = ind.validity(rec.t, rec.get("ball.N"), rec.get("ball.friction_ratio"), rec.mu)
+        return {"N_swing": ind.statistic(rec, rec.get("ball.N"), "range", ("start", "stop"), n),
+                "valid": valid, "t_invalid": t_inv}
+
+
+def test_an_evaluator_plugs_in(tmp_path):
+    from ballmill.sweep import evaluators
+
+    class Toy(evaluators.Evaluator):
+        kind = "toy"
+        indicators = {"N_swing": ("N", "max - min of N")}
+
+        def check(self, sc):
+            return ""
+
+        def prepare(self, sc, study, build_dir=None):
+            return _ToyPrepared()
+
+    evaluators.register(Toy(), before="cosim")
+    try:
+        assert evaluators.ORDER.index("toy") == evaluators.ORDER.index("cosim") - 1
+        res = run_study(build("fast_start", grid={"ball.m": [0.5, 1.0]}, model={"kind": "toy"}), tmp_path / "t",
+                        scheduler="in-process", progress=False, plots=False)
+        assert [r["N_swing"] for r in res.rows] == pytest.approx([9.81 * 0.5, 9.81 * 1.0], rel=1e-6)
+        assert "N_max" not in res.rows[0] and res.rows[0]["model"].startswith("toy")
+    finally:
+        evaluators.REGISTRY.pop("toy")
+        evaluators.ORDER.remove("toy")

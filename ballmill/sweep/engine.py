@@ -43,8 +43,10 @@ META = ("valid", "t_invalid", "model", "error_P_m", "error_N_N", "error_method",
 UNITS_META = {"error_P_m": "m", "error_N_N": "N", "t_invalid": "s"}
 
 
-def columns(study: Study) -> list[str]:
-    return study.swept + list(_ind.BUILTIN) + [i.name for i in study.indicators] + list(META)
+def columns(study: Study, builtin: dict = _ind.BUILTIN) -> list[str]:
+    """The results' columns: swept parameters, the evaluator's built-in indicators, the study's own,
+    then META."""
+    return study.swept + list(builtin) + [i.name for i in study.indicators] + list(META)
 
 
 # ----------------------------------------------------------------------------
@@ -56,7 +58,7 @@ def run_point(prepared, custom, index: int, pid: str, params: dict) -> dict:
     try:
         rec, meta = prepared.run(params)
         t0 = time.perf_counter()
-        vals = _ind.evaluate(rec, custom)
+        vals = prepared.evaluate(rec, custom)
         prepared.timing["indicators"] = prepared.timing.get("indicators", 0.0) + time.perf_counter() - t0
         for k, v in vals.items():
             row[k] = v if isinstance(v, bool) else _ind.clean(v)
@@ -202,7 +204,7 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
     prepared = ev.prepare(sc, study, build_dir)
     context = study.context(sc.path.read_text(), ev.kind)
     chash = context_hash(context)
-    cols = columns(study)
+    cols = columns(study, ev.indicators)
 
     # what is done already
     info_path = out_dir / "study.json"
@@ -228,11 +230,11 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
         if pid not in done_rows:
             todo.append((i, pid, p))
     skipped = len(points) - len(todo)
-    units = {**{k: u for k, (u, _) in _ind.BUILTIN.items()}, **UNITS_META}
+    units = {**{k: u for k, (u, _) in ev.indicators.items()}, **UNITS_META}
     info = {"name": study.name, "description": study.description, "context": context, "context_hash": chash,
             "evaluator": ev.kind, "model": prepared.model, "swept": study.swept, "points": len(points),
             "columns": cols, "units": units,
-            "indicators": {k: d for k, (_, d) in {**_ind.BUILTIN, **_ind.VALIDITY}.items()}}
+            "indicators": {k: d for k, (_, d) in {**ev.indicators, **_ind.VALIDITY}.items()}}
     info_path.write_text(json.dumps(info, indent=2))
 
     # run

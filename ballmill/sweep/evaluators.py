@@ -19,8 +19,9 @@ the cheapest faithful evaluator: they are tried in the order of ORDER.
   error is the ball FMU's own estimate, the largest `coupling_error`.
 
 A later model (a structure that feels the ball, say) registers its own
-evaluator with `register` and, if it is cheaper than the co-simulation, a
-place in ORDER; the sweep engine does not change.
+evaluator with `register` (with ``before`` to be tried ahead of the
+co-simulation), with its own built-in ``indicators`` and `Prepared.evaluate`
+if a mill's indicators do not fit it; the sweep engine does not change.
 """
 from __future__ import annotations
 
@@ -31,17 +32,20 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..scenario import spec as _scen
-from .indicators import Record
+from .indicators import BUILTIN, Record, evaluate
 
 REGISTRY: dict[str, "Evaluator"] = {}
 ORDER: list[str] = []
 
 
 class Evaluator:
-    """Base class: ``kind`` (its name), ``description``; `check`, `prepare`."""
+    """Base class: ``kind`` (its name), ``description``, ``indicators`` (the built-in
+    indicators its points report: name -> (unit, description), the results' columns);
+    `check`, `prepare`."""
 
     kind = ""
     description = ""
+    indicators = BUILTIN
 
     def check(self, sc: _scen.Scenario) -> str:
         raise NotImplementedError
@@ -60,6 +64,11 @@ class Prepared:
 
     def run(self, params: dict):
         raise NotImplementedError
+
+    def evaluate(self, rec: Record, custom) -> dict:
+        """The indicators of a point's record (the evaluator's ``indicators``, the study's
+        own, valid, t_invalid); a model with other indicators overrides this."""
+        return evaluate(rec, custom)
 
 
 def register(ev: Evaluator, before: str | None = None):
