@@ -100,6 +100,9 @@ def _sweep(args) -> int:
     except (spec.StudyError, ValueError) as e:
         print(f"ballmill sweep: {e}", file=sys.stderr)
         return 2
+    except OSError as e:  # a scheduler that cannot be reached, an unwritable --out
+        print(f"ballmill sweep: {type(e).__name__}: {e}", file=sys.stderr)
+        return 1
     rate = res.computed / res.run_s if res.run_s > 0 and res.computed else 0.0
     print(json.dumps({"results": str(res.results), "points": len(res.rows), "computed": res.computed,
                       "skipped (already in the results)": res.skipped, "failed": res.failed,
