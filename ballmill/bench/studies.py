@@ -230,7 +230,7 @@ def report(data: dict) -> str:
         L.append(f"| all tasks | {tot:.3f} | {1e3 * tot / n:.3f} |")
         cpu = w.get("task_cpu")
         if cpu:
-            L.append(f"| all tasks, CPU time of the worker processes | {cpu:.3f} | {1e3 * cpu / n:.3f} |")
+            L.append(f"| all tasks, CPU time of the threads that ran them | {cpu:.3f} | {1e3 * cpu / n:.3f} |")
             L.append("")
             L.append(f"CPU time per point in the workers: {1e3 * cpu / n:.3f} ms, so two cores given wholly to the "
                      f"workers would sustain about {2 * n / cpu:.0f} points/s (an estimate that load from other "

@@ -127,8 +127,9 @@ class Study:
 
 
 def point_id(point: dict) -> str:
-    """A stable id of a point's parameter values (16 hex digits)."""
-    text = json.dumps({k: point[k] for k in sorted(point)}, sort_keys=True, default=repr)
+    """A stable id of a point's parameter values (16 hex digits); 2 and 2.0 are the same value."""
+    norm = {k: float(v) if isinstance(v, int) and not isinstance(v, bool) else v for k, v in point.items()}
+    text = json.dumps({k: norm[k] for k in sorted(norm)}, sort_keys=True, default=repr)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
