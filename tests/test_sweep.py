@@ -293,3 +293,28 @@ def test_an_evaluator_plugs_in(tmp_path):
     finally:
         evaluators.REGISTRY.pop("toy")
         evaluators.ORDER.remove("toy")
+
+
+@needs_kernel
+def test_startup_energy_is_the_energy_given_to_ball_and_platform(tmp_path):
+    """E_startup = integral of T_drive psi' over [0, t0] with T_drive = J_total psi'' - M_reaction:
+    by the energy balance it equals 1/2 J_total w0^2 plus the ball's energy gain up to t0
+    (kinetic, with the platform's velocity, and potential)."""
+    from ballmill.physics import Ball, BallModel, CrankStartup, simulate
+
+    st = build("fast_start", grid={"drive.t0": [1.5, 2.5, 4.0]},
+               set_=["drive.m_platform=30.0", "drive.J_crank=0.2", f"ball.m={M_PAPER!r}"], model={"dt": 0.002})
+    rows = run_study(st, tmp_path / "e", scheduler="in-process", progress=False, plots=False).rows
+    ball = Ball(m=M_PAPER)
+    for row in rows:
+        t0 = row["drive.t0"]
+        law = CrankStartup(0.5, 60.0, t0)
+        model = BallModel(ball, tol=1e-12)
+        tr = simulate(model, law, t0, t0 / 1000)
+        from ballmill.physics.model import BallState
+        end = BallState(float(tr.t[-1]), tr.y[-1])
+        _, _, vx, vy, _, _ = law.state(float(tr.t[-1]))
+        gain = model.energy(end, vx, vy) - model.energy(model.initial(), 0.0, 0.0)
+        j_total = 0.2 + 30.0 * 0.5 ** 2
+        # trapezoid rule over samples every 2 ms of a power that oscillates at ~10 rad/s: ~1e-4 J
+        assert row["E_startup"] == pytest.approx(0.5 * j_total * law.w0 ** 2 + gain, abs=1e-3), t0
