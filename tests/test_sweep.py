@@ -253,6 +253,7 @@ def test_cosim_points_agree_with_the_kernel(tmp_path, fmu_build_dir):
 # a model of another kind plugs in without touching the engine
 class _ToyPrepared:
     model = "toy: N = m g (1 + a sin t)"
+    sequential = True  # its points continue from one another: one task, in order
     timing: dict = {}
 
     def run(self, params):
@@ -290,6 +291,7 @@ def test_an_evaluator_plugs_in(tmp_path):
                         scheduler="in-process", progress=False, plots=False)
         assert [r["N_swing"] for r in res.rows] == pytest.approx([9.81 * 0.5, 9.81 * 1.0], rel=1e-6)
         assert "N_max" not in res.rows[0] and res.rows[0]["model"].startswith("toy")
+        assert res.batch == 2  # both points in one task
     finally:
         evaluators.REGISTRY.pop("toy")
         evaluators.ORDER.remove("toy")

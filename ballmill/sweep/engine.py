@@ -20,7 +20,9 @@
   Dask LocalCluster (one single-threaded worker process per core, or
   ``workers``); an address ("tcp://host:8786") uses an existing cluster whose
   workers have ballmill installed; "in-process" runs the batches here, one
-  after another. The rows do not depend on which (tests check it): every
+  after another. An evaluator whose Prepared says ``sequential = True`` (points
+  that continue from the previous one's state) gets all its points, in
+  order, in one task. The rows do not depend on which (tests check it): every
   point is computed by the same function from the same inputs, and the rows
   are sorted by point index before they are written.
 """
@@ -270,10 +272,13 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
 
     c0 = time.perf_counter()
     run_s = 0.0
+    # an evaluator whose points continue from one another (a slow sweep up or down a
+    # frequency, say) gets all its points, in order, in one task
+    sequential = bool(getattr(prepared, "sequential", False))
     if todo:
         if scheduler == "in-process":
             executor = "in-process"
-            nb = batch or _default_batch(len(todo), 1)
+            nb = len(todo) if sequential else (batch or _default_batch(len(todo), 1))
             r0 = time.perf_counter()
             for k in range(0, len(todo), nb):
                 take(*run_batch(prepared, study.indicators, todo[k:k + nb]))
@@ -295,7 +300,7 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
             cluster_start = time.perf_counter() - k0
             try:
                 nworkers = max(1, len(client.scheduler_info(n_workers=-1)["workers"]))
-                nb = batch or _default_batch(len(todo), nworkers)
+                nb = len(todo) if sequential else (batch or _default_batch(len(todo), nworkers))
                 executor += f" ({nworkers} worker(s) seen)"
                 r0 = time.perf_counter()
                 prep = client.scatter(prepared, broadcast=True)
