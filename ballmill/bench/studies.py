@@ -139,7 +139,7 @@ def measure(quick: bool, progress=print, root: Path | None = None) -> dict:
         progress(f"studies: {main_n}-point fast-start study on a local cluster of 2 workers")
         wall, js = _sweep(_grid(main_n) + ["--workers", "2"], work / "main", env)
         data["main"] = {"wall": wall, **js, "split": _split(work / "main")}
-        progress(f"studies: plain loops over simulate and ballmill run")
+        progress("studies: plain loops over simulate and ballmill run")
         data["loop_simulate"], data["loop_simulate_cpu"] = _simulate_loop(100 if quick else 400)
         from ballmill.fmi import build as _build
 

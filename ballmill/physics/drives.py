@@ -108,7 +108,7 @@ class CrankStartup:
                     "quintic": lambda: (w0 * t0 * s ** 4 * (2.5 - 3.0 * s + s * s),
                                         w0 * s ** 3 * (10.0 - 15.0 * s + 6.0 * s * s),
                                         30.0 * w0 * s * s * u * u / t0)}[self.law]()
-        before, after = t <= t0, t > t0
+        before = t <= t0
         psi = np.where(before, rise[0], c * w0 * t0 + w0 * (t - t0))
         wd = np.where(before, rise[1], w0)
         wdd = np.where(before, rise[2], 0.0)

@@ -212,11 +212,9 @@ def page(data, files, demo, quick: bool) -> str:
     L.append("")
     # 1 ---------------------------------------------------------------
     q = lambda law, t0: _at(t0rows, **{"drive.law": law, "drive.t0": t0})  # noqa: E731
-    t0s = sorted({r["drive.t0"] for r in t0rows})
-    near = lambda x: min(t0s, key=lambda v: abs(math.log(v / x)))  # noqa: E731
     L.append("## 1. The start-up time and the start-up law")
     L.append("")
-    L.append(f"![N variation and ring width against t0]({files['t0'].relative_to(ROOT / 'docs').as_posix()})")
+    L.append(f"![N variation and ring width against t0]({files['t0'].relative_to(files['dir']).as_posix()})")
     L.append("")
     L.append("| t0 [s] | " + " | ".join(f"{n}: N variation [N] / ring width [mm]" for n in LAW_NAMES.values()) + " |")
     L.append("|---|" + "---|" * len(LAW_NAMES))
@@ -253,7 +251,7 @@ def page(data, files, demo, quick: bool) -> str:
     n0rows = data["n0"]
     L.append("## 2. The crank speed, and the quasi-static calculator")
     L.append("")
-    L.append(f"![against n0]({files['n0'].relative_to(ROOT / 'docs').as_posix()})")
+    L.append(f"![against n0]({files['n0'].relative_to(files['dir']).as_posix()})")
     L.append("")
     L.append("`ballmill steady` computes the ball's relative equilibrium on the crank circle (it goes round with "
              "the crank at a fixed polar angle theta_e; for the lossless ball in the crank's vertical plane), its "
@@ -294,7 +292,7 @@ def page(data, files, demo, quick: bool) -> str:
              "forces are m times a function of n, so N is proportional to m. (A ball started with a spin about n "
              "keeps it, and then r enters through u = r omega.)")
     L.append("")
-    L.append(f"![d only]({files['d'].relative_to(ROOT / 'docs').as_posix()})")
+    L.append(f"![d only]({files['d'].relative_to(files['dir']).as_posix()})")
     L.append("")
     d_rows = [r for r in data["d"] if r["status"] == "ok" and r["valid"]]
     L.append(f"Left: {len(d_rows)} points of a Latin-hypercube sample over r in [0.01, 0.06] m and R in "
@@ -349,6 +347,7 @@ def main(argv=None) -> int:
     data = studies(args.quick, work, "in-process" if args.in_process else None)
     demo = groups_demo()
     files = figures(data, figs)
+    files["dir"] = Path(args.out).parent
     Path(args.out).write_text(page(data, files, demo, args.quick))
     print(f"wrote {args.out}")
     return 0
