@@ -5,6 +5,11 @@
     ballmill bench [...]                      speed/accuracy map -> BENCHMARKS.md
     ballmill export-ssp SCENARIO OUT.ssp [--set inst.param=value ...]
                                              the scenario as an SSP package for other FMI tools
+    ballmill sweep SCENARIO|STUDY [--grid inst.param=VALUES ...] [--out DIR] [...]
+                                             a design study: many points, one row each in
+                                             DIR/results.parquet (see ballmill sweep -h)
+    ballmill steady [--n0 ...] [--l ...] [--r ...] [--R ...] [--mu ...]
+                                             the ball's relative equilibrium on the crank circle
 """
 from __future__ import annotations
 
@@ -68,6 +73,71 @@ def _bench(args, rest) -> int:
     return bench.main(rest)
 
 
+def _sweep(args) -> int:
+    from .sweep import engine, spec
+    try:
+        grid = dict(spec.parse_grid_option(g) for g in (args.grid or ()))
+        sample = spec.parse_sample_option(args.sample) if args.sample else None
+        if sample is not None:
+            sample["ranges"] = dict(spec.parse_grid_option(r) for r in (args.range or ()))
+        elif args.range:
+            raise spec.StudyError(["--range needs --sample lhs:N or random:N"])
+        model = {k: v for k, v in (("kind", args.model), ("method", args.method), ("h", args.h),
+                                   ("dt", args.dt), ("target_P", args.target)) if v is not None}
+        study = spec.load(args.study, set_=args.set or (), grid=grid or None, sample=sample, model=model,
+                          stop=args.stop)
+        if not study.swept:
+            raise spec.StudyError(["nothing to sweep: give --grid inst.param=VALUES or --sample with --range "
+                                   "(or a study file with [grid] or [sample])"])
+        out = Path(args.out or Path("out") / "sweep" / study.name)
+        scheduler = "in-process" if args.in_process else args.scheduler
+        n_points = len(study.points())
+        print(f"sweep {study.name}: {n_points} points over {', '.join(study.swept)} -> {out}", file=sys.stderr)
+        res = engine.run_study(study, out, scheduler=scheduler, workers=args.workers, batch=args.batch,
+                               retry_failed=args.retry_failed, progress=not args.quiet,
+                               build_dir=Path(args.build_dir) if args.build_dir else None,
+                               plots=not args.no_plots)
+    except (spec.StudyError, ValueError) as e:
+        print(f"ballmill sweep: {e}", file=sys.stderr)
+        return 2
+    except OSError as e:  # a scheduler that cannot be reached, an unwritable --out
+        print(f"ballmill sweep: {type(e).__name__}: {e}", file=sys.stderr)
+        return 1
+    rate = res.computed / res.run_s if res.run_s > 0 and res.computed else 0.0
+    print(json.dumps({"results": str(res.results), "points": len(res.rows), "computed": res.computed,
+                      "skipped (already in the results)": res.skipped, "failed": res.failed,
+                      "evaluator": res.evaluator, "executor": res.executor, "batch": res.batch,
+                      "wall_s": round(res.wall_s, 3), "compute_s": round(res.compute_s, 3),
+                      "points_per_s (first task to last result)": round(rate, 1),
+                      "timing": str(res.out_dir / "timing.json"), "plots": [str(p) for p in res.plots]}, indent=2))
+    return 0
+
+
+def _steady(args) -> int:
+    from .physics import Ball, ParameterError
+    from .physics.steady import equilibrium, limits
+    try:
+        kw = {k: getattr(args, k) for k in ("r", "R", "m", "g", "mu") if getattr(args, k) is not None}
+        ball = Ball(**kw)
+        eq = equilibrium(ball, args.l, args.n0)
+        lim = limits(ball, args.l, n_max=args.n_max, dn=args.dn)
+    except (ParameterError, ArithmeticError, ValueError) as e:
+        print(f"ballmill steady: {e}", file=sys.stderr)
+        return 2
+    out = {"ball": {"r_m": ball.r, "R_m": ball.R, "m_kg": ball.m, "g_m_s2": ball.g, "mu": ball.mu},
+           "crank": {"l_m": args.l, "n0_per_min": args.n0},
+           "equilibrium": {"theta_deg": eq.theta_deg, "phi_deg": eq.phi_deg, "contact_radius_Oxy_m": eq.rho_P,
+                           "zP_m": eq.zP, "N_N": eq.N, "friction_ratio": eq.friction_ratio, "rolling": eq.rolling,
+                           "M_reaction_Nm": eq.M_reaction,
+                           "ring_frequencies_rad_s": list(eq.ring_frequencies),
+                           "ball_lowest_point_m": eq.ball_lowest},
+           "fill_level": {"ball_touches_bed_above_m": eq.ball_lowest,
+                          "contact_path_in_bed_above_m": eq.zP},
+           "limits_on_the_branch": lim}
+    print(json.dumps(out, indent=2))
+    return 0
+
+
 def _scenario_arguments(p):
     """What every command that reads a scenario accepts."""
     p.add_argument("scenario", help="scenario name in scenarios/ (e.g. fast_start) or a .toml path")
@@ -89,6 +159,38 @@ def main(argv=None) -> int:
     e = sub.add_parser("export-ssp", help="write a scenario as an SSP package (.ssp) for other FMI tools")
     _scenario_arguments(e)
     e.add_argument("out", help="the .ssp file to write")
+    w = sub.add_parser("sweep", help="a design study over a scenario's parameters -> DIR/results.parquet")
+    w.add_argument("study", help="a study file (scenarios/studies/NAME.toml or a path) or a scenario name")
+    w.add_argument("--grid", action="append", metavar="INSTANCE.PARAM=VALUES",
+                   help="a grid axis: a list 1,2,2.5 or start:stop:count 40:80:5 (repeatable; full grid)")
+    w.add_argument("--sample", metavar="lhs:N[:SEED]|random:N[:SEED]",
+                   help="a Latin-hypercube or random sample of N points instead of a grid (with --range)")
+    w.add_argument("--range", action="append", metavar="INSTANCE.PARAM=LOW:HIGH", help="a sampled range")
+    w.add_argument("--set", action="append", metavar="INSTANCE.PARAM=VALUE",
+                   help="a fixed override, as in ballmill run (repeatable)")
+    w.add_argument("--out", help="output folder (default: out/sweep/STUDY); re-running resumes")
+    w.add_argument("--stop", type=float, help="simulate up to this time [s] instead of the scenario's stop")
+    w.add_argument("--model", help="evaluator: auto (default), crank-kernel or cosim")
+    w.add_argument("--method", help="kernel integrator: RK4 (default), RK45 or DOP853")
+    w.add_argument("--h", type=float, help="RK4 first step [s] (default 0.01; halved per point to meet the target)")
+    w.add_argument("--target", type=float, help="RK4: estimated contact-point error to reach [m] (default 1e-5)")
+    w.add_argument("--dt", type=float, help="output sampling for the indicators [s] (default 0.01)")
+    w.add_argument("--scheduler", metavar="ADDRESS",
+                   help="a running Dask scheduler (tcp://host:8786); default: a local cluster")
+    w.add_argument("--workers", type=int, help="worker processes of the local cluster (default: one per core)")
+    w.add_argument("--in-process", action="store_true", help="no Dask: compute the batches in this process")
+    w.add_argument("--batch", type=int, help="points per task (default: about 8 tasks per worker, <= 250)")
+    w.add_argument("--retry-failed", action="store_true", help="recompute points that failed before")
+    w.add_argument("--no-plots", action="store_true", help="write no PNGs")
+    w.add_argument("--quiet", action="store_true", help="no progress bar")
+    w.add_argument("--build-dir", help="where the FMUs are (co-simulated points only)")
+    q = sub.add_parser("steady", help="the ball's relative equilibrium on the crank circle (quasi-static)")
+    q.add_argument("--n0", type=float, default=60.0, help="crank speed [1/min] (default 60)")
+    q.add_argument("--l", type=float, default=0.5, help="crank length [m] (default 0.5)")
+    for name, unit in (("r", "m"), ("R", "m"), ("m", "kg"), ("g", "m/s2"), ("mu", "1")):
+        q.add_argument(f"--{name}", type=float, help=f"ball/chamber {name} [{unit}] (default: the paper's)")
+    q.add_argument("--n-max", type=float, default=200.0, help="scan the branch up to this speed [1/min]")
+    q.add_argument("--dn", type=float, default=2.0, help="scan step [1/min]")
     sub.add_parser("bench", help="speed/accuracy benchmarks -> BENCHMARKS.md (see ballmill bench -h)",
                    add_help=False)
     args, rest = parser.parse_known_args(argv)
@@ -96,7 +198,8 @@ def main(argv=None) -> int:
         return _bench(args, rest)
     if rest:
         parser.error(f"unrecognized arguments: {' '.join(rest)}")
-    return {"build": _build, "run": _run, "export-ssp": _export_ssp}[args.command](args)
+    return {"build": _build, "run": _run, "export-ssp": _export_ssp, "sweep": _sweep,
+            "steady": _steady}[args.command](args)
 
 
 if __name__ == "__main__":

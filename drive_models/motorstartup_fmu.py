@@ -24,10 +24,12 @@ from ballmill.fmi.slave import CRANK_KINEMATICS, Slave
 from ballmill.physics import CrankStartup
 
 KINEMATICS = CRANK_KINEMATICS
+LAWS = {1: "quadratic", 2: "scurve", 3: "linear", 4: "quintic"}  # CrankStartup.law
 
 
 class MotorStartup(Slave):
-    """Crank start-up law of the paper: quadratic rise of the crank speed to n0 in t0."""
+    """Crank start-up law: the crank speed rises to n0 in t0 (the paper's quadratic rise, or the
+    S-curve, linear or quintic law chosen by ``law``)."""
 
     description = ("Kinematic crank start-up law (quadratic speed rise to n0 in t0) driving a "
                    "platform on a circle of radius l; reports the drive torque and power")
@@ -43,6 +45,10 @@ class MotorStartup(Slave):
           "kg", vmin=0.0)
         p("J_crank", "parameter", 0.0, "Inertia of cranks and gear about the crank axis", "kg.m2",
           vmin=0.0)
+        # declared after the existing parameters: earlier value references stay as they were
+        p("law", "parameter", 1, "Shape of the speed rise to n0 in t0: 1 = quadratic (the paper's), "
+          "2 = S-curve (cubic smoothstep, zero acceleration at both ends), 3 = linear (constant "
+          "acceleration), 4 = quintic (zero acceleration and jerk at both ends)", vmin=1, vmax=4)
         p("M_reaction", "input", 0.0, "Torque of the ball on the crank shaft (BallInShell.M_reaction)",
           "N.m")
         for name, unit, desc in KINEMATICS:
@@ -56,7 +62,7 @@ class MotorStartup(Slave):
 
     def initialise(self):
         try:
-            self._law = CrankStartup(l=self.l, n0=self.n0, t0=self.t0)
+            self._law = CrankStartup(l=self.l, n0=self.n0, t0=self.t0, law=self.choice("law", LAWS))
             for name, unit in (("m_platform", "kg"), ("J_crank", "kg.m2")):
                 v = getattr(self, name)
                 if not (v >= 0.0 and v < float("inf")):

@@ -63,13 +63,15 @@
 #define BM_NS_MAX 12 /* stages of the largest tableau (DOP853) */
 
 enum { BM_FIXED = 0, BM_CRANK = 1, BM_HARMONIC = 2, BM_CIRCLE = 3, BM_POLY = 4 };
+/* start-up laws of BM_CRANK, in the order of drives.LAWS */
+enum { BM_LAW_QUADRATIC = 0, BM_LAW_LINEAR = 1, BM_LAW_SCURVE = 2, BM_LAW_QUINTIC = 3 };
 #define BM_NMP 9 /* motion parameters */
 
 /* Everything a run needs; filled by fast.py (ctypes mirror: fast._Problem). */
 typedef struct {
     /* platform motion */
     int motion;       /* BM_FIXED, BM_CRANK, BM_HARMONIC, BM_CIRCLE, BM_POLY */
-    double mp[BM_NMP]; /* crank: l, w0, t0; circle: l, w;
+    double mp[BM_NMP]; /* crank: l, w0, t0, law; circle: l, w;
                           harmonic: x_amp, x_omega, y_amp, y_omega, x_phase, y_phase,
                           x_omega**2, y_omega**2 (powers taken in Python);
                           poly: t0, x0, x1, x2, x3, y0, y1, y2, y3 (a(t) only) */
@@ -105,19 +107,42 @@ static void bm_motion_state(const bm_problem *P, double t, double o[6])
 {
     const double *p = P->mp;
     switch (P->motion) {
-    case BM_CRANK: { /* CrankStartup.angle / state */
+    case BM_CRANK: { /* CrankStartup.angle / state; p[3]: the law (drives.LAWS index) */
         double l = p[0], w0 = p[1], t0 = p[2], psi, wd, wdd;
+        int law = (int)p[3];
         if (t < 0.0) {
             psi = 0.0; wd = 0.0; wdd = 0.0;
-        } else if (t <= t0) {
-            double u = 1.0 - t / t0;
-            psi = -w0 * pow(t - t0, 3.0) / (3.0 * t0 * t0) + w0 * t - w0 * t0 / 3.0;
-            wd = w0 * (1.0 - u * u);
-            wdd = 2.0 * w0 * u / t0;
-        } else {
-            psi = 2.0 / 3.0 * w0 * t0 + w0 * (t - t0);
+        } else if (law == BM_LAW_QUADRATIC) {
+            if (t <= t0) {
+                double u = 1.0 - t / t0;
+                psi = -w0 * pow(t - t0, 3.0) / (3.0 * t0 * t0) + w0 * t - w0 * t0 / 3.0;
+                wd = w0 * (1.0 - u * u);
+                wdd = 2.0 * w0 * u / t0;
+            } else {
+                psi = 2.0 / 3.0 * w0 * t0 + w0 * (t - t0);
+                wd = w0;
+                wdd = 0.0;
+            }
+        } else if (t > t0) {
+            psi = 0.5 * w0 * t0 + w0 * (t - t0);
             wd = w0;
             wdd = 0.0;
+        } else {
+            double s = t / t0;
+            if (law == BM_LAW_LINEAR) {
+                psi = 0.5 * w0 * t0 * s * s;
+                wd = w0 * s;
+                wdd = w0 / t0;
+            } else if (law == BM_LAW_SCURVE) {
+                psi = w0 * t0 * s * s * s * (1.0 - 0.5 * s);
+                wd = w0 * s * s * (3.0 - 2.0 * s);
+                wdd = 6.0 * w0 * s * (1.0 - s) / t0;
+            } else { /* BM_LAW_QUINTIC */
+                double u = 1.0 - s;
+                psi = w0 * t0 * pow(s, 4.0) * (2.5 - 3.0 * s + s * s);
+                wd = w0 * pow(s, 3.0) * (10.0 - 15.0 * s + 6.0 * s * s);
+                wdd = 30.0 * w0 * s * s * u * u / t0;
+            }
         }
         double c = cos(psi), s = sin(psi);
         o[0] = l * c;

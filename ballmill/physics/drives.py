@@ -12,6 +12,9 @@ from dataclasses import dataclass
 from .errors import ParameterError
 
 
+LAWS = ("quadratic", "linear", "scurve", "quintic")  # CrankStartup.law; the kernel's codes 0..3
+
+
 def _check(name, value, unit, allow_zero=False):
     v = float(value)
     if not math.isfinite(v) or v < 0.0 or (v == 0.0 and not allow_zero):
@@ -32,16 +35,29 @@ class CrankStartup:
     The platform point O moves on a circle of radius l: x = l cos psi, y = l sin psi.
     Before t = 0 the crank is at rest; at t = 0 the law's right-hand limits apply
     (psi''(0) = 2 w0 / t0).
+
+    ``law`` chooses the shape of the rise (tau = t / t0; all reach w0 at t0 and
+    keep w0 after it, psi = c w0 t0 + w0 (t - t0)):
+        "quadratic"  the paper's: psi' = w0 (1 - (1 - tau)^2)           c = 2/3
+        "linear"     constant acceleration: psi' = w0 tau                 c = 1/2
+        "scurve"     zero acceleration at both ends: psi' = w0 tau^2 (3 - 2 tau),
+                     psi'' = 6 w0 tau (1 - tau) / t0                      c = 1/2
+        "quintic"    also zero jerk at both ends:
+                     psi' = w0 tau^3 (10 - 15 tau + 6 tau^2),
+                     psi'' = 30 w0 tau^2 (1 - tau)^2 / t0                 c = 1/2
     """
 
     l: float = 0.5  # crank length [m]
     n0: float = 60.0  # steady crank speed [1/min]
     t0: float = 2.5  # start-up time [s]
+    law: str = "quadratic"  # shape of the speed rise, one of LAWS
 
     def __post_init__(self):
         _check("l", self.l, "m")
         _check("n0", self.n0, "1/min", allow_zero=True)
         _check("t0", self.t0, "s")
+        if self.law not in LAWS:
+            raise ParameterError(f"law must be one of {', '.join(LAWS)}, got law = {self.law!r}")
 
     @property
     def w0(self) -> float:
@@ -53,11 +69,51 @@ class CrankStartup:
         w0, t0 = self.w0, self.t0
         if t < 0.0:
             return 0.0, 0.0, 0.0
-        if t <= t0:
-            u = 1.0 - t / t0
-            return (-w0 * (t - t0) ** 3 / (3.0 * t0 * t0) + w0 * t - w0 * t0 / 3.0,
-                    w0 * (1.0 - u * u), 2.0 * w0 * u / t0)
-        return 2.0 / 3.0 * w0 * t0 + w0 * (t - t0), w0, 0.0
+        law = self.law
+        if law == "quadratic":
+            if t <= t0:
+                u = 1.0 - t / t0
+                return (-w0 * (t - t0) ** 3 / (3.0 * t0 * t0) + w0 * t - w0 * t0 / 3.0,
+                        w0 * (1.0 - u * u), 2.0 * w0 * u / t0)
+            return 2.0 / 3.0 * w0 * t0 + w0 * (t - t0), w0, 0.0
+        if t > t0:
+            return 0.5 * w0 * t0 + w0 * (t - t0), w0, 0.0
+        s = t / t0
+        if law == "linear":
+            return 0.5 * w0 * t0 * s * s, w0 * s, w0 / t0
+        if law == "scurve":
+            return (w0 * t0 * s * s * s * (1.0 - 0.5 * s), w0 * s * s * (3.0 - 2.0 * s),
+                    6.0 * w0 * s * (1.0 - s) / t0)
+        # quintic
+        u = 1.0 - s
+        return (w0 * t0 * s ** 4 * (2.5 - 3.0 * s + s * s), w0 * s ** 3 * (10.0 - 15.0 * s + 6.0 * s * s),
+                30.0 * w0 * s * s * u * u / t0)
+
+    def angles(self, t):
+        """`angle` over an array of times: (psi, psi', psi'') as arrays (numpy; for studies,
+        which need the drive's kinematics at every output sample)."""
+        import numpy as np
+
+        t = np.asarray(t, dtype=float)
+        w0, t0 = self.w0, self.t0
+        s = np.clip(t / t0, 0.0, 1.0)
+        u = 1.0 - s
+        if self.law == "quadratic":
+            c, rise = 2.0 / 3.0, (w0 * t0 * s * s * (1.0 - s / 3.0), w0 * (1.0 - u * u), 2.0 * w0 * u / t0)
+        else:
+            c = 0.5
+            rise = {"linear": lambda: (0.5 * w0 * t0 * s * s, w0 * s, np.full_like(s, w0 / t0)),
+                    "scurve": lambda: (w0 * t0 * s ** 3 * (1.0 - 0.5 * s), w0 * s * s * (3.0 - 2.0 * s),
+                                       6.0 * w0 * s * u / t0),
+                    "quintic": lambda: (w0 * t0 * s ** 4 * (2.5 - 3.0 * s + s * s),
+                                        w0 * s ** 3 * (10.0 - 15.0 * s + 6.0 * s * s),
+                                        30.0 * w0 * s * s * u * u / t0)}[self.law]()
+        before = t <= t0
+        psi = np.where(before, rise[0], c * w0 * t0 + w0 * (t - t0))
+        wd = np.where(before, rise[1], w0)
+        wdd = np.where(before, rise[2], 0.0)
+        neg = t < 0.0
+        return np.where(neg, 0.0, psi), np.where(neg, 0.0, wd), np.where(neg, 0.0, wdd)
 
     def state(self, t: float):
         """(x, y, vx, vy, ax, ay) of the platform point O at time t."""

@@ -50,7 +50,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .drives import Circle, CrankStartup, Fixed, Harmonic
+from .drives import LAWS, Circle, CrankStartup, Fixed, Harmonic
 from .equations import VectorFormulation, _lossy, loss_constants
 from .integrators import Integrator, TABLEAUS
 from .outputs import Outputs
@@ -215,7 +215,9 @@ def _motion_params(motion):
     if tp is CrankStartup:
         if not _reals(motion.l, motion.n0, motion.t0):
             return None, "CrankStartup with non-real parameters"
-        return 1, (float(motion.l), float(motion.w0), float(motion.t0))
+        if motion.law not in LAWS:
+            return None, f"CrankStartup law {motion.law!r}"
+        return 1, (float(motion.l), float(motion.w0), float(motion.t0), float(LAWS.index(motion.law)))
     if tp is Fixed:
         return 0, ()
     if tp is Harmonic:

@@ -1,0 +1,19 @@
+"""ballmill.sweep: design studies, many runs of one scenario with parameters varied.
+
+    ballmill sweep fast_start --grid drive.t0=1,2,2.5,3,4 --grid drive.n0=40:80:5 --out DIR
+    ballmill sweep scenarios/studies/t0_n0.toml --out DIR
+
+Layers (each module's docstring has the details):
+* spec: the study (scenario, fixed overrides, grid or sample, model settings,
+  custom indicators) and its points;
+* indicators: validity of the model and the indicators of one point's run;
+* evaluators: how a point is computed, a registry by kind of scenario (the
+  monolithic compiled kernel for a closed-form crank drive, the co-simulation
+  otherwise); new models register their own;
+* engine: batches on Dask or in this process, resume, DIR/results.parquet;
+* plots: curves, heat maps (invalid regions hatched), scatter plots.
+"""
+from .engine import Outcome, columns, run_study
+from .spec import Indicator, Study, StudyError, build, load
+
+__all__ = ["Indicator", "Outcome", "Study", "StudyError", "build", "columns", "load", "run_study"]

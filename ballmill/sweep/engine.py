@@ -1,0 +1,348 @@
+"""The sweep engine: points in batches, in this process or on Dask, into DIR/results.parquet.
+
+    run_study(study, out_dir, scheduler=None | "local" | "in-process" | ADDRESS, workers=None,
+              batch=None, retry_failed=False, progress=True, build_dir=None) -> Outcome
+
+* One row per point (`columns` gives the order): the swept parameters as
+  "instance.parameter", the indicators (indicators.BUILTIN, the study's own,
+  then valid and t_invalid), how the point was computed (model, error_P_m,
+  error_N_N, error_method), status ("ok" or "failed") and message, and the
+  point's index and id. A point that raises becomes a failed row with the
+  exception's message; the study goes on.
+* Resume: rows already in DIR/results.parquet (and in DIR/parts/, written
+  while a study runs, so an interrupted study keeps what it finished) are not
+  computed again (failed ones are, with ``retry_failed``). DIR/study.json
+  records the study's context; a DIR holding another study's results is
+  refused rather than mixed.
+* Execution: a batch of points is one task (``batch`` points; default: about
+  eight tasks per worker, at most 250 points each, so the task overhead of a
+  few ms is spread over many points). ``scheduler``: None or "local" starts a
+  Dask LocalCluster (one single-threaded worker process per core, or
+  ``workers``); an address ("tcp://host:8786") uses an existing cluster whose
+  workers have ballmill installed; "in-process" runs the batches here, one
+  after another. An evaluator whose Prepared says ``sequential = True`` (points
+  that continue from the previous one's state) gets all its points, in
+  order, in one task. The rows do not depend on which (tests check it): every
+  point is computed by the same function from the same inputs, and the rows
+  are sorted by point index before they are written.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from . import evaluators as _ev
+from . import indicators as _ind
+from .spec import Study, StudyError, context_hash, point_id
+
+META = ("valid", "t_invalid", "model", "error_P_m", "error_N_N", "error_method", "status", "message",
+        "point", "point_id")
+UNITS_META = {"error_P_m": "m", "error_N_N": "N", "t_invalid": "s"}
+
+
+def columns(study: Study, builtin: dict = _ind.BUILTIN) -> list[str]:
+    """The results' columns: swept parameters, the evaluator's built-in indicators, the study's own,
+    then META."""
+    return study.swept + list(builtin) + [i.name for i in study.indicators] + list(META)
+
+
+# ----------------------------------------------------------------------------
+# what a worker runs
+def run_point(prepared, custom, index: int, pid: str, params: dict) -> dict:
+    """One point's row (never raises: a failure is a row with its message)."""
+    row = dict(params)
+    row.update(point=index, point_id=pid)
+    try:
+        rec, meta = prepared.run(params)
+        t0 = time.perf_counter()
+        vals = prepared.evaluate(rec, custom)
+        prepared.timing["indicators"] = prepared.timing.get("indicators", 0.0) + time.perf_counter() - t0
+        for k, v in vals.items():
+            row[k] = v if isinstance(v, bool) else _ind.clean(v)
+        row.update(model=meta["model"], error_P_m=_ind.clean(meta.get("error_P_m")),
+                   error_N_N=_ind.clean(meta.get("error_N_N")), error_method=meta.get("error_method"),
+                   status="ok", message="")
+    except Exception as e:  # noqa: BLE001 - any failure of a point is reported in its row
+        row.update(model=getattr(prepared, "model", ""), status="failed",
+                   message=f"{type(e).__name__}: {e}")
+    return row
+
+
+def run_batch(prepared, custom, batch):
+    """Rows of a batch [(index, id, params), ...] and the time split of the worker [s]."""
+    t0, c0 = time.perf_counter(), time.thread_time()
+    prepared.timing.clear()
+    prepared.timing.update(integration=0.0, indicators=0.0)
+    rows = [run_point(prepared, custom, i, pid, p) for i, pid, p in batch]
+    split = dict(prepared.timing)
+    split["task"] = time.perf_counter() - t0
+    split["task_cpu"] = time.thread_time() - c0  # CPU time of this thread: what load does not inflate
+    return rows, split
+
+
+# ----------------------------------------------------------------------------
+# results on disk
+def _table(rows: list[dict], cols: list[str], units: dict):
+    import pyarrow as pa
+
+    arrays, fields = [], []
+    for c in cols:
+        vals = [r.get(c) for r in rows]
+        present = [v for v in vals if v is not None]
+        if c in ("status", "message", "model", "error_method", "point_id") or any(isinstance(v, str) for v in present):
+            typ = pa.string()
+            vals = [None if v is None else str(v) for v in vals]
+        elif c == "valid" or (present and all(isinstance(v, bool) for v in present)):
+            typ = pa.bool_()
+        elif c == "point" or (present and all(isinstance(v, int) and not isinstance(v, bool) for v in present)):
+            typ = pa.int64()
+        else:
+            typ = pa.float64()
+            vals = [None if v is None else float(v) for v in vals]
+        meta = {b"unit": units[c].encode()} if units.get(c) else None
+        fields.append(pa.field(c, typ, metadata=meta))
+        arrays.append(pa.array(vals, type=typ))
+    return pa.Table.from_arrays(arrays, schema=pa.schema(fields))
+
+
+def read_rows(path: Path) -> list[dict]:
+    import pyarrow.parquet as pq
+
+    return pq.read_table(path).to_pylist()
+
+
+def _write(table, path: Path):
+    import pyarrow.parquet as pq
+
+    tmp = path.with_name(path.name + ".tmp")
+    pq.write_table(table, tmp)
+    os.replace(tmp, path)
+
+
+@dataclass
+class Outcome:
+    out_dir: Path
+    results: Path
+    rows: list[dict]
+    computed: int
+    skipped: int
+    failed: int
+    wall_s: float
+    setup_s: float
+    compute_s: float
+    write_s: float
+    split: dict = field(default_factory=dict)
+    executor: str = ""
+    evaluator: str = ""
+    batch: int = 0
+    plots: list = field(default_factory=list)
+    run_s: float = 0.0  # from the first task to the last result
+
+
+class _Bar:
+    def __init__(self, total: int, enabled: bool):
+        self.total, self.enabled, self.done = total, enabled and total > 0, 0
+        self.t0 = time.perf_counter()
+        self.tty = sys.stderr.isatty()
+        self.last = -1.0
+
+    def add(self, n: int):
+        self.done += n
+        if not self.enabled:
+            return
+        wall = time.perf_counter() - self.t0
+        frac = self.done / self.total
+        if self.tty and (wall - self.last >= 0.1 or self.done == self.total):
+            bar = "#" * int(30 * frac)
+            rate = self.done / wall if wall > 0 else 0.0
+            sys.stderr.write(f"\r  [{bar:<30}] {self.done}/{self.total} points  {rate:.0f} points/s  "
+                             f"({wall:.1f} s)")
+            if self.done == self.total:
+                sys.stderr.write("\n")
+            self.last = wall
+        elif not self.tty and math.floor(10 * frac) > self.last:
+            self.last = math.floor(10 * frac)
+            sys.stderr.write(f"  {self.done}/{self.total} points ({wall:.1f} s)\n")
+
+
+def _default_batch(n: int, workers: int) -> int:
+    return max(1, min(250, math.ceil(n / (8 * max(1, workers)))))
+
+
+def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int | None = None,
+              batch: int | None = None, retry_failed: bool = False, progress: bool = True,
+              build_dir=None, plots: bool = True, log=None) -> Outcome:
+    from ..scenario import spec as _scen
+
+    log = log or (lambda m: print(m, file=sys.stderr))
+    wall0 = time.perf_counter()
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    parts = out_dir / "parts"
+    results = out_dir / "results.parquet"
+
+    try:
+        sc = _scen.load(study.scenario, study.set)
+    except _scen.ScenarioError as e:
+        raise StudyError(e.problems) from None
+    if study.stop is not None:
+        if study.stop <= sc.start:
+            raise StudyError([f"stop = {study.stop} s must be after the scenario's start {sc.start} s"])
+        sc.stop = study.stop
+    for key in study.swept:
+        inst = key.split(".", 1)[0]
+        if inst not in sc.instances:
+            raise StudyError([f"{key}: no instance {inst!r} in scenario {sc.name} "
+                              f"(instances: {', '.join(sc.instances)})"])
+    try:
+        ev = _ev.choose(sc, study.model["kind"])
+    except ValueError as e:
+        raise StudyError([str(e)]) from None
+    prepared = ev.prepare(sc, study, build_dir)
+    context = study.context(sc.path.read_text(), ev.kind)
+    chash = context_hash(context)
+    cols = columns(study, ev.indicators)
+
+    # what is done already
+    info_path = out_dir / "study.json"
+    done_rows: dict[str, dict] = {}
+    if info_path.exists():
+        old = json.loads(info_path.read_text())
+        if old.get("context_hash") != chash:
+            raise StudyError([f"{out_dir} holds the results of another study ({old.get('name')}, context "
+                              f"{old.get('context_hash')}; this one is {chash}: scenario, overrides, model or "
+                              f"indicators differ); use another --out or delete {out_dir}"])
+    sources = ([results] if results.exists() else []) + (sorted(parts.glob("part-*.parquet")) if parts.exists() else [])
+    for src in sources:
+        for r in read_rows(src):
+            if r.get("point_id"):
+                done_rows[r["point_id"]] = r
+    if retry_failed:
+        done_rows = {k: r for k, r in done_rows.items() if r.get("status") == "ok"}
+
+    points = study.points()
+    todo = []
+    for i, p in enumerate(points):
+        pid = point_id(p)
+        if pid not in done_rows:
+            todo.append((i, pid, p))
+    skipped = len(points) - len(todo)
+    units = {**{k: u for k, (u, _) in ev.indicators.items()}, **UNITS_META}
+    info = {"name": study.name, "description": study.description, "context": context, "context_hash": chash,
+            "evaluator": ev.kind, "model": prepared.model, "swept": study.swept, "points": len(points),
+            "columns": cols, "units": units,
+            "indicators": {k: d for k, (_, d) in {**ev.indicators, **_ind.VALIDITY}.items()}}
+    info_path.write_text(json.dumps(info, indent=2))
+
+    # run
+    setup_s = time.perf_counter() - wall0
+    new_rows: list[dict] = []
+    split_total: dict = {}
+    executor, nb = "none", 0
+    bar = _Bar(len(todo), progress)
+    pending: list[dict] = []
+    part_no = len(list(parts.glob("part-*.parquet"))) if parts.exists() else 0
+    last_flush = time.perf_counter()
+    write_s = 0.0
+
+    def flush(force=False):
+        nonlocal part_no, last_flush, pending, write_s
+        if pending and (force or time.perf_counter() - last_flush > 5.0):
+            w0 = time.perf_counter()
+            parts.mkdir(exist_ok=True)
+            _write(_table(pending, cols, units), parts / f"part-{part_no:05d}.parquet")
+            part_no += 1
+            pending = []
+            last_flush = time.perf_counter()
+            write_s += time.perf_counter() - w0
+
+    def take(rows, split):
+        rows = [{c: r.get(c) for c in cols} for r in rows]  # every column, in order
+        new_rows.extend(rows)
+        pending.extend(rows)
+        for k, v in split.items():
+            split_total[k] = split_total.get(k, 0.0) + v
+        bar.add(len(rows))
+        flush()
+
+    c0 = time.perf_counter()
+    run_s = 0.0
+    # an evaluator whose points continue from one another (a slow sweep up or down a
+    # frequency, say) gets all its points, in order, in one task
+    sequential = bool(getattr(prepared, "sequential", False))
+    if todo:
+        if scheduler == "in-process":
+            executor = "in-process"
+            nb = len(todo) if sequential else (batch or _default_batch(len(todo), 1))
+            r0 = time.perf_counter()
+            for k in range(0, len(todo), nb):
+                take(*run_batch(prepared, study.indicators, todo[k:k + nb]))
+            run_s = time.perf_counter() - r0
+        else:
+            from dask.distributed import Client, LocalCluster, as_completed
+
+            cluster = None
+            k0 = time.perf_counter()
+            if scheduler in (None, "local"):
+                n = workers or os.cpu_count() or 1
+                cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                       dashboard_address=None, silence_logs=40)
+                client = Client(cluster)
+                executor = f"dask LocalCluster, {n} worker process(es)"
+            else:
+                client = Client(scheduler)
+                executor = f"dask scheduler {scheduler}"
+            cluster_start = time.perf_counter() - k0
+            try:
+                nworkers = max(1, len(client.scheduler_info(n_workers=-1)["workers"]))
+                nb = len(todo) if sequential else (batch or _default_batch(len(todo), nworkers))
+                executor += f" ({nworkers} worker(s) seen)"
+                r0 = time.perf_counter()
+                prep = client.scatter(prepared, broadcast=True)
+                futs = [client.submit(run_batch, prep, study.indicators, todo[k:k + nb], pure=False)
+                        for k in range(0, len(todo), nb)]
+                for fut in as_completed(futs):
+                    take(*fut.result())
+                    fut.release()
+                run_s = time.perf_counter() - r0
+            finally:
+                k1 = time.perf_counter()
+                client.close()
+                if cluster is not None:
+                    cluster.close()
+                split_total["cluster_start"] = cluster_start
+                split_total["cluster_close"] = time.perf_counter() - k1
+    compute_s = time.perf_counter() - c0
+
+    # the results file: old rows (minus those recomputed) and the new ones, by point index
+    w0 = time.perf_counter()
+    fresh = {r["point_id"] for r in new_rows}
+    rows = [r for k, r in done_rows.items() if k not in fresh] + new_rows
+    rows.sort(key=lambda r: (r.get("point", 0), r.get("point_id", "")))
+    _write(_table(rows, cols, units), results)
+    if parts.exists():
+        for p in parts.glob("part-*.parquet"):
+            p.unlink()
+        parts.rmdir()
+    write_s += time.perf_counter() - w0
+    plot_files = []
+    if plots:
+        from . import plots as _plots
+        try:
+            plot_files = _plots.write(study, rows, out_dir)
+        except Exception as e:  # noqa: BLE001 - the results stand without their plots
+            log(f"plots not written: {type(e).__name__}: {e}")
+    failed = sum(1 for r in new_rows if r.get("status") != "ok")
+    # how the time went (not part of the results, which do not depend on who computed them)
+    timing = {"prepare": setup_s, "cluster_start": split_total.pop("cluster_start", 0.0), "run": run_s,
+              "cluster_close": split_total.pop("cluster_close", 0.0), "write": write_s,
+              "points_computed": len(new_rows), "executor": executor, "batch": nb,
+              "sustained_points_per_s": len(new_rows) / run_s if run_s > 0 else None, "workers": split_total}
+    (out_dir / "timing.json").write_text(json.dumps(timing, indent=2))
+    return Outcome(out_dir, results, rows, len(new_rows), skipped, failed, time.perf_counter() - wall0,
+                   setup_s, compute_s, write_s, split_total, executor, ev.kind, nb, plot_files, run_s)

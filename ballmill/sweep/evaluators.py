@@ -1,0 +1,406 @@
+"""How one point of a study is computed: a registry of evaluators by kind of scenario.
+
+An evaluator looks at a scenario and says whether it can compute its points
+(`check` -> '' or why not), and `prepare`s a picklable `Prepared` object that
+the workers call once per point with the point's parameters. `choose` picks
+the cheapest faithful evaluator: they are tried in the order of ORDER.
+
+* "crank-kernel": a drive with a closed form (a MotorStartup instance feeding
+  a BallInShell instance its platform motion) runs monolithically in the
+  compiled kernel: `ballmill.physics.simulate` with CrankStartup, no FMU, no
+  communication step. The study's model settings (RK4, h, dt, target_P) set
+  the integration; the error of each point is estimated by step doubling (the
+  same run at 2h, sampled every 2 dt; Richardson: |P_h - P_2h| / (2^4 - 1) for
+  RK4's order 4) for the contact point and N, and h is halved for the points
+  whose estimate exceeds 0.8 x target_P (the previous run serving as the coarse
+  one), so every point gets the cheapest step that meets the target.
+* "cosim": anything else (the induction motor, CSV sources): the scenario
+  through the fmpy co-simulation master, exactly as `ballmill run` does; its
+  error is the ball FMU's own estimate, the largest `coupling_error`.
+
+A later model (a structure that feels the ball, say) registers its own
+evaluator with `register` (with ``before`` to be tried ahead of the
+co-simulation), with its own built-in ``indicators`` and `Prepared.evaluate`
+if a mill's indicators do not fit it; the sweep engine does not change.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..scenario import spec as _scen
+from .indicators import BUILTIN, Record, evaluate
+
+REGISTRY: dict[str, "Evaluator"] = {}
+ORDER: list[str] = []
+
+
+class Evaluator:
+    """Base class: ``kind`` (its name), ``description``, ``indicators`` (the built-in
+    indicators its points report: name -> (unit, description), the results' columns);
+    `check`, `prepare`."""
+
+    kind = ""
+    description = ""
+    indicators = BUILTIN
+
+    def check(self, sc: _scen.Scenario) -> str:
+        raise NotImplementedError
+
+    def prepare(self, sc: _scen.Scenario, study, build_dir=None) -> "Prepared":
+        raise NotImplementedError
+
+
+class Prepared:
+    """What a worker needs to compute points. ``run(params)`` -> (Record, meta) where
+    params maps "instance.parameter" -> value (the swept ones; the scenario's and the
+    study's fixed values are already in) and meta holds "model", "error_P_m",
+    "error_N_N", "error_method"; raises on a bad point (the engine makes it a failed row)."""
+
+    model = ""
+
+    def run(self, params: dict):
+        raise NotImplementedError
+
+    def evaluate(self, rec: Record, custom) -> dict:
+        """The indicators of a point's record (the evaluator's ``indicators``, the study's
+        own, valid, t_invalid); a model with other indicators overrides this."""
+        return evaluate(rec, custom)
+
+
+def register(ev: Evaluator, before: str | None = None):
+    """Add an evaluator; ``before``: the kind it should be tried before (else last)."""
+    REGISTRY[ev.kind] = ev
+    if ev.kind in ORDER:
+        ORDER.remove(ev.kind)
+    ORDER.insert(ORDER.index(before) if before in ORDER else len(ORDER), ev.kind)
+
+
+def choose(sc: _scen.Scenario, kind: str = "auto") -> Evaluator:
+    """The evaluator for a scenario: ``kind`` by name, or the first in ORDER that can."""
+    if kind != "auto":
+        if kind not in REGISTRY:
+            raise ValueError(f"model.kind {kind!r}: no such evaluator (known: auto, {', '.join(ORDER)})")
+        why = REGISTRY[kind].check(sc)
+        if why:
+            raise ValueError(f"model.kind {kind!r} cannot compute scenario {sc.name}: {why}")
+        return REGISTRY[kind]
+    reasons = []
+    for k in ORDER:
+        why = REGISTRY[k].check(sc)
+        if not why:
+            return REGISTRY[k]
+        reasons.append(f"{k}: {why}")
+    raise ValueError(f"no evaluator can compute scenario {sc.name}: " + "; ".join(reasons))
+
+
+def _with(sc: _scen.Scenario, params: dict) -> dict:
+    """Instance name -> parameters of the scenario with a point's values in."""
+    out = {n: dict(i.parameters) for n, i in sc.instances.items()}
+    for key, v in params.items():
+        inst, p = key.split(".", 1)
+        if inst not in out:
+            raise ValueError(f"{key}: no instance {inst!r} in scenario {sc.name} "
+                             f"(instances: {', '.join(out)})")
+        out[inst][p] = v
+    return out
+
+
+def _refs(sc: _scen.Scenario, values: dict, defaults: dict) -> dict:
+    """Window references: start, stop, after, and every instance.parameter."""
+    refs = {"start": sc.start, "stop": sc.stop}
+    for inst, ps in defaults.items():
+        for p, v in ps.items():
+            if isinstance(v, (int, float)) and not isinstance(v, bool):
+                refs[f"{inst}.{p}"] = float(v)
+    for inst, ps in values.items():
+        for p, v in ps.items():
+            if isinstance(v, (int, float)) and not isinstance(v, bool):
+                refs[f"{inst}.{p}"] = float(v)
+    after = sc.summary.get("after", sc.start)
+    if isinstance(after, str):
+        if after not in refs:
+            raise ValueError(f"summary.after = {after!r}: no such parameter")
+        after = refs[after]
+    refs["after"] = float(after)
+    return refs
+
+
+# ----------------------------------------------------------------------------
+# the monolithic kernel for a closed-form crank drive
+BALL_PHYSICS = {"r": "r", "R": "R", "m": "m", "g": "g", "mu": "mu", "delta": "rolling_resistance",
+                "c_drag": "drag"}
+BALL_INITIAL = ("xC0", "yC0", "wx0", "wy0", "wz0")
+# the FMU's numerical settings: they choose how the co-simulation integrates, and do not apply
+# to the monolithic run (which takes the study's model settings)
+BALL_NUMERICS = ("formulation", "integrator", "tolerance", "h_fixed", "input_mode", "max_step", "corrector",
+                 "coupling_warn")
+DRIVE_LAW = ("l", "n0", "t0", "law")
+DRIVE_LOAD = ("m_platform", "J_crank")
+MOTION = ("x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O")
+SAFETY = 0.8  # RK4: halve h while the estimated contact-point error exceeds SAFETY * target
+MAX_HALVINGS = 4
+LAW_CODES = {1: "quadratic", 2: "scurve", 3: "linear", 4: "quintic"}  # MotorStartup's law parameter
+
+
+class CrankKernel(Evaluator):
+    kind = "crank-kernel"
+    description = "monolithic run in the compiled kernel (closed-form crank drive)"
+
+    def check(self, sc):
+        from ..physics import KERNEL_AVAILABLE, KERNEL_REASON
+
+        if not KERNEL_AVAILABLE:
+            return f"compiled kernel unavailable: {KERNEL_REASON}"
+        balls = [n for n, i in sc.instances.items() if i.fmu == "BallInShell"]
+        if len(balls) != 1:
+            return f"needs exactly one BallInShell instance, found {len(balls)}"
+        ball = balls[0]
+        feeds = {(di, dv): (si, sv) for si, sv, di, dv in sc.connections}
+        srcs = {feeds[(ball, v)][0] for v in MOTION if (ball, v) in feeds}
+        if len(srcs) != 1:
+            return "the ball's platform inputs do not all come from one instance"
+        drive = srcs.pop()
+        if sc.instances[drive].fmu != "MotorStartup":
+            return f"the ball is driven by {sc.instances[drive].fmu or 'a table'} (no closed form)"
+        for v in MOTION:
+            if feeds.get((ball, v)) != (drive, v):
+                return f"{ball}.{v} is not connected to {drive}.{v}"
+        for di, _dv in feeds:
+            if di == ball and _dv not in MOTION:
+                return f"{ball}.{_dv} is connected"
+        return ""
+
+    def prepare(self, sc, study, build_dir=None):
+        feeds = {(di, dv): si for si, sv, di, dv in sc.connections}
+        ball = next(n for n, i in sc.instances.items() if i.fmu == "BallInShell")
+        drive = feeds[(ball, "x1O")]
+        m = study.model
+        return CrankPrepared(sc=sc, ball=ball, drive=drive, method=m["method"], h=float(m["h"]),
+                             tol=float(m["tolerance"]), dt=float(m["dt"]), target=float(m["target_P"]))
+
+
+@dataclass
+class CrankPrepared(Prepared):
+    sc: _scen.Scenario
+    ball: str
+    drive: str
+    method: str
+    h: float
+    tol: float
+    dt: float
+    target: float = 1e-5
+    timing: dict = field(default_factory=lambda: {"integration": 0.0})
+
+    @property
+    def model(self):
+        return self.model_at(self.h)
+
+    def model_at(self, h):
+        setting = f"h = {h:g} s" if self.method == "RK4" else f"tol = {self.tol:g}"
+        return f"crank-kernel: monolithic, compiled kernel, {self.method} {setting}, outputs every {self.dt:g} s"
+
+    def objects(self, params: dict):
+        """(Ball, CrankStartup, initial position/spin, J_total, parameter values) of a point."""
+        from ..physics import Ball, CrankStartup
+        from ..physics.errors import ParameterError
+
+        values = _with(self.sc, params)
+        bp, dp = values[self.ball], values[self.drive]
+        known_b = set(BALL_PHYSICS) | set(BALL_INITIAL) | set(BALL_NUMERICS)
+        known_d = set(DRIVE_LAW) | set(DRIVE_LOAD)
+        for inst, ps, known in ((self.ball, bp, known_b), (self.drive, dp, known_d)):
+            for p in ps:
+                if p not in known:
+                    raise ParameterError(f"{inst}.{p}: no such parameter (known: {', '.join(sorted(known))})")
+        ball = Ball(**{BALL_PHYSICS[k]: v for k, v in bp.items() if k in BALL_PHYSICS})
+        law = dp.get("law", 1)
+        if law not in LAW_CODES:
+            raise ParameterError(f"{self.drive}.law must be one of {sorted(LAW_CODES)} "
+                                 f"({', '.join(f'{k} = {v}' for k, v in LAW_CODES.items())}), got {law!r}")
+        kw = {k: dp[k] for k in ("l", "n0", "t0") if k in dp}
+        crank = CrankStartup(law=LAW_CODES[law], **kw)
+        j_total = 0.0
+        for k, unit in (("m_platform", "kg"), ("J_crank", "kg.m2")):
+            v = dp.get(k, 0.0)
+            if not (isinstance(v, (int, float)) and 0.0 <= v < math.inf):
+                raise ParameterError(f"{self.drive}.{k} must be non-negative and finite, got {v!r} {unit}")
+        j_total = float(dp.get("J_crank", 0.0)) + float(dp.get("m_platform", 0.0)) * crank.l ** 2
+        init = tuple(float(bp.get(k, 0.0)) for k in BALL_INITIAL)
+        defaults = {self.ball: {"r": ball.r, "R": ball.R, "m": ball.m, "g": ball.g, "mu": ball.mu},
+                    self.drive: {"l": crank.l, "n0": crank.n0, "t0": crank.t0}}
+        return ball, crank, init, j_total, values, defaults
+
+    def _rk4(self, ball, crank, init):
+        """RK4 at h with its error estimated by step doubling (Richardson, order 4: |P_h - P_2h| / 15,
+        the 2h run sampled every 2 dt); while the estimate exceeds SAFETY * target, halve h
+        (the previous run becoming the coarse one), at most MAX_HALVINGS times."""
+        h = self.h
+        coarse = self._simulate(ball, crank, init, 2.0 * h, 2.0 * self.dt)
+        traj = self._simulate(ball, crank, init, h, self.dt)
+        stride = 2
+        for _ in range(MAX_HALVINGS + 1):
+            if not traj.success:
+                raise ArithmeticError(traj.message)
+            est = _difference(traj, coarse, stride, 1.0 / 15.0,
+                              "Richardson: RK4 at h and 2h, |difference| / 15 (order 4)")
+            if est["error_P_m"] is None or est["error_P_m"] <= SAFETY * self.target or h <= self.h / 2 ** MAX_HALVINGS:
+                break
+            coarse, stride, h = traj, 1, 0.5 * h
+            traj = self._simulate(ball, crank, init, h, self.dt)
+        return traj, {"model": self.model_at(h), **est}
+
+    def _simulate(self, ball, crank, init, h, dt, outputs=True):
+        from ..physics import BallModel, simulate
+
+        model = BallModel(ball, method=self.method, tol=self.tol, h_fixed=h)
+        state = model.initial(init[0], init[1], init[2:], t0=self.sc.start)
+        return simulate(model, crank, t_end=self.sc.stop, dt=dt, state=state, outputs=outputs, kernel="c")
+
+    def run(self, params):
+        ball, crank, init, j_total, values, defaults = self.objects(params)
+        c0 = time.perf_counter()
+        if self.method == "RK4":
+            traj, meta = self._rk4(ball, crank, init)
+        else:
+            traj = self._simulate(ball, crank, init, self.h, self.dt)
+            if not traj.success:
+                raise ArithmeticError(traj.message)
+            # the error estimate: the run at 32x the tolerance (every other sample)
+            coarse = CrankPrepared(self.sc, self.ball, self.drive, self.method, self.h, self.tol * 32.0,
+                                   self.dt)._simulate(ball, crank, init, self.h, 2.0 * self.dt)
+            meta = {"model": self.model, **_difference(traj, coarse, 2, 1.0,
+                                                       "difference to the run at 32x the tolerance (upper bound)")}
+        self.timing["integration"] += time.perf_counter() - c0
+        t = traj.t
+        psi, wd, wdd = crank.angles(t)
+        s = {f"{self.ball}.{k}": v for k, v in traj.out.items()}
+        d = self.drive + "."
+        T = j_total * wdd - traj["M_reaction"]
+        s.update({d + "psi": psi, d + "psi_dot": wd, d + "psi_ddot": wdd, d + "T_drive": T,
+                  d + "P_drive": T * wd})
+        rec = Record(t, s, self.ball, self.drive, ball.mu, _refs(self.sc, values, defaults))
+        return rec, meta
+
+
+def _difference(fine, coarse, stride: int, factor: float, how: str) -> dict:
+    """error_P_m, error_N_N, error_method from two runs: factor * the largest difference of
+    the contact point and of N at the coarse run's samples (every stride-th of the fine run)."""
+    f = {k: fine[k][::stride] for k in ("xP", "yP", "zP", "N")}
+    if not coarse.success or len(coarse.t) != len(f["N"]):
+        return {"error_P_m": None, "error_N_N": None,
+                "error_method": f"none: the comparison run failed ({coarse.message})"}
+    dP = np.sqrt((f["xP"] - coarse["xP"]) ** 2 + (f["yP"] - coarse["yP"]) ** 2 + (f["zP"] - coarse["zP"]) ** 2)
+    return {"error_P_m": float(dP.max()) * factor, "error_N_N": float(np.abs(f["N"] - coarse["N"]).max()) * factor,
+            "error_method": how}
+
+
+# ----------------------------------------------------------------------------
+# the co-simulation through the FMUs (anything the kernel does not cover)
+class Cosim(Evaluator):
+    kind = "cosim"
+    description = "co-simulation of the scenario's FMUs through fmpy (as ballmill run)"
+
+    def check(self, sc):
+        balls = [n for n, i in sc.instances.items() if i.fmu == "BallInShell"]
+        return "" if len(balls) == 1 else f"needs exactly one BallInShell instance, found {len(balls)}"
+
+    def prepare(self, sc, study, build_dir=None):
+        from ..scenario import runner
+
+        # build once, here (workers reuse the FMUs), and check the fixed overrides
+        sc, models, paths = runner.prepare(str(sc.path), study.set, build_dir, log=lambda m: None)
+        ball = next(n for n, i in sc.instances.items() if i.fmu == "BallInShell")
+        drive = next((si for si, sv, di, dv in sc.connections if di == ball and dv == "x1O"), None)
+        defaults = {n: {v.name: _start(v) for v in models[i.fmu].modelVariables if v.causality == "parameter"}
+                    for n, i in sc.instances.items() if i.fmu}
+        return CosimPrepared(path=str(sc.path), overrides=list(study.set), build_dir=build_dir, ball=ball,
+                             drive=drive, defaults=defaults, step=sc.step, stop=study.stop,
+                             extra=tuple(i.variable for i in study.indicators))
+
+
+BALL_NEEDED = ("N", "friction_ratio", "xP", "yP", "zP", "xC", "yC", "zC", "M_reaction", "coupling_error")
+DRIVE_NEEDED = ("psi_dot", "T_drive", "P_drive")
+
+
+def _record_needed(sc, models, ball, drive, extra):
+    """Add to the scenario's records what the indicators read (where the FMU has it)."""
+    have = set(sc.record)
+    want = [(ball, v) for v in BALL_NEEDED] + ([(drive, v) for v in DRIVE_NEEDED] if drive else [])
+    want += [tuple(v.split(".", 1)) for v in extra]
+    for inst, var in want:
+        if (inst, var) in have or inst not in sc.instances or sc.instances[inst].fmu is None:
+            continue
+        if any(v.name == var and v.causality == "output" for v in models[sc.instances[inst].fmu].modelVariables):
+            sc.record.append((inst, var))
+            have.add((inst, var))
+
+
+def _start(v):
+    try:
+        return float(v.start)
+    except (TypeError, ValueError):
+        return v.start
+
+
+@dataclass
+class CosimPrepared(Prepared):
+    path: str
+    overrides: list
+    build_dir: object
+    ball: str
+    drive: str | None
+    defaults: dict
+    step: float
+    stop: float | None = None
+    extra: tuple = ()  # variables the study's own indicators read
+    timing: dict = field(default_factory=lambda: {"integration": 0.0})
+
+    @property
+    def model(self):
+        return f"cosim: FMUs through fmpy, communication step {self.step:g} s"
+
+    def run(self, params):
+        from ..scenario import runner
+
+        c0 = time.perf_counter()
+        sets = self.overrides + [f"{k}={_toml(v)}" for k, v in params.items()]
+        sc, models, paths = runner.prepare(self.path, sets, self.build_dir, log=lambda m: None)
+        if self.stop is not None:
+            sc.stop = self.stop
+        _record_needed(sc, models, self.ball, self.drive, self.extra)
+        res = runner.run(sc, models, paths, progress=False, echo=False)
+        self.timing["integration"] += time.perf_counter() - c0
+        if not res.success:
+            raise ArithmeticError(res.message)
+        t = res.column("time")
+        series = {c: res.data[:, j] for j, c in enumerate(res.columns) if c != "time"}
+        b = self.ball + "."
+        need = [b + v for v in ("N", "friction_ratio", "xP", "yP", "zP", "xC", "yC", "zC")]
+        missing = [n for n in need if n not in series]
+        if missing:
+            raise ValueError(f"the scenario does not record {', '.join(missing)} (the indicators need them)")
+        values = {n: dict(i.parameters) for n, i in sc.instances.items()}
+        mu = float(values[self.ball].get("mu", self.defaults[self.ball]["mu"]))
+        rec = Record(t, series, self.ball, self.drive, mu, _refs(sc, values, self.defaults))
+        ce = series.get(b + "coupling_error")
+        meta = {"model": self.model,
+                "error_P_m": float(np.max(ce)) if ce is not None else None, "error_N_N": None,
+                "error_method": ("the ball FMU's coupling_error (predicted vs corrected contact point)"
+                                 if ce is not None else "none (coupling_error not recorded)")}
+        return rec, meta
+
+
+def _toml(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, str):
+        return '"' + v + '"'
+    return repr(v)
+
+
+register(CrankKernel())
+register(Cosim())

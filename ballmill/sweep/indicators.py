@@ -1,0 +1,218 @@
+"""Indicators of one point, and the validity of the model they are computed from.
+
+A point's run is a `Record`: sampled time series named "instance.variable"
+(the ball's outputs, the drive's kinematics and torque) plus how to turn a
+window reference ("after", "drive.t0", ...) into seconds. From it:
+
+* `validity(t, N, friction_ratio, mu)`: the model holds while the ball touches
+  the wall (N > 0) and rolls (|F_t| <= mu N); (valid, t_invalid, first bad
+  sample). The one place this rule lives (the FMU's latched `valid` output
+  follows the same rule).
+* `statistic`: max, min, range, amplitude, rms, mean, abs_max or integral of a
+  series over a window [a, b] (seconds, or "start", "after", "stop",
+  "instance.parameter", each optionally with an offset: "after+10"). It is None (not reported) when the window
+  reaches a sample at or after t_invalid: a statistic over a span where the
+  model does not hold is never reported as physics. Extrema inside the window
+  are refined by the parabola through the sample and its two neighbours, so
+  that a peak between samples is not cut off (error O(dt^3) instead of O(dt^2)).
+* `builtin`: the mill designer's indicators (BUILTIN, with units), and custom
+  ones (`spec.Indicator`) on any recorded or derived variable.
+
+Derived variables: "BALL.rhoP" (radius of the contact point in Oxy [m]) and
+"BALL.theta_deg" (polar angle of the contact point from the lowest point,
+atan2(|P - C| in Oxy, zC - zP), which needs no radii) [deg].
+"""
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+
+_OFFSET = re.compile(r"^(.+?)\s*([+-]\s*\d+(?:\.\d*)?(?:[eE][+-]?\d+)?)$")
+
+# name -> (unit, description); the order is the order of the results' columns
+BUILTIN = {
+    "N_max": ("N", "largest normal force over the run"),
+    "N_range_after": ("N", "variation of N after the start-up: max - min of N over [after, stop]"),
+    "ring_inner": ("m", "inner radius of the ring of the contact point in Oxy after the start-up"),
+    "ring_outer": ("m", "outer radius of that ring"),
+    "ring_width": ("m", "ring_outer - ring_inner"),
+    "theta_min_deg": ("deg", "lowest polar angle of the contact point (from the bottom) after the start-up"),
+    "theta_max_deg": ("deg", "highest polar angle of the contact point after the start-up"),
+    "zP_max": ("m", "highest contact point over the run"),
+    "friction_ratio_max": ("1", "largest |F_t| / N over the run (rolling needs <= mu)"),
+    "T_drive_peak": ("N.m", "largest |T_drive| over the run, T_drive = J_total psi'' - M_reaction"),
+    "T_drive_rms": ("N.m", "RMS of T_drive over the run"),
+    "E_startup": ("J", "energy the drive delivers during the start-up: integral of T_drive psi' over [start, after]"),
+}
+VALIDITY = {
+    "valid": ("", "the model held over the whole run: N > 0 and |F_t| <= mu N at every sample"),
+    "t_invalid": ("s", "first sample where it did not (None when valid)"),
+}
+
+
+@dataclass
+class Record:
+    """One point's sampled run. ``series``: "instance.variable" -> array over ``t``;
+    ``ball``/``drive``: instance names; ``mu``: friction coefficient; ``refs``: window
+    references -> seconds ("start", "stop", "after" and every "instance.parameter")."""
+
+    t: np.ndarray
+    series: dict
+    ball: str
+    drive: str | None
+    mu: float
+    refs: dict = field(default_factory=dict)
+    derived: dict = field(default_factory=dict)
+
+    def get(self, name: str) -> np.ndarray:
+        if name in self.series:
+            return self.series[name]
+        if name in self.derived:
+            return self.derived[name]
+        b = self.ball + "."
+        if name == b + "rhoP":
+            v = np.hypot(self.series[b + "xP"], self.series[b + "yP"])
+        elif name == b + "theta_deg":
+            s = self.series
+            v = np.degrees(np.arctan2(np.hypot(s[b + "xP"] - s[b + "xC"], s[b + "yP"] - s[b + "yC"]),
+                                      s[b + "zC"] - s[b + "zP"]))
+        else:
+            known = sorted(self.series) + [b + "rhoP", b + "theta_deg"]
+            raise KeyError(f"no recorded variable {name!r} (recorded: {', '.join(known)})")
+        self.derived[name] = v
+        return v
+
+    def time_of(self, ref) -> float:
+        if isinstance(ref, (int, float)) and not isinstance(ref, bool):
+            return float(ref)
+        if ref in self.refs:
+            return float(self.refs[ref])
+        m = _OFFSET.match(str(ref))
+        if m and m.group(1).strip() in self.refs:  # "after+10", "stop-5"
+            return float(self.refs[m.group(1).strip()]) + float(m.group(2).replace(" ", ""))
+        raise KeyError(f"window reference {ref!r}: not a number of seconds, 'start', 'after', 'stop' "
+                       f"or a parameter of the scenario, optionally +- seconds "
+                       f"(known: {', '.join(sorted(self.refs))})")
+
+
+def validity(t, N, friction_ratio, mu: float):
+    """(valid, t_invalid or None, index of the first bad sample or len(t)).
+    Bad: N <= 0 (contact lost) or not friction_ratio <= mu (slip; NaN counts as bad)."""
+    N = np.asarray(N, dtype=float)
+    fr = np.asarray(friction_ratio, dtype=float)
+    bad = ~(N > 0.0) | ~(fr <= mu)
+    if not bad.any():
+        return True, None, len(t)
+    i = int(np.argmax(bad))
+    return False, float(t[i]), i
+
+
+def _refine(t, x, i, sign):
+    """The extremum of the parabola through samples i-1, i, i+1 (sign +1: max, -1: min);
+    the sample itself at the ends or when the parabola does not bend the right way."""
+    if i <= 0 or i >= len(x) - 1:
+        return float(x[i])
+    y0, y1, y2 = float(x[i - 1]), float(x[i]), float(x[i + 1])
+    h0, h1 = float(t[i] - t[i - 1]), float(t[i + 1] - t[i])
+    if not (h0 > 0 and h1 > 0) or abs(h0 - h1) > 1e-9 * (h0 + h1):
+        return y1
+    curv = y0 - 2.0 * y1 + y2  # h^2 x''
+    if sign * curv >= 0.0:
+        return y1
+    slope = 0.5 * (y2 - y0)  # h x'
+    return y1 - slope * slope / (2.0 * curv)
+
+
+def _window(rec: Record, a, b, n_valid: int):
+    """Slice of the samples in [a, b], or None when they reach past the valid span or are empty."""
+    ta, tb = rec.time_of(a), rec.time_of(b)
+    t = rec.t
+    eps = 1e-9 * max(1.0, abs(tb))
+    i0 = int(t.searchsorted(ta - eps, side="left"))
+    i1 = int(t.searchsorted(tb + eps, side="right"))
+    if i1 <= i0 or i1 > n_valid:
+        return None
+    return slice(i0, i1)
+
+
+def statistic(rec: Record, x: np.ndarray, stat: str, window, n_valid: int):
+    """A statistic of x over the window, or None (see the module docstring)."""
+    return _stat(rec.t, x, stat, _window(rec, window[0], window[1], n_valid))
+
+
+def _ext(t, x, sl: slice, sign: int) -> float:
+    """The largest (sign +1) or smallest (-1) value of x in the slice, refined by the parabola
+    through its neighbours when it lies at an interior sample of the slice."""
+    w = x[sl]
+    i = int(w.argmax()) if sign > 0 else int(w.argmin())
+    if 0 < i < len(w) - 1:
+        return _refine(t, x, sl.start + i, sign)
+    return float(w[i])
+
+
+def _stat(t, x, stat: str, sl):
+    if sl is None:
+        return None
+    if stat == "max":
+        return _ext(t, x, sl, 1)
+    if stat == "min":
+        return _ext(t, x, sl, -1)
+    if stat == "abs_max":
+        return max(_ext(t, x, sl, 1), -_ext(t, x, sl, -1))
+    if stat in ("range", "amplitude"):
+        d = _ext(t, x, sl, 1) - _ext(t, x, sl, -1)
+        return d if stat == "range" else 0.5 * d
+    w = x[sl]
+    if stat == "rms":
+        return float(np.sqrt(w.dot(w) / len(w)))
+    if stat == "mean":
+        return float(w.mean())
+    if stat == "integral":
+        tw = t[sl]
+        return float((0.5 * (w[1:] + w[:-1])).dot(np.diff(tw))) if len(w) > 1 else 0.0
+    raise ValueError(f"unknown statistic {stat!r}")
+
+
+def builtin(rec: Record, n_valid: int) -> dict:
+    """The BUILTIN indicators of a record (None where not reported)."""
+    b = rec.ball + "."
+    t = rec.t
+    after = _window(rec, "after", "stop", n_valid)  # each window found once
+    run = _window(rec, "start", "stop", n_valid)
+    st = lambda name, stat, sl: _stat(t, rec.get(name), stat, sl)  # noqa: E731
+    out = {"N_max": st(b + "N", "max", run), "N_range_after": st(b + "N", "range", after)}
+    inner, outer = st(b + "rhoP", "min", after), st(b + "rhoP", "max", after)
+    out.update(ring_inner=inner, ring_outer=outer,
+               ring_width=None if inner is None or outer is None else outer - inner)
+    out.update(theta_min_deg=st(b + "theta_deg", "min", after), theta_max_deg=st(b + "theta_deg", "max", after),
+               zP_max=st(b + "zP", "max", run), friction_ratio_max=st(b + "friction_ratio", "max", run))
+    if rec.drive is not None and f"{rec.drive}.T_drive" in rec.series:
+        d = rec.drive + "."
+        out.update(T_drive_peak=st(d + "T_drive", "abs_max", run), T_drive_rms=st(d + "T_drive", "rms", run),
+                   E_startup=st(d + "P_drive", "integral", _window(rec, "start", "after", n_valid)))
+    else:
+        out.update(T_drive_peak=None, T_drive_rms=None, E_startup=None)
+    return out
+
+
+def evaluate(rec: Record, custom=()) -> dict:
+    """Every indicator of a record: BUILTIN, then the custom ones, then valid and t_invalid."""
+    b = rec.ball + "."
+    valid, t_invalid, n_valid = validity(rec.t, rec.get(b + "N"), rec.get(b + "friction_ratio"), rec.mu)
+    out = builtin(rec, n_valid)
+    for ind in custom:
+        out[ind.name] = statistic(rec, rec.get(ind.variable), ind.stat, ind.window, n_valid)
+    out["valid"] = valid
+    out["t_invalid"] = t_invalid
+    return out
+
+
+def clean(v):
+    """A float for the results (None for None, NaN and infinities)."""
+    if v is None:
+        return None
+    v = float(v)
+    return v if math.isfinite(v) else None
