@@ -52,12 +52,13 @@
 #define BM_SOURCE_HASH 0ULL /* setup.py defines it: first 60 bits of this file's sha256 */
 #endif
 
-#define BM_ABI 2
-#define BM_NY 6      /* states: nx, ny, nz, wx, wy, wz */
+#define BM_ABI 3
+#define BM_NY 6      /* states, at most: nx, ny, nz, wx, wy, wz (vector); xC, yC, wx, wy, wz (paper) */
 #define BM_NOUT 22   /* fields of outputs.Outputs */
 #define BM_NS_MAX 12 /* stages of the largest tableau (DOP853) */
 
 enum { BM_FIXED = 0, BM_CRANK = 1, BM_HARMONIC = 2, BM_CIRCLE = 3, BM_POLY = 4 };
+enum { BM_VECTOR = 0, BM_PAPER = 1 }; /* formulations */
 #define BM_NMP 9 /* motion parameters */
 
 /* Everything a run needs; filled by fast.py (ctypes mirror: fast._Problem). */
@@ -89,6 +90,11 @@ typedef struct {
     long long max_steps;
     double scale[BM_NY];
     double tols[BM_NY]; /* tol * scale */
+    /* formulation: BM_VECTOR (ny = 6; the library's kernel uses only this) or BM_PAPER
+     * (ny = 5, the paper's (xC, yC, omega) of equations.PaperFormulation with d = R - r
+     * and its equator margin; the native BallInShell FMU uses it) */
+    int form, ny;
+    double pap_d, pap_margin;
 } bm_problem;
 
 typedef struct {
@@ -186,9 +192,43 @@ static void bm_omega_dot_lossy(const double *c, double nx, double ny, double nz,
     wd[0] = wdx; wd[1] = wdy; wd[2] = wdz;
 }
 
+/* PaperFormulation.derivative / _derivative_lossy (closed form). Past the equator
+ * (Python: FormulationLimitError) the derivative is NaN, which no step accepts. */
+static void bm_derivative_paper(const bm_problem *P, const double *y, double ax, double ay, double *f)
+{
+    double xC = y[0], yC = y[1], wx = y[2], wy = y[3], wz = y[4];
+    double lam = P->rhs_lam, d = P->pap_d, r = P->rhs_r, g = P->rhs_g, k = P->rhs_k;
+    double s2 = d * d - xC * xC - yC * yC;
+    if (!(s2 > 0.0)) {
+        for (int i = 0; i < 5; i++) f[i] = NAN;
+        return;
+    }
+    double s = sqrt(s2);
+    double xd = lam * (wy * s + wz * yC);
+    double yd = -lam * (wx * s + wz * xC);
+    double zd = (xC * xd + yC * yd) / s;
+    double nx = xC / d, ny = yC / d, nz = -s / d;
+    double ndx = xd / d, ndy = yd / d, ndz = zd / d;
+    f[0] = xd; f[1] = yd;
+    if (P->rhs_lossy) {
+        bm_omega_dot_lossy(P->rhs_loss, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, f + 2);
+        return;
+    }
+    double bx = ax + r * (ndy * wz - ndz * wy);
+    double by = ay + r * (ndz * wx - ndx * wz);
+    double bz = g + r * (ndx * wy - ndy * wx);
+    f[2] = k * (ny * bz - nz * by);
+    f[3] = k * (nz * bx - nx * bz);
+    f[4] = k * (nx * by - ny * bx);
+}
+
 /* VectorFormulation.derivative / _derivative_lossy */
 static void bm_derivative(const bm_problem *P, const double *y, double ax, double ay, double *f)
 {
+    if (P->form == BM_PAPER) {
+        bm_derivative_paper(P, y, ax, ay, f);
+        return;
+    }
     double nx = y[0], ny = y[1], nz = y[2], wx = y[3], wy = y[4], wz = y[5];
     double lam = P->rhs_lam;
     double ndx = lam * (ny * wz - nz * wy);
@@ -344,9 +384,9 @@ static double bm_dot(const bm_row *row, double K[][BM_NY], int i)
     return acc;
 }
 
-static int bm_all_finite(const double *v)
+static int bm_all_finite(const double *v, int n)
 {
-    for (int i = 0; i < BM_NY; i++)
+    for (int i = 0; i < n; i++)
         if (!isfinite(v[i])) return 0;
     return 1;
 }
@@ -355,13 +395,13 @@ static int bm_all_finite(const double *v)
 static void bm_stages(const bm_problem *P, const bm_tab *T, double t, const double *y, double h,
                       double K[][BM_NY], double *ynew)
 {
-    int ns = P->ns;
+    int ns = P->ns, ny = P->ny;
     double yt[BM_NY];
     for (int s = 1; s < ns; s++) {
-        for (int i = 0; i < BM_NY; i++) yt[i] = y[i] + bm_dot(&T->A[s], K, i) * h;
+        for (int i = 0; i < ny; i++) yt[i] = y[i] + bm_dot(&T->A[s], K, i) * h;
         bm_rhs(P, t + P->C[s] * h, yt, K[s]);
     }
-    for (int i = 0; i < BM_NY; i++) ynew[i] = y[i] + h * bm_dot(&T->B, K, i);
+    for (int i = 0; i < ny; i++) ynew[i] = y[i] + h * bm_dot(&T->B, K, i);
 }
 
 /* error norm of the adaptive methods, K[ns] = f(t + h, y_new) (scaled tolerances) */
@@ -369,30 +409,37 @@ static double bm_error(const bm_problem *P, const bm_tab *T, double K[][BM_NY], 
                        const double *yn)
 {
     double sc[BM_NY];
-    for (int i = 0; i < BM_NY; i++)
+    int ny = P->ny;
+    for (int i = 0; i < ny; i++)
         sc[i] = P->tol * bm_pymax(bm_pymax(fabs(y[i]), fabs(yn[i])), P->scale[i]) + P->tols[i];
     if (!P->has_e3) {
         double sum = 0.0;
-        for (int i = 0; i < BM_NY; i++) {
+        for (int i = 0; i < ny; i++) {
             double e = bm_dot(&T->E, K, i) * h / sc[i];
             sum = i ? sum + e * e : e * e;
         }
-        return sqrt(sum / BM_NY);
+        return sqrt(sum / ny);
     }
     double e5n = 0.0, e3n = 0.0;
-    for (int i = 0; i < BM_NY; i++) {
+    for (int i = 0; i < ny; i++) {
         double e = bm_dot(&T->E, K, i) / sc[i];
         double g = bm_dot(&T->E3, K, i) / sc[i];
         e5n = i ? e5n + e * e : e * e;
         e3n = i ? e3n + g * g : g * g;
     }
     if (e5n == 0.0 && e3n == 0.0) return 0.0;
-    return fabs(h) * e5n / sqrt((e5n + 0.01 * e3n) * BM_NY);
+    return fabs(h) * e5n / sqrt((e5n + 0.01 * e3n) * ny);
 }
 
-/* VectorFormulation.project; 0 when Python's 1.0 / sqrt(0) would raise */
-static int bm_project(double *y)
+/* after an accepted step: VectorFormulation.project (0 when Python's 1.0 / sqrt(0)
+ * would raise), or PaperFormulation.check (0 within the equator margin, where Python
+ * raises FormulationLimitError) */
+static int bm_project(const bm_problem *P, double *y)
 {
+    if (P->form == BM_PAPER) {
+        double d = P->pap_d, s2 = d * d - y[0] * y[0] - y[1] * y[1];
+        return s2 > 0.0 && !(sqrt(s2) < P->pap_margin * d);
+    }
     double q = sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2]);
     if (q == 0.0) return 0;
     double s = 1.0 / q;
@@ -412,7 +459,7 @@ static int bm_advance(const bm_problem *P, const bm_tab *T, double t, double *y_
     memcpy(y, y_io, sizeof y);
     bm_rhs(P, t, y, K[0]);
     st->nfev++;
-    if (!bm_all_finite(K[0])) return 0;
+    if (!bm_all_finite(K[0], P->ny)) return 0;
     int ns = P->ns;
     if (!P->adaptive) {
         double q = ceil(span / P->h_fixed - 1e-9);
@@ -426,9 +473,9 @@ static int bm_advance(const bm_problem *P, const bm_tab *T, double t, double *y_
             }
             bm_stages(P, T, ti, y, hh, K, ynew);
             st->nfev += ns - 1;
-            if (!bm_all_finite(ynew)) return 0;
+            if (!bm_all_finite(ynew, P->ny)) return 0;
             memcpy(y, ynew, sizeof y);
-            if (!bm_project(y)) return 0;
+            if (!bm_project(P, y)) return 0;
             st->steps++;
         }
         memcpy(y_io, y, sizeof y);
@@ -449,7 +496,7 @@ static int bm_advance(const bm_problem *P, const bm_tab *T, double t, double *y_
         bm_rhs(P, t + hh, ynew, K[ns]);
         st->nfev += ns;
         double err = bm_error(P, T, K, hh, y, ynew);
-        if (!(bm_all_finite(ynew) && isfinite(err))) {
+        if (!(bm_all_finite(ynew, P->ny) && isfinite(err))) {
             st->rejected++;
             h = 0.2 * hh;
             if (!(h >= h_min_abs)) return 0;
@@ -459,7 +506,7 @@ static int bm_advance(const bm_problem *P, const bm_tab *T, double t, double *y_
             double factor = err == 0.0 ? 10.0 : bm_pymin(10.0, 0.9 * pow(err, -1.0 / order));
             t = last ? t_end : t + hh;
             memcpy(y, ynew, sizeof y);
-            if (!bm_project(y)) return 0;
+            if (!bm_project(P, y)) return 0;
             memcpy(K[0], K[ns], sizeof K[0]);
             st->steps++;
             h = last ? bm_pymax(h, hh * factor) : hh * factor;
@@ -533,25 +580,26 @@ BM_EXPORT int bm_advance_interval(const bm_problem *P, int motion, double *io, b
  * be ordered differently); the benchmark's standalone C peer needs one. */
 BM_EXPORT double bm_initial_step(const bm_problem *P, double t, const double *y, double span)
 {
-    double sc[BM_NY], f0[BM_NY], f1[BM_NY], y1[BM_NY], d0 = 0.0, d1 = 0.0, d2 = 0.0;
+    double sc[BM_NY], f0[BM_NY], f1[BM_NY], y1[BM_NY] = {0}, d0 = 0.0, d1 = 0.0, d2 = 0.0;
+    int ny = P->ny;
     bm_rhs(P, t, y, f0);
-    for (int i = 0; i < BM_NY; i++) {
+    for (int i = 0; i < ny; i++) {
         double b = bm_pymax(fabs(y[i]), P->scale[i]);
         sc[i] = P->tol * b + P->tols[i];
         d0 += (y[i] / sc[i]) * (y[i] / sc[i]);
         d1 += (f0[i] / sc[i]) * (f0[i] / sc[i]);
     }
-    d0 = sqrt(d0 / BM_NY);
-    d1 = sqrt(d1 / BM_NY);
+    d0 = sqrt(d0 / ny);
+    d1 = sqrt(d1 / ny);
     double h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
     h0 = bm_pymin(h0, span);
-    for (int i = 0; i < BM_NY; i++) y1[i] = y[i] + h0 * f0[i];
+    for (int i = 0; i < ny; i++) y1[i] = y[i] + h0 * f0[i];
     bm_rhs(P, t + h0, y1, f1);
-    for (int i = 0; i < BM_NY; i++) {
+    for (int i = 0; i < ny; i++) {
         double e = (f1[i] - f0[i]) / sc[i];
         d2 += e * e;
     }
-    d2 = sqrt(d2 / BM_NY) / h0;
+    d2 = sqrt(d2 / ny) / h0;
     double h1 = (d1 <= 1e-15 && d2 <= 1e-15) ? bm_pymax(1e-6, h0 * 1e-3)
                                              : pow(0.01 / bm_pymax(d1, d2), 1.0 / P->order);
     return bm_pymin(bm_pymin(100 * h0, h1), P->h_max);

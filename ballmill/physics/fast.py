@@ -58,7 +58,7 @@ from .outputs import Outputs
 __all__ = ["KERNEL_AVAILABLE", "KERNEL_REASON", "KERNEL_PATH", "KernelUnavailable", "applicable",
            "simulate"]
 
-ABI = 2
+ABI = 3
 NY = 6
 NOUT = len(Outputs._fields)
 NS_MAX = 12
@@ -90,6 +90,8 @@ class _Problem(ctypes.Structure):
         ("tol", ctypes.c_double), ("h_fixed", ctypes.c_double), ("h_max", ctypes.c_double),
         ("max_steps", ctypes.c_longlong),
         ("scale", ctypes.c_double * NY), ("tols", ctypes.c_double * NY),
+        ("form", ctypes.c_int), ("ny", ctypes.c_int), ("pap_d", ctypes.c_double),
+        ("pap_margin", ctypes.c_double),
     ]
 
 
@@ -273,6 +275,7 @@ def _model_reason(model) -> str:
 def _problem(model, motion) -> _Problem:
     """The problem structure; ``motion=None``: no motion (`advance` passes its own)."""
     P = _Problem()
+    P.form, P.ny = 0, NY  # the vector formulation (the paper's is the native FMU's only)
     if motion is not None:
         kind, mp = _motion_params(motion)
         P.motion = kind

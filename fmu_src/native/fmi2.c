@@ -13,7 +13,8 @@
  *     currentCommunicationPoint other than the instance's time: fmi2Error, state kept;
  *   - a fixed parameter (or an output) set after initialisation: fmi2Error, value kept;
  *   - every parameter outside its declared bounds, or not finite: fmi2Error at
- *     fmi2ExitInitializationMode, naming variable, value and accepted range;
+ *     fmi2ExitInitializationMode, naming variable, value and accepted range (after the
+ *     model's own checks, whose messages say what the physics needs);
  *   - a step whose outputs are not all finite: fmi2Discard, state kept;
  *   - fmi2Discard from a step leaves the instance in stepComplete at the last good
  *     state, so that a master may retry (with other inputs or a shorter step) or
@@ -179,11 +180,13 @@ static fmi2Status check_outputs(fmu_instance *fi, const double *v, double t)
 static fmi2Status build(fmu_instance *fi)
 {
     size_t nv = (size_t)FMU_MODEL.n_vars * sizeof(double);
-    if (check_parameters(fi, fi->v) != fmi2OK) return fmi2Error;
     memcpy(fi->v_work, fi->v, nv);
     memset(fi->data_work, 0, FMU_MODEL.data_size);
+    /* the model's own checks first (its messages say what the physics needs), then the
+     * declared bounds of every parameter */
     fmi2Status s = FMU_MODEL.setup(fi, fi->data_work, fi->v_work, fi->t_start);
     if (s > fmi2Warning) return fmi2Error;
+    if (check_parameters(fi, fi->v) != fmi2OK) return fmi2Error;
     if (check_outputs(fi, fi->v_work, fi->t_start) != fmi2OK) return fmi2Error;
     memcpy(fi->v, fi->v_work, nv);
     memcpy(fi->data, fi->data_work, FMU_MODEL.data_size);
@@ -701,10 +704,10 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state)
     if (h.built) {
         /* the configuration is rebuilt from the state's parameters (checked like at
          * initialisation), then the dynamic state is taken over and checked */
-        if (check_parameters(fi, v) != fmi2OK) goto refused;
         memcpy(fi->v_work, v, nv);
         memset(fi->data_work, 0, FMU_MODEL.data_size);
         if (FMU_MODEL.setup(fi, fi->data_work, fi->v_work, h.t_start) > fmi2Warning) goto refused;
+        if (check_parameters(fi, v) != fmi2OK) goto refused;
         memcpy(fi->v_work, v, nv); /* outputs and inputs as they were saved */
         memcpy(fi->data_work + FMU_MODEL.dyn_offset, data + FMU_MODEL.dyn_offset,
                FMU_MODEL.data_size - FMU_MODEL.dyn_offset);
