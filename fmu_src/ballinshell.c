@@ -17,6 +17,7 @@
  */
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "fmu_model.h"
@@ -98,33 +99,50 @@ static const char *recon_push(ball_in_shell *b, const double *v, double t, char 
     return NULL;
 }
 
-/* solve M c = rhs for the two right-hand sides (x and y) by Gauss-Jordan elimination
- * with partial pivoting (n <= 6) */
-static void solve2(int n, double M[6][6], double bx[6], double by[6])
+/* the inverse of M (n <= 6), correctly rounded to doubles as the Python path computes it
+ * exactly in rationals: Gauss-Jordan with partial pivoting in extended precision (long
+ * double: 64-bit mantissas on x86-64), rounded at the end. 0 when M is singular. */
+static int invert(int n, const double M[6][6], double inv[6][6])
 {
+    long double A[6][12];
+    for (int i = 0; i < n; i++)
+        for (int j = 0; j < 2 * n; j++) A[i][j] = j < n ? (long double)M[i][j] : (long double)(j - n == i);
     for (int col = 0; col < n; col++) {
         int piv = col;
         for (int i = col + 1; i < n; i++)
-            if (fabs(M[i][col]) > fabs(M[piv][col])) piv = i;
-        if (piv != col) {
-            for (int j = 0; j < n; j++) {
-                double tmp = M[col][j]; M[col][j] = M[piv][j]; M[piv][j] = tmp;
-            }
-            double tx = bx[col]; bx[col] = bx[piv]; bx[piv] = tx;
-            double ty = by[col]; by[col] = by[piv]; by[piv] = ty;
+            if (fabsl(A[i][col]) > fabsl(A[piv][col])) piv = i;
+        if (A[piv][col] == 0.0L) return 0;
+        for (int j = 0; j < 2 * n; j++) {
+            long double tmp = A[col][j]; A[col][j] = A[piv][j]; A[piv][j] = tmp;
         }
-        double p = M[col][col];
-        for (int j = 0; j < n; j++) M[col][j] /= p;
-        bx[col] /= p;
-        by[col] /= p;
+        long double p = A[col][col];
+        for (int j = 0; j < 2 * n; j++) A[col][j] /= p;
         for (int i = 0; i < n; i++) {
-            if (i == col || M[i][col] == 0.0) continue;
-            double f = M[i][col];
-            for (int j = 0; j < n; j++) M[i][j] -= f * M[col][j];
-            bx[i] -= f * bx[col];
-            by[i] -= f * by[col];
+            long double f = A[i][col];
+            if (i == col || f == 0.0L) continue;
+            for (int j = 0; j < 2 * n; j++) A[i][j] -= f * A[col][j];
         }
     }
+    for (int i = 0; i < n; i++)
+        for (int j = 0; j < n; j++) inv[i][j] = (double)A[i][n + j];
+    return 1;
+}
+
+/* Python's round(x, 12): the exact binary value rounded to 12 decimals (printf rounds
+ * exactly, half to even), read back correctly rounded */
+static double round12(double x)
+{
+    char buf[64];
+    snprintf(buf, sizeof buf, "%.12f", x);
+    return strtod(buf, NULL);
+}
+
+/* sum(row[j] * b[j]), left to right (platform._dot) */
+static double dot_lr(const double *row, const double *b, int n)
+{
+    double acc = row[0] * b[0];
+    for (int j = 1; j < n; j++) acc += row[j] * b[j];
+    return acc;
 }
 
 /* j (j-1) ... (j-der+1): math.perm(j, der) */
@@ -153,7 +171,7 @@ static double horner(const double *c, int n, double tau)
     return acc;
 }
 
-static void recon_fit(const ball_in_shell *b, fit *f)
+static int recon_fit(const ball_in_shell *b, fit *f)
 {
     const sample *s = b->samples;
     int ns = b->n_samples;
@@ -166,10 +184,10 @@ static void recon_fit(const ball_in_shell *b, fit *f)
         f->cx[0] = s[ns - 1].x; f->cx[1] = s[ns - 1].vx; f->cx[2] = 0.5 * s[ns - 1].ax;
         f->cy[0] = s[ns - 1].y; f->cy[1] = s[ns - 1].vy; f->cy[2] = 0.5 * s[ns - 1].ay;
     } else {
-        double M[6][6] = {{0}}, bx[6], by[6], hs = f->hs;
+        double M[6][6] = {{0}}, inv[6][6], bx[6], by[6], hs = f->hs;
         int deriv_inputs = b->mode == 1, n = 0;
         for (int i = 0; i < ns; i++) {
-            double tau = (s[i].t - tk) / hs;
+            double tau = round12((s[i].t - tk) / hs);
             int orders = deriv_inputs ? 3 : 1;
             for (int der = 0; der < orders; der++, n++) {
                 for (int j = der; j < (deriv_inputs ? 3 * ns : ns); j++)
@@ -183,10 +201,12 @@ static void recon_fit(const ball_in_shell *b, fit *f)
                 by[n - 1] = s[i].y;
             }
         }
-        solve2(n, M, bx, by);
+        if (!invert(n, M, inv)) return 0;
         f->n = n;
-        memcpy(f->cx, bx, (size_t)n * sizeof(double));
-        memcpy(f->cy, by, (size_t)n * sizeof(double));
+        for (int i = 0; i < n; i++) {
+            f->cx[i] = dot_lr(inv[i], bx, n);
+            f->cy[i] = dot_lr(inv[i], by, n);
+        }
     }
     /* a(t) in physical time: the second derivative's coefficients over hs^(j+2) */
     double dx[6], dy[6], ddx[6], ddy[6];
@@ -198,6 +218,7 @@ static void recon_fit(const ball_in_shell *b, fit *f)
         f->mp[1 + j] = j < n2 ? ddx[j] / pow(f->hs, (double)(j + 2)) : 0.0;
         f->mp[5 + j] = j < n2 ? ddy[j] / pow(f->hs, (double)(j + 2)) : 0.0;
     }
+    return 1;
 }
 
 /* (x, y, vx, vy, ax, ay) of the reconstructed motion at t */
@@ -216,6 +237,14 @@ static void recon_state(const fit *f, double t, double o[6])
 }
 
 /* ===================================================================== the ball */
+/* Python's x ** 2: libm's pow, which is not always the correctly rounded x * x the
+ * compiler would fold pow(x, 2.0) into */
+static double py_square(double x)
+{
+    volatile double two = 2.0;
+    return pow(x, two);
+}
+
 /* the contact direction n of a state (the formulation's to_nw) */
 static void to_n(const ball_in_shell *b, const double *y, double n[3])
 {
@@ -505,7 +534,7 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
     v[VR_coupling_error] = 0.0;
     fit f;
     double o[BM_NOUT];
-    recon_fit(b, &f);
+    recon_fit(b, &f); /* one sample: never singular */
     outputs_at(b, &b->state, &f, t, o);
     publish(v, o);
     report(fi, b, t, o);
@@ -534,7 +563,8 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
     }
     if (recon_push(b, v, t, why, sizeof why)) return refuse_step(fi, t, why);
     fit f;
-    recon_fit(b, &f);
+    if (!recon_fit(b, &f))
+        return refuse_step(fi, t, "the input samples do not determine the reconstruction (two samples at the same time?)");
     ball_state hist[MAX_SAMPLES], predicted;
     int n_hist;
     int corrected = corrected_history(b, &f, t, hist, &n_hist);
@@ -559,7 +589,7 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
         to_n(b, b->state.y, p);
         to_n(b, now->y, q);
         double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
-        v[VR_coupling_error] = b->R * sqrt(dx * dx + dy * dy + dz * dz);
+        v[VR_coupling_error] = b->R * sqrt(py_square(dx) + py_square(dy) + py_square(dz));
         if (v[VR_coupling_error] > b->coupling_warn && !b->warned) {
             b->warned = 1;
             fmu_log(fi, fmi2Warning, "BallInShell '%s': at t = %.9g s the contact point predicted over the last "
