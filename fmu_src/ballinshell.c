@@ -304,7 +304,7 @@ static int advance(ball_in_shell *b, const ball_state *in, double t_end, const f
         h = initial_step(P, in->t, in->y, f0, t_end - in->t);
     }
     bm_stats st = {0, 0, 0};
-    if (!bm_advance(P, &b->T, in->t, out->y, t_end, &h, &st)) return 0;
+    if (!bm_advance(P, &b->T, bm_ball_rhs, NULL, in->t, out->y, t_end, &h, &st)) return 0;
     out->h = P->adaptive ? h : P->h_fixed;
     return 1;
 }

@@ -53,12 +53,13 @@
 #endif
 
 #define BM_ABI 3
-#define BM_NY 6      /* states, at most: nx, ny, nz, wx, wy, wz (vector); xC, yC, wx, wy, wz (paper) */
+#define BM_NY 6      /* the ball's states, at most: nx, ny, nz, wx, wy, wz (vector); xC, yC, wx, wy, wz (paper) */
+#define BM_NYMAX 8   /* states the integrators carry, at most (the native induction motor FMU: 7) */
 #define BM_NOUT 22   /* fields of outputs.Outputs */
 #define BM_NS_MAX 12 /* stages of the largest tableau (DOP853) */
 
 enum { BM_FIXED = 0, BM_CRANK = 1, BM_HARMONIC = 2, BM_CIRCLE = 3, BM_POLY = 4 };
-enum { BM_VECTOR = 0, BM_PAPER = 1 }; /* formulations */
+enum { BM_VECTOR = 0, BM_PAPER = 1, BM_GENERIC = 2 }; /* formulations */
 #define BM_NMP 9 /* motion parameters */
 
 /* Everything a run needs; filled by fast.py (ctypes mirror: fast._Problem). */
@@ -88,11 +89,13 @@ typedef struct {
     double E3[BM_NS_MAX + 1];
     double tol, h_fixed, h_max;
     long long max_steps;
-    double scale[BM_NY];
-    double tols[BM_NY]; /* tol * scale */
+    double scale[BM_NYMAX];
+    double tols[BM_NYMAX]; /* tol * scale */
     /* formulation: BM_VECTOR (ny = 6; the library's kernel uses only this) or BM_PAPER
      * (ny = 5, the paper's (xC, yC, omega) of equations.PaperFormulation with d = R - r
-     * and its equator margin; the native BallInShell FMU uses it) */
+     * and its equator margin; the native BallInShell FMU uses it), or BM_GENERIC (any
+     * ny <= BM_NYMAX, a right-hand side of the caller's, no projection: the native
+     * induction motor FMU) */
     int form, ny;
     double pap_d, pap_margin;
 } bm_problem;
@@ -341,6 +344,16 @@ static void bm_outputs(const bm_problem *P, const double *y, double ax, double a
 }
 
 /* ------------------------------------------------------------- integrators.py */
+/* the right-hand side an integrator calls: the ball's (bm_ball_rhs), or another model's
+ * with its own context (the native induction motor FMU) */
+typedef void (*bm_rhs_fn)(const bm_problem *P, const void *ctx, double t, const double *y, double *f);
+
+static void bm_ball_rhs(const bm_problem *P, const void *ctx, double t, const double *y, double *f)
+{
+    (void)ctx;
+    bm_rhs(P, t, y, f);
+}
+
 static double bm_pymax(double a, double b) { return b > a ? b : a; } /* Python's max(a, b) */
 static double bm_pymin(double a, double b) { return b < a ? b : a; } /* Python's min(a, b) */
 
@@ -376,7 +389,7 @@ static void bm_tab_make(const bm_problem *P, bm_tab *T)
 }
 
 /* sum of c * K[j][i] over the row, left to right; 0.0 for an empty row */
-static double bm_dot(const bm_row *row, double K[][BM_NY], int i)
+static double bm_dot(const bm_row *row, double K[][BM_NYMAX], int i)
 {
     if (row->n == 0) return 0.0;
     double acc = row->c[0] * K[row->j[0]][i];
@@ -392,23 +405,23 @@ static int bm_all_finite(const double *v, int n)
 }
 
 /* The stages of one step (integrators._kernel): K[0] = f(t, y) on entry; K[1..ns-1], y_new. */
-static void bm_stages(const bm_problem *P, const bm_tab *T, double t, const double *y, double h,
-                      double K[][BM_NY], double *ynew)
+static void bm_stages(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, const void *ctx, double t,
+                      const double *y, double h, double K[][BM_NYMAX], double *ynew)
 {
     int ns = P->ns, ny = P->ny;
-    double yt[BM_NY];
+    double yt[BM_NYMAX];
     for (int s = 1; s < ns; s++) {
         for (int i = 0; i < ny; i++) yt[i] = y[i] + bm_dot(&T->A[s], K, i) * h;
-        bm_rhs(P, t + P->C[s] * h, yt, K[s]);
+        rhs(P, ctx, t + P->C[s] * h, yt, K[s]);
     }
     for (int i = 0; i < ny; i++) ynew[i] = y[i] + h * bm_dot(&T->B, K, i);
 }
 
 /* error norm of the adaptive methods, K[ns] = f(t + h, y_new) (scaled tolerances) */
-static double bm_error(const bm_problem *P, const bm_tab *T, double K[][BM_NY], double h, const double *y,
+static double bm_error(const bm_problem *P, const bm_tab *T, double K[][BM_NYMAX], double h, const double *y,
                        const double *yn)
 {
-    double sc[BM_NY];
+    double sc[BM_NYMAX];
     int ny = P->ny;
     for (int i = 0; i < ny; i++)
         sc[i] = P->tol * bm_pymax(bm_pymax(fabs(y[i]), fabs(yn[i])), P->scale[i]) + P->tols[i];
@@ -440,6 +453,7 @@ static int bm_project(const bm_problem *P, double *y)
         double d = P->pap_d, s2 = d * d - y[0] * y[0] - y[1] * y[1];
         return s2 > 0.0 && !(sqrt(s2) < P->pap_margin * d);
     }
+    if (P->form == BM_GENERIC) return 1;
     double q = sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2]);
     if (q == 0.0) return 0;
     double s = 1.0 / q;
@@ -450,14 +464,15 @@ static int bm_project(const bm_problem *P, double *y)
 /* Integrator.advance (the small-system path) from t to t_end. y and *h are
  * updated only on success (return 1); 0: Python must do this interval (it
  * fails there, or needs the initial step). */
-static int bm_advance(const bm_problem *P, const bm_tab *T, double t, double *y_io, double t_end, double *h_io,
-                      bm_stats *st)
+static int bm_advance(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, const void *ctx, double t,
+                      double *y_io, double t_end, double *h_io, bm_stats *st)
 {
-    double K[BM_NS_MAX + 1][BM_NY], y[BM_NY], ynew[BM_NY];
+    double K[BM_NS_MAX + 1][BM_NYMAX], y[BM_NYMAX], ynew[BM_NYMAX];
+    size_t bytes = (size_t)P->ny * sizeof(double);
     double span = t_end - t;
     if (span <= 0.0) return 1;
-    memcpy(y, y_io, sizeof y);
-    bm_rhs(P, t, y, K[0]);
+    memcpy(y, y_io, bytes);
+    rhs(P, ctx, t, y, K[0]);
     st->nfev++;
     if (!bm_all_finite(K[0], P->ny)) return 0;
     int ns = P->ns;
@@ -468,17 +483,17 @@ static int bm_advance(const bm_problem *P, const bm_tab *T, double t, double *y_
         for (long long i = 0; i < count; i++) {
             double ti = t + (double)i * hh;
             if (i) {
-                bm_rhs(P, ti, y, K[0]);
+                rhs(P, ctx, ti, y, K[0]);
                 st->nfev++;
             }
-            bm_stages(P, T, ti, y, hh, K, ynew);
+            bm_stages(P, T, rhs, ctx, ti, y, hh, K, ynew);
             st->nfev += ns - 1;
             if (!bm_all_finite(ynew, P->ny)) return 0;
-            memcpy(y, ynew, sizeof y);
+            memcpy(y, ynew, bytes);
             if (!bm_project(P, y)) return 0;
             st->steps++;
         }
-        memcpy(y_io, y, sizeof y);
+        memcpy(y_io, y, bytes);
         *h_io = P->h_fixed;
         return 1;
     }
@@ -492,8 +507,8 @@ static int bm_advance(const bm_problem *P, const bm_tab *T, double t, double *y_
         h = bm_pymin(h, P->h_max);
         int last = t + h >= t_last;
         double hh = last ? t_end - t : h;
-        bm_stages(P, T, t, y, hh, K, ynew);
-        bm_rhs(P, t + hh, ynew, K[ns]);
+        bm_stages(P, T, rhs, ctx, t, y, hh, K, ynew);
+        rhs(P, ctx, t + hh, ynew, K[ns]);
         st->nfev += ns;
         double err = bm_error(P, T, K, hh, y, ynew);
         if (!(bm_all_finite(ynew, P->ny) && isfinite(err))) {
@@ -505,7 +520,7 @@ static int bm_advance(const bm_problem *P, const bm_tab *T, double t, double *y_
         if (err <= 1.0) {
             double factor = err == 0.0 ? 10.0 : bm_pymin(10.0, 0.9 * pow(err, -1.0 / order));
             t = last ? t_end : t + hh;
-            memcpy(y, ynew, sizeof y);
+            memcpy(y, ynew, bytes);
             if (!bm_project(P, y)) return 0;
             memcpy(K[0], K[ns], sizeof K[0]);
             st->steps++;
@@ -516,7 +531,7 @@ static int bm_advance(const bm_problem *P, const bm_tab *T, double t, double *y_
             if (!(h >= h_min_abs)) return 0;
         }
     }
-    memcpy(y_io, y, sizeof y);
+    memcpy(y_io, y, bytes);
     *h_io = h;
     return 1;
 }
@@ -537,7 +552,7 @@ BM_EXPORT long long bm_simulate(const bm_problem *P, const double *times, long l
     for (long long i = start; i < n; i++) {
         if (i > start) {
             bm_stats st = {0, 0, 0};
-            if (!bm_advance(P, &T, times[i - 1], y, times[i], h, &st)) return i - 1;
+            if (!bm_advance(P, &T, bm_ball_rhs, NULL, times[i - 1], y, times[i], h, &st)) return i - 1;
             total->steps += st.steps;
             total->rejected += st.rejected;
             total->nfev += st.nfev;
@@ -569,7 +584,7 @@ BM_EXPORT int bm_advance_interval(const bm_problem *P, int motion, double *io, b
     bm_tab_make(&Q, &T);
     memcpy(y, io + 3, sizeof y);
     st->steps = 0; st->rejected = 0; st->nfev = 0;
-    if (!bm_advance(&Q, &T, io[0], y, io[1], &h, st)) return 0;
+    if (!bm_advance(&Q, &T, bm_ball_rhs, NULL, io[0], y, io[1], &h, st)) return 0;
     io[2] = h;
     memcpy(io + 3, y, sizeof y);
     return 1;
