@@ -133,6 +133,7 @@ static int invert(int n, const double M[6][6], double inv[6][6])
 static double round12(double x)
 {
     char buf[64];
+    if (x == floor(x)) return x; /* whole numbers (equal steps): already rounded */
     snprintf(buf, sizeof buf, "%.12f", x);
     return strtod(buf, NULL);
 }

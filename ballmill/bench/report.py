@@ -314,6 +314,8 @@ def markdown(d) -> str:
 
     if d.get("cosim_lines"):
         add("\n".join(d["cosim_lines"]) + "\n")
+    if d.get("flavour_lines"):
+        add("\n".join(d["flavour_lines"]) + "\n")
     add(_defaults(d))
 
     add("## Reproduce\n")

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import analysis, cosim, literal, machine, micro, profiling, report
+from . import analysis, cosim, flavours, literal, machine, micro, profiling, report
 from .compiled import Compiled
 from .problem import KERNEL_FAMILY, Problem, prepare_library, reference, round_order, time_round_robin
 
@@ -30,6 +30,7 @@ class Config:
     cc: str = "gcc"
     compiled: bool = True
     cosim: bool = True  # the coupled fast start through fmpy (section 5)
+    flavours: bool = True  # native vs pythonfmu FMUs, fmpy's floor, libcosim (section 6)
 
     @classmethod
     def full_run(cls):
@@ -183,6 +184,13 @@ def run(cfg: Config, root: Path, out: Path, figures: Path, work: Path, progress)
         lit_1e5 = analysis.time_at_error(lit, 1e-5).time
         data["cosim_lines"] = cosim.report(rows, start, scene, forces, lit_1e5)
         data["cosim_rows"] = rows
+
+    # 7. the two FMU flavours ------------------------------------------------------
+    data["flavour_lines"] = []
+    if cfg.flavours:
+        data["flavour_lines"] = flavours.section(
+            cfg.repeats if cfg.quick else 5, cfg.quick,
+            lambda err: analysis.time_at_error(lit, err).time, progress)
 
     figures.mkdir(parents=True, exist_ok=True)
     fig = figures / "error_vs_time.png"

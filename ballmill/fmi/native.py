@@ -60,16 +60,16 @@ def fmi_headers_dir() -> Path:
     return Path(fmpy.__file__).parent / "c-code"
 
 
-def source_files(name: str) -> list[Path]:
-    """Every file a native FMU is built from (its sources/ folder, less the generated header)."""
+def source_files(name: str, model_source: Path | None = None) -> list[Path]:
+    """Every file a native FMU is built from (its sources/ folder, less the generated headers)."""
     hdr = fmi_headers_dir()
-    return ([PLUMBING / "fmi2.c", PLUMBING / "fmu_model.h", MODEL_SOURCES[name], KERNEL]
+    return ([PLUMBING / "fmi2.c", PLUMBING / "fmu_model.h", model_source or MODEL_SOURCES[name], KERNEL]
             + [hdr / h for h in FMI_HEADERS])
 
 
-def compiled_units(name: str) -> list[str]:
-    """The files a compiler compiles (SourceFiles); the kernel is #included by the ball's model."""
-    return ["fmi2.c", MODEL_SOURCES[name].name]
+def compiled_units(name: str, model_source: Path | None = None) -> list[str]:
+    """The files a compiler compiles (SourceFiles); the kernel is #included by the models that use it."""
+    return ["fmi2.c", (model_source or MODEL_SOURCES[name]).name]
 
 
 def guid(interface: Interface, sources: list[Path]) -> str:
@@ -246,27 +246,31 @@ def compile_binary(sources_dir: Path, units: list[str], out: Path, extra_flags=(
         raise NativeBuildError(f"compiling {out.name} failed or warned:\n  {' '.join(cmd)}\n{proc.stderr}")
 
 
-def stage_sources(name: str, dest: Path) -> tuple[str, list[str]]:
-    """Copy the sources of model `name` and its generated header into dest; (guid, units)."""
-    interface = INTERFACES[name]
-    files = source_files(name)
+def stage_sources(name: str, dest: Path, interface: Interface | None = None,
+                  model_source: Path | None = None) -> tuple[str, list[str]]:
+    """Copy the sources of model `name` and its generated headers into dest; (guid, units)."""
+    interface = interface or INTERFACES[name]
+    files = source_files(name, model_source)
     g = guid(interface, files)
     dest.mkdir(parents=True, exist_ok=True)
     for f in files:
         shutil.copy2(f, dest / f.name)
     (dest / f"{name}_interface.h").write_text(interface_header(interface, g))
     (dest / "bm_tableaus.h").write_text(tableau_header())
-    return g, compiled_units(name)
+    return g, compiled_units(name, model_source)
 
 
-def build_native(name: str, out_dir: Path) -> Path:
-    """Build build/<name>.fmu (native): sources, binary for this platform, model description."""
-    interface = INTERFACES[name]
+def build_native(name: str, out_dir: Path, interface: Interface | None = None,
+                 model_source: Path | None = None) -> Path:
+    """Build build/<name>.fmu (native): sources, binary for this platform, model description.
+    ``interface``/``model_source``: another model than the project's (the benchmark's
+    do-nothing FMU)."""
+    interface = interface or INTERFACES[name]
     out_dir.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="ballmill_native_") as tmp:
         tmp = Path(tmp)
         src = tmp / "sources"
-        g, units = stage_sources(name, src)
+        g, units = stage_sources(name, src, interface, model_source)
         bindir = tmp / "binaries" / platform_dir()
         bindir.mkdir(parents=True)
         compile_binary(src, units, bindir / f"{name}{shared_suffix()}")
