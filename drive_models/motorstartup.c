@@ -73,6 +73,10 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
     if (!(isfinite(l) && l > 0.0)) return refuse(fi, "l", l, "m", "positive and finite");
     if (!(isfinite(n0) && n0 >= 0.0)) return refuse(fi, "n0", n0, "1/min", "non-negative and finite");
     if (!(isfinite(t0) && t0 > 0.0)) return refuse(fi, "t0", t0, "s", "positive and finite");
+    if (!(isfinite(v[VR_m_platform]) && v[VR_m_platform] >= 0.0))
+        return refuse(fi, "m_platform", v[VR_m_platform], "kg", "non-negative and finite");
+    if (!(isfinite(v[VR_J_crank]) && v[VR_J_crank] >= 0.0))
+        return refuse(fi, "J_crank", v[VR_J_crank], "kg.m2", "non-negative and finite");
     m->l = l;
     m->w0 = 2.0 * M_PI * n0 / 60.0;
     m->t0 = t0;

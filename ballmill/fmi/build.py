@@ -5,8 +5,8 @@
 * pythonfmu: the Python reference at ``build/pythonfmu/<Model>.fmu``.
 
 Both come from the one declaration of each interface (ballmill/fmi/interface.py).
-A model without a native C file yet gets its pythonfmu FMU at the native path too
-(the build says so).
+Without a C compiler (or for a model without a C file) the native path gets a copy
+of the pythonfmu FMU, and the build says so.
 
 The pythonfmu adapter scripts are the ``*_fmu.py`` files in fmu_src/ (the ball) and
 drive_models/ (drives). Each FMU bundles the parts of this package it needs
@@ -112,6 +112,8 @@ def up_to_date(script: Path, build_dir: Path | None = None, flavour: str = "pyth
     built = target.stat().st_mtime
     newest = max(src.stat().st_mtime for src in _sources(script))
     if flavour == "native" and name in native.available():
+        if native.has_compiler() and not native.is_native(target):
+            return False  # a pythonfmu copy from a build without a compiler
         newest = native.newest_source_mtime(name)
     return newest <= built
 
@@ -190,11 +192,13 @@ def build_all(build_dir: Path | None = None, force: bool = False, log=print,
         nat = fmu_path(name, build_dir, "native")
         if not force and up_to_date(script, build_dir, "native"):
             log(f"up to date: {nat}")
-        elif name in native.available():
+        elif name in native.available() and native.has_compiler():
             build_native_one(name, build_dir)
             log(f"built and validated: {nat} (native)")
         else:
             shutil.copy2(py, nat)
-            log(f"no native model for {name} yet: {nat} is the pythonfmu flavour")
+            why = "no native model" if name not in native.available() else \
+                "no C compiler (cc, gcc, clang or $CC) to build the native FMU"
+            log(f"{why} for {name}: {nat} is a copy of the pythonfmu flavour")
         paths["native"].append(nat)
     return paths[flavour]

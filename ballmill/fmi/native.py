@@ -154,7 +154,7 @@ def model_description(interface: Interface, guid_: str, sources: list[str]) -> s
     structure and DefaultExperiment as the pythonfmu flavour's)."""
     root = Element("fmiModelDescription", dict(
         fmiVersion="2.0", modelName=interface.name, guid=guid_, description=interface.description,
-        author="ballmill", license="MIT", generationTool="ballmill native build",
+        author="ballmill", license="MIT", generationTool=GENERATION_TOOL,
         variableNamingConvention="structured", numberOfEventIndicators="0"))
     cs = SubElement(root, "CoSimulation", dict(
         modelIdentifier=interface.name, needsExecutionTool="false",
@@ -212,8 +212,17 @@ def model_description(interface: Interface, guid_: str, sources: list[str]) -> s
 
 
 # ----------------------------------------------------------------------------- compile, package
+def has_compiler() -> bool:
+    try:
+        compiler()
+    except NativeBuildError:
+        return False
+    return True
+
+
 def compiler() -> str:
-    cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")
+    env = os.environ.get("CC")
+    cc = shutil.which(env) if env else (shutil.which("cc") or shutil.which("gcc") or shutil.which("clang"))
     if not cc:
         raise NativeBuildError("no C compiler found (cc, gcc, clang or $CC): the native FMUs need one; "
                                "the pythonfmu flavour (build/pythonfmu/) does not")
@@ -283,6 +292,18 @@ def build_native(name: str, out_dir: Path, interface: Interface | None = None,
                     z.write(f, f.relative_to(tmp).as_posix())
         partial.replace(target)
     return target
+
+
+GENERATION_TOOL = "ballmill native build"
+
+
+def is_native(fmu: Path) -> bool:
+    """Whether an FMU file was made by this native build (not a pythonfmu copy)."""
+    try:
+        with zipfile.ZipFile(fmu) as z:
+            return f'generationTool="{GENERATION_TOOL}"' in z.read("modelDescription.xml").decode("utf-8")
+    except (OSError, KeyError, zipfile.BadZipFile):
+        return False
 
 
 def newest_source_mtime(name: str) -> float:

@@ -185,11 +185,13 @@ static fmi2Status build(fmu_instance *fi)
     /* the model's own checks first (its messages say what the physics needs), then the
      * declared bounds of every parameter */
     fmi2Status s = FMU_MODEL.setup(fi, fi->data_work, fi->v_work, fi->t_start);
-    if (s > fmi2Warning) return fmi2Error;
-    if (check_parameters(fi, fi->v) != fmi2OK) return fmi2Error;
-    if (check_outputs(fi, fi->v_work, fi->t_start) != fmi2OK) return fmi2Error;
+    if (s > fmi2Warning || check_parameters(fi, fi->v) != fmi2OK ||
+        check_outputs(fi, fi->v_work, fi->t_start) != fmi2OK) {
+        memcpy(fi->data_work, fi->data, FMU_MODEL.data_size); /* keep the copies equal */
+        return fmi2Error;
+    }
     memcpy(fi->v, fi->v_work, nv);
-    memcpy(fi->data, fi->data_work, FMU_MODEL.data_size);
+    memcpy(fi->data, fi->data_work, FMU_MODEL.data_size); /* both copies hold the configuration */
     fi->t = fi->t_start;
     fi->built = 1;
     return s;
@@ -328,6 +330,7 @@ fmi2Status fmi2Reset(fmi2Component c)
     fi->t_start = fi->t = 0.0;
     start_values(fi);
     memset(fi->data, 0, FMU_MODEL.data_size);
+    memset(fi->data_work, 0, FMU_MODEL.data_size);
     return fmi2OK;
 }
 
@@ -497,9 +500,12 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
                 FMU_MODEL.identifier, fi->name, fmu_repr(t, a), fmu_repr(fi->t, b));
         return fmi2Error;
     }
+    /* the step runs on the work copies; the configuration part of the data is the same in
+     * both (build and fmi2SetFMUstate write both), so only the dynamic part is copied */
     size_t nv = (size_t)FMU_MODEL.n_vars * sizeof(double);
     memcpy(fi->v_work, fi->v, nv);
-    memcpy(fi->data_work, fi->data, FMU_MODEL.data_size);
+    memcpy(fi->data_work + FMU_MODEL.dyn_offset, fi->data + FMU_MODEL.dyn_offset,
+           FMU_MODEL.data_size - FMU_MODEL.dyn_offset);
     fmi2Status s = FMU_MODEL.step(fi, fi->data_work, fi->v_work, t, h);
     if (s <= fmi2Warning && check_outputs(fi, fi->v_work, t + h) != fmi2OK) s = fmi2Discard;
     if (s > fmi2Warning) return s == fmi2Discard ? fmi2Discard : fmi2Error; /* the last good state stays */
@@ -712,9 +718,10 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state)
         memcpy(fi->data_work + FMU_MODEL.dyn_offset, data + FMU_MODEL.dyn_offset,
                FMU_MODEL.data_size - FMU_MODEL.dyn_offset);
         if (FMU_MODEL.check(fi, fi->data_work, fi->v_work) > fmi2Warning) goto refused;
-        memcpy(fi->data, fi->data_work, FMU_MODEL.data_size);
+        memcpy(fi->data, fi->data_work, FMU_MODEL.data_size); /* both copies hold the configuration */
     } else {
         memset(fi->data, 0, FMU_MODEL.data_size);
+        memset(fi->data_work, 0, FMU_MODEL.data_size);
         memcpy(fi->v_work, v, nv);
     }
     memcpy(fi->v, fi->v_work, nv);
@@ -724,6 +731,7 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state)
     fi->t = h.t;
     return fmi2OK;
 refused:
+    memcpy(fi->data_work, fi->data, FMU_MODEL.data_size); /* keep the copies equal */
     fmu_log(fi, fmi2Error, "%s '%s': fmi2SetFMUstate: state refused (see the message before), instance unchanged",
             FMU_MODEL.identifier, fi->name);
     return fmi2Error;
