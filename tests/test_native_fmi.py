@@ -163,3 +163,23 @@ def test_a_state_with_impossible_parameters_is_refused_instance_unchanged(opened
     assert any("r must be positive" in m for m in _errors(ball))
     assert ball.get("xC") == before and ball.get("r") == 0.025
     ball.fmu.doStep(3 * H, H)  # and it carries on
+
+
+def test_a_state_from_another_configuration_restores_that_configuration(opened, fmus_of):
+    """A state carries its parameters: set into an instance with other parameters, the
+    configuration is rebuilt from the state's (checked like at initialisation) and the
+    instance continues exactly like the one the state came from."""
+    heavy = _start(opened, fmus_of, "BallInShell", name="heavy", m=2.0, input_mode=2)
+    light = _start(opened, fmus_of, "BallInShell", name="light", m=0.51)
+    blob = heavy.fmu.serializeFMUstate(heavy.fmu.getFMUstate())
+    state = light.fmu.deSerializeFMUstate(blob)
+    light.fmu.setFMUstate(state)
+    assert light.get("m") == 2.0 and light.get("input_mode") == 2
+    for k in range(3, 10):
+        x = 0.01 * math.sin(5.0 * k * H)
+        for inst in (heavy, light):
+            inst.set(x1O=x)
+            inst.fmu.doStep(k * H, H)
+    assert light.reals(("N", "xC", "M_reaction")) == heavy.reals(("N", "xC", "M_reaction"))
+    # the heavy ball, off-centre (xC0 = 0.05 m of R - r = 0.225 m): N near m g cos(12.8 deg)
+    assert light.get("N") == pytest.approx(2.0 * 9.81 * math.cos(math.asin(0.05 / 0.225)), rel=0.02)
