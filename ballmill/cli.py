@@ -1,7 +1,8 @@
 """The `ballmill` command: build the FMUs, run scenarios, benchmark.
 
-    ballmill build [--force]                 build and validate every FMU into build/
-    ballmill run SCENARIO [--out DIR] [--set inst.param=value ...]
+    ballmill build [--force]                 build and validate every FMU, both flavours: native
+                                             (C) in build/, pythonfmu in build/pythonfmu/
+    ballmill run SCENARIO [--out DIR] [--set inst.param=value ...] [--flavour pythonfmu]
     ballmill bench [...]                      speed/accuracy map -> BENCHMARKS.md
     ballmill export-ssp SCENARIO OUT.ssp [--set inst.param=value ...]
                                              the scenario as an SSP package for other FMI tools
@@ -36,7 +37,7 @@ def _run(args) -> int:
     try:
         sc, models, paths = runner.prepare(args.scenario, args.set or (),
                                            Path(args.build_dir) if args.build_dir else None,
-                                           log=lambda m: print(m, file=sys.stderr))
+                                           log=lambda m: print(m, file=sys.stderr), flavour=args.flavour)
     except (ScenarioError, BuildError) as e:
         print(f"ballmill run: {e}", file=sys.stderr)
         return 2
@@ -149,13 +150,17 @@ def _scenario_arguments(p):
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="ballmill", description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
-    b = sub.add_parser("build", help="build and validate every FMU into build/")
+    b = sub.add_parser("build", help="build and validate every FMU (native in build/, pythonfmu in "
+                                     "build/pythonfmu/)")
     b.add_argument("--force", action="store_true", help="rebuild even when up to date")
     b.add_argument("--build-dir", help="where to put the FMUs (default: build/)")
     r = sub.add_parser("run", help="run a scenario (builds the FMUs if needed)")
     _scenario_arguments(r)
     r.add_argument("--out", help="output folder (default: out/SCENARIO)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
+    r.add_argument("--flavour", choices=("native", "pythonfmu"), default="native",
+                   help="which FMUs to run: native (C, build/, the default) or pythonfmu (the Python "
+                        "reference, build/pythonfmu/)")
     e = sub.add_parser("export-ssp", help="write a scenario as an SSP package (.ssp) for other FMI tools")
     _scenario_arguments(e)
     e.add_argument("out", help="the .ssp file to write")

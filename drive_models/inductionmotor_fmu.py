@@ -41,7 +41,8 @@ import re
 
 import numpy as np
 
-from ballmill.fmi.slave import CRANK_KINEMATICS, Slave
+from ballmill.fmi.interface import CRANK_KINEMATICS, INDUCTION_MOTOR
+from ballmill.fmi.slave import Slave
 from ballmill.physics.errors import ParameterError
 from ballmill.physics.integrators import Integrator
 from ballmill.physics.motor import RPM, CrankDrive
@@ -56,95 +57,17 @@ NAMES = {"rated_power": "P_rated", "rated_speed": "n_rated", "rated_voltage": "U
          "rated_frequency": "f_rated", "rated_current": "I_rated", "power_factor": "cos_phi",
          "efficiency": "eta", "breakdown_ratio": "Tb_ratio", "stator_copper_share": "Rs_share"}
 
-KINEMATICS = tuple((name, unit, "Crank angular acceleration (i T_motor + M_reaction) / J_total")
-                   if name == "psi_ddot" else (name, unit, desc) for name, unit, desc in CRANK_KINEMATICS)
-FEEDTHROUGH = ("psi_ddot", "ax1O", "ay1O")  # depend on M_reaction at initialisation
-
-
-def _default(name):
-    return MotorData.__dataclass_fields__[name].default
-
-
-def _drive_default(name):
-    return CrankDrive.__dataclass_fields__[name].default
+KINEMATICS = CRANK_KINEMATICS
 
 
 class InductionMotor(Slave):
     """Induction motor (Kloss or dq) + starter + gear + crank + platform, loaded by M_reaction."""
 
-    description = ("Three-phase induction motor from its datasheet (Kloss or dq model; direct on line, "
-                   "voltage ramp or V/f ramp) driving a platform on cranks through a gear; the ball's "
-                   "reaction torque M_reaction loads the crank shaft")
+    description = INDUCTION_MOTOR.description
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        p = self.add
-        # motor datasheet
-        p("P_rated", "parameter", _default("rated_power"), "Rated (shaft) power of the motor", "W",
-          vmin=0.0)
-        p("n_rated", "parameter", _default("rated_speed"), "Rated speed of the motor", "1/min", vmin=0.0)
-        p("U_rated", "parameter", _default("rated_voltage"), "Rated line-to-line voltage (rms)", "V",
-          vmin=0.0)
-        p("f_rated", "parameter", _default("rated_frequency"), "Rated supply frequency", "Hz", vmin=0.0)
-        p("pole_pairs", "parameter", _default("pole_pairs"), "Number of pole pairs (2 for a 4-pole motor)",
-          vmin=1)
-        p("I_rated", "parameter", _default("rated_current"), "Rated line current (rms) at U_rated", "A",
-          vmin=0.0)
-        p("cos_phi", "parameter", _default("power_factor"), "Power factor at the rated point (dq fit)",
-          "1", vmin=0.0, vmax=1.0)
-        p("eta", "parameter", _default("efficiency"), "Efficiency at the rated point (dq fit)", "1",
-          vmin=0.0, vmax=1.0)
-        p("Tb_ratio", "parameter", _default("breakdown_ratio"), "Breakdown torque / rated torque", "1",
-          vmin=1.0)
-        p("J_rotor", "parameter", _default("J_rotor"), "Rotor inertia (and anything on the motor shaft)",
-          "kg.m2", vmin=0.0)
-        p("Rs_share", "parameter", _default("stator_copper_share"), "Share of the rated losses (other "
-          "than rotor copper) attributed to stator copper; sets Rs of the fitted dq model", "1",
-          vmin=0.0, vmax=1.0)
-        # starter
-        p("start_mode", "parameter", 1, "Starter: 1 = direct on line, 2 = voltage ramp (soft starter, "
-          "U/Un from u_start to 1 in ramp_time), 3 = frequency ramp (inverter, V/f, f/fn from f_start "
-          "to 1 in ramp_time)", vmin=1, vmax=3)
-        p("ramp_time", "parameter", _default("ramp_time"), "Duration of the voltage or frequency ramp",
-          "s", vmin=0.0)
-        p("u_start", "parameter", _default("u_start"), "U/Un at t = 0 of a voltage ramp", "1",
-          vmin=0.0, vmax=1.0)
-        p("f_start", "parameter", _default("f_start"), "f/fn at t = 0 of a frequency ramp", "1",
-          vmin=0.0, vmax=1.0)
-        p("model", "parameter", 1, "Motor model: 1 = Kloss (quasi-static torque-speed curve), "
-          "2 = dq (4 flux states, electrical transients, current and power)", vmin=1, vmax=2)
-        # gear, crank, platform
-        p("i", "parameter", _drive_default("i"), "Gear ratio: motor speed / crank speed", "1", vmin=0.0)
-        p("J_crank", "parameter", _drive_default("J_crank"), "Inertia of cranks and gear output about "
-          "the crank axis", "kg.m2", vmin=0.0)
-        p("m_platform", "parameter", _drive_default("m_platform"), "Mass of the translating platform "
-          "with the chamber (adds m l^2 to the inertia)", "kg", vmin=0.0)
-        p("l", "parameter", _drive_default("l"), "Crank length (radius of the platform's circle)", "m",
-          vmin=0.0)
-        # numerics
-        p("tolerance", "parameter", 1e-9, "Relative tolerance of the internal DOP853 integrator", "1",
-          vmin=1e-14, vmax=0.1)
-        p("M_input", "parameter", 2, "M_reaction over a communication step: 1 = held at its value at "
-          "the step's start, 2 = extrapolated linearly from the last two communication points",
-          vmin=1, vmax=2)
-        p("M_reaction", "input", 0.0, "Torque of the load (BallInShell.M_reaction) on the crank shaft, "
-          "positive counter-clockwise seen from above", "N.m")
-        for name, unit, desc in KINEMATICS:
-            p(name, "output", 0.0, desc, unit, depends=("M_reaction",) if name in FEEDTHROUGH else None)
-        p("w_motor", "output", 0.0, "Motor speed i psi'", "rad/s")
-        p("n_motor", "output", 0.0, "Motor speed i psi'", "1/min")
-        p("slip", "output", 1.0, "Slip (w_sync(t) - w_motor) / w_sync(t) of the supply at t "
-          "(0 while the supply frequency is zero)", "1")
-        p("T_motor", "output", 0.0, "Electromagnetic (air-gap) torque of the motor, at the motor shaft",
-          "N.m")
-        p("I_motor", "output", 0.0, "Stator line current (rms); dq model only, 0 with Kloss", "A")
-        p("P_el", "output", 0.0, "Electrical input power; dq model only, 0 with Kloss", "W")
-        p("P_motor", "output", 0.0, "Mechanical power of the motor T_motor w_motor", "W")
-        p("W_motor", "output", 0.0, "Mechanical work of the motor since the start, integral of P_motor",
-          "J")
-        p("E_drive", "output", 0.0, "Kinetic energy of rotor, gear, cranks and platform 1/2 J_total psi'^2",
-          "J")
-        self.set_default_experiment(0.0, 10.0, 1e-3)
+        self.declare(INDUCTION_MOTOR)
         self._drive = None
         self._integrator = None
         self._t = 0.0

@@ -20,7 +20,8 @@ if not os.path.exists(getattr(sys.modules.get("ballmill"), "__file__", None) or 
     for _name in [n for n in sys.modules if n.split(".")[0] == "ballmill"]:
         del sys.modules[_name]
 
-from ballmill.fmi.slave import CRANK_KINEMATICS, Slave
+from ballmill.fmi.interface import CRANK_KINEMATICS, MOTOR_STARTUP
+from ballmill.fmi.slave import Slave
 from ballmill.physics import CrankStartup
 
 KINEMATICS = CRANK_KINEMATICS
@@ -31,33 +32,11 @@ class MotorStartup(Slave):
     """Crank start-up law: the crank speed rises to n0 in t0 (the paper's quadratic rise, or the
     S-curve, linear or quintic law chosen by ``law``)."""
 
-    description = ("Kinematic crank start-up law (quadratic speed rise to n0 in t0) driving a "
-                   "platform on a circle of radius l; reports the drive torque and power")
+    description = MOTOR_STARTUP.description
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        law = CrankStartup()
-        p = self.add
-        p("l", "parameter", law.l, "Crank length (radius of the platform's circle)", "m", vmin=0.0)
-        p("n0", "parameter", law.n0, "Steady crank speed", "1/min", vmin=0.0)
-        p("t0", "parameter", law.t0, "Start-up time to reach n0", "s", vmin=0.0)
-        p("m_platform", "parameter", 0.0, "Mass of the platform and chamber (adds m l^2 to the inertia)",
-          "kg", vmin=0.0)
-        p("J_crank", "parameter", 0.0, "Inertia of cranks and gear about the crank axis", "kg.m2",
-          vmin=0.0)
-        # declared after the existing parameters: earlier value references stay as they were
-        p("law", "parameter", 1, "Shape of the speed rise to n0 in t0: 1 = quadratic (the paper's), "
-          "2 = S-curve (cubic smoothstep, zero acceleration at both ends), 3 = linear (constant "
-          "acceleration), 4 = quintic (zero acceleration and jerk at both ends)", vmin=1, vmax=4)
-        p("M_reaction", "input", 0.0, "Torque of the ball on the crank shaft (BallInShell.M_reaction)",
-          "N.m")
-        for name, unit, desc in KINEMATICS:
-            p(name, "output", 0.0, desc, unit)
-        p("T_drive", "output", 0.0, "Torque the drive must supply: J_total psi'' - M_reaction", "N.m",
-          depends=("M_reaction",))
-        p("P_drive", "output", 0.0, "Power the drive must supply: T_drive psi'", "W",
-          depends=("M_reaction",))
-        self.set_default_experiment(0.0, 10.0, 1e-3)
+        self.declare(MOTOR_STARTUP)
         self._law = None
 
     def initialise(self):

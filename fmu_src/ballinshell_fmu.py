@@ -33,116 +33,26 @@ if not os.path.exists(getattr(sys.modules.get("ballmill"), "__file__", None) or 
 
 import math
 
+from ballmill.fmi.interface import BALL_IN_SHELL, BALL_INPUTS, BALL_OUTPUTS, BIG
 from ballmill.fmi.slave import Slave
 from ballmill.physics import Ball, BallModel, BallState, InputReconstruction, ParameterError
 
 FORMULATIONS = {1: "vector", 2: "paper"}
 METHODS = {1: "DOP853", 2: "RK45", 3: "RK4"}
 INPUT_MODES = {1: "derivatives", 2: "positions", 3: "hold"}
-
-OUTPUTS = (
-    ("xP", "m", "Contact point P, x in the chamber frame Oxyz"),
-    ("yP", "m", "Contact point P, y in the chamber frame Oxyz"),
-    ("zP", "m", "Contact point P, height above the chamber's lowest point O"),
-    ("N", "N", "Normal force of the chamber on the ball (> 0: ball pressed on the wall)"),
-    ("Fx", "N", "Force of the ball on the chamber, x"),
-    ("Fy", "N", "Force of the ball on the chamber, y"),
-    ("Fz", "N", "Force of the ball on the chamber, z (-m g at rest)"),
-    ("M_reaction", "N.m", "Torque of the ball's force on the crank shaft about the vertical crank axis "
-                          "through O1 (positive counter-clockwise seen from above)"),
-    ("MAx", "N.m", "Moment of the ball's force about the chamber centre A, x"),
-    ("MAy", "N.m", "Moment of the ball's force about the chamber centre A, y"),
-    ("MAz", "N.m", "Moment of the ball's force about the chamber centre A, z"),
-    ("xC", "m", "Ball centre C, x in Oxyz"),
-    ("yC", "m", "Ball centre C, y in Oxyz"),
-    ("zC", "m", "Ball centre C, z in Oxyz"),
-    ("wx", "rad/s", "Absolute angular velocity of the ball, x"),
-    ("wy", "rad/s", "Absolute angular velocity of the ball, y"),
-    ("wz", "rad/s", "Absolute angular velocity of the ball, z"),
-    ("Ft", "N", "Magnitude of the friction (tangential) force on the ball"),
-    ("friction_ratio", "1", "|F_t| / N: the ball rolls while this is <= mu (1e300 when N <= 0)"),
-)
-INPUTS = ("x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O")
-BIG = 1e300  # stands for infinity in outputs (FMI tools choke on inf)
+OUTPUTS = BALL_OUTPUTS
+INPUTS = BALL_INPUTS
 
 
 class BallInShell(Slave):
     """A heavy ball rolling without slip inside a spherical chamber that translates
     horizontally (shockless ball mill; ball vibration absorber)."""
 
-    description = ("Ball rolling without slip inside a translating spherical chamber "
-                   "(Gibbs-Appell model of the shockless ball mill)")
+    description = BALL_IN_SHELL.description
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        ball = Ball()
-        p = self.add
-        p("r", "parameter", ball.r, "Ball radius", "m", vmin=0.0)
-        p("R", "parameter", ball.R, "Chamber (inner sphere) radius, > r", "m", vmin=0.0)
-        p("m", "parameter", ball.m, "Ball mass (default: steel ball of r = 25 mm)", "kg", vmin=0.0)
-        p("g", "parameter", ball.g, "Gravitational acceleration", "m/s2", vmin=0.0)
-        p("mu", "parameter", ball.mu, "Friction coefficient ball/chamber, for the rolling check",
-          "1", vmin=0.0)
-        p("xC0", "parameter", 0.0, "Initial ball centre x (lower half of the chamber)", "m")
-        p("yC0", "parameter", 0.0, "Initial ball centre y (lower half of the chamber)", "m")
-        p("wx0", "parameter", 0.0, "Initial angular velocity x", "rad/s")
-        p("wy0", "parameter", 0.0, "Initial angular velocity y", "rad/s")
-        p("wz0", "parameter", 0.0, "Initial angular velocity z", "rad/s")
-        p("formulation", "parameter", 1, "Equations: 1 = vector (n, omega; whole sphere), "
-          "2 = paper (xC, yC, omega; lower hemisphere only)", vmin=1, vmax=2)
-        # default RK45 at 1e-8: with communication steps of a few ms the coupling error dominates
-        # and RK45 gives the same contact point and N as DOP853 at 1e-9 for ~30 % less time
-        # (BENCHMARKS.md, co-simulation section)
-        p("integrator", "parameter", 2, "Internal integrator: 1 = DOP853 (adaptive, 8th order), "
-          "2 = RK45 (adaptive), 3 = RK4 (fixed step h_fixed)", vmin=1, vmax=3)
-        p("tolerance", "parameter", 1e-8, "Relative tolerance of the adaptive integrators", "1",
-          vmin=1e-15, vmax=0.1)
-        p("h_fixed", "parameter", 1e-3, "Step of the fixed-step RK4 integrator", "s", vmin=0.0)
-        p("input_mode", "parameter", 1, "How the platform acceleration between communication points "
-          "is obtained: 1 = from the derivative inputs vx1O..ay1O (Hermite extrapolation), "
-          "2 = from the positions x1O, y1O alone (polynomial through the last 6 samples), "
-          "3 = hold ax1O, ay1O constant (first order)", vmin=1, vmax=3)
-        p("max_step", "parameter", 0.0, "Largest communication step accepted; longer steps are "
-          "refused (fmi2Discard) because the platform motion cannot be extrapolated accurately over "
-          "them. 0 = automatic: 1/20 of the ball's natural period 2 pi sqrt(7 (R - r) / (5 g))", "s",
-          vmin=0.0)
-        p("corrector", "parameter", True, "Predictor-corrector (input modes 1 and 2): once the inputs "
-          "at the end of a step are known, re-integrate the steps inside the input window (1 step with "
-          "derivative inputs, 5 with positions only) along the interpolating fit, so extrapolation "
-          "errors do not accumulate; costs that many extra integrations per step")
-        descriptions = {
-            "x1O": ("Platform point O, x in the fixed frame (crank axis at the origin)", "m"),
-            "y1O": ("Platform point O, y in the fixed frame", "m"),
-            "vx1O": ("Platform velocity x (used with input_mode = 1)", "m/s"),
-            "vy1O": ("Platform velocity y (used with input_mode = 1)", "m/s"),
-            "ax1O": ("Platform acceleration x (used with input_mode = 1 or 3)", "m/s2"),
-            "ay1O": ("Platform acceleration y (used with input_mode = 1 or 3)", "m/s2"),
-        }
-        for name in INPUTS:
-            desc, unit = descriptions[name]
-            p(name, "input", 0.0, desc, unit)
-        for name, unit, desc in OUTPUTS:
-            p(name, "output", 0.0, desc, unit, depends=INPUTS)
-        p("contact", "output", True, "The ball touches the wall (N > 0); the model is invalid otherwise",
-          depends=INPUTS)
-        p("rolling", "output", True, "Contact and |F_t| <= mu N: the ball rolls without slip",
-          depends=INPUTS)
-        # losses to the ground material (declared last: earlier value references stay as they were)
-        p("delta", "parameter", 0.0, "Rolling-resistance length: the ground material resists the "
-          "rolling with a moment delta N opposite to the rolling angular velocity (0 = none)", "m",
-          vmin=0.0)
-        p("c_drag", "parameter", 0.0, "Viscous drag of the ground material on the ball's centre, "
-          "F_d = -c_drag v_C,rel (0 = none); Fx..Fz and M_reaction then include its reaction on the "
-          "material the chamber carries", "N.s/m", vmin=0.0)
-        p("P_diss", "output", 0.0, "Power dissipated by rolling resistance and drag (0 without them)",
-          "W", depends=INPUTS)
-        p("coupling_error", "output", 0.0, "Estimated error of the communication step: distance "
-          "between the contact point predicted at the last communication point and the one the "
-          "corrector computed there with the true inputs (0 without the corrector)", "m", vmin=0.0,
-          depends=INPUTS)
-        p("coupling_warn", "parameter", 1e-4, "coupling_error above which a warning is logged (once): "
-          "the communication step is too long for how fast the inputs change", "m", vmin=0.0)
-        self.set_default_experiment(0.0, 10.0, 1e-3)
+        self.declare(BALL_IN_SHELL)
         self._model = None
         self._max_step = math.inf
         self._state = None

@@ -11,13 +11,21 @@ from fmpy.logging import addLoggerProxy
 
 
 class Instance:
-    """One instantiated FMU; ``messages`` collects (status, text) of its log."""
+    """One instantiated FMU; ``messages`` collects (status, text) of its log.
+
+    fmpy's native logger proxy keeps one logger for the whole process (the last one
+    registered), so a message is filed by the instance name the FMU reports: give the
+    instances that live at the same time different names."""
+
+    _by_name: dict = {}
 
     def __init__(self, path, name, **parameters):
         self.md = read_model_description(str(path))
         self.unzipdir = extract(str(path))
         self.vars = {v.name: v for v in self.md.modelVariables}
         self.messages: list[tuple[int, str]] = []
+        self.name = name
+        Instance._by_name[name] = self
         self.callbacks = fmi2CallbackFunctions()
         self._logger = fmi2CallbackLoggerTYPE(self._on_message)  # keep a reference
         self.callbacks.logger = self._logger
@@ -30,7 +38,9 @@ class Instance:
         self.set(**parameters)
 
     def _on_message(self, env, instance, status, category, message):
-        self.messages.append((status, message.decode("utf-8", "replace") if message else ""))
+        name = instance.decode("utf-8", "replace") if instance else self.name
+        target = Instance._by_name.get(name, self)
+        target.messages.append((status, message.decode("utf-8", "replace") if message else ""))
 
     def set(self, **values):
         for name, value in values.items():
@@ -64,6 +74,8 @@ class Instance:
         finally:
             self.fmu.freeInstance()
             shutil.rmtree(self.unzipdir, ignore_errors=True)
+            if Instance._by_name.get(self.name) is self:
+                del Instance._by_name[self.name]
 
 
 class Opened:

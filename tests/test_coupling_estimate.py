@@ -11,8 +11,9 @@ from ballmill.physics import Ball, BallModel, CrankStartup, simulate
 from ballmill.scenario import runner
 
 
-def _run(fmu_build_dir, step, stop, sets=()):
-    sc, models, paths = runner.prepare("fast_start", list(sets), fmu_build_dir, log=lambda m: None)
+def _run(fmu_build_dir, step, stop, sets=(), flavour="native"):
+    sc, models, paths = runner.prepare("fast_start", list(sets), fmu_build_dir, log=lambda m: None,
+                                       flavour=flavour)
     sc.step, sc.stop = step, stop
     res = runner.run(sc, models, paths, progress=False, echo=False)
     assert res.success, res.message
@@ -20,8 +21,8 @@ def _run(fmu_build_dir, step, stop, sets=()):
 
 
 @pytest.mark.parametrize("step", [0.005, 0.02])
-def test_estimate_matches_the_actual_contact_point_error(fmu_build_dir, step):
-    res = _run(fmu_build_dir, step, 5.0)
+def test_estimate_matches_the_actual_contact_point_error(fmu_build_dir, fmu_flavour, step):
+    res = _run(fmu_build_dir, step, 5.0, flavour=fmu_flavour)
     ref = simulate(BallModel(Ball(), tol=1e-13), CrankStartup(0.5, 60.0, 2.5), 5.0, step)
     actual = np.sqrt(sum((res.column(f"ball.{c}") - ref[c]) ** 2 for c in ("xP", "yP", "zP")))
     estimate = res.column("ball.coupling_error")
@@ -31,12 +32,12 @@ def test_estimate_matches_the_actual_contact_point_error(fmu_build_dir, step):
     assert estimate.max() > 1e-10  # not trivially zero
 
 
-def test_too_long_a_step_for_the_drive_is_reported(fmu_build_dir):
+def test_too_long_a_step_for_the_drive_is_reported(fmu_build_dir, fmu_flavour):
     # a near-impulsive start (t0 = 10 ms) at a 10 ms step: accepted by max_step (ball time
     # scale) but far too coarse for the drive; the estimate flags it at the first correction
-    res = _run(fmu_build_dir, 0.01, 0.5, ["drive.t0=0.01"])
+    res = _run(fmu_build_dir, 0.01, 0.5, ["drive.t0=0.01"], fmu_flavour)
     warnings = [m for m in res.messages if "coupling_warn" in m["message"]]
     assert len(warnings) == 1 and warnings[0]["status"] == "warning"
     assert res.column("ball.coupling_error").max() > 1e-3
-    fine = _run(fmu_build_dir, 0.001, 0.5, ["drive.t0=0.01"])
+    fine = _run(fmu_build_dir, 0.001, 0.5, ["drive.t0=0.01"], fmu_flavour)
     assert not [m for m in fine.messages if "coupling_warn" in m["message"]]

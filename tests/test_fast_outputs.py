@@ -50,7 +50,7 @@ def test_outputs_python_kernel_and_paper_fall_back():
     assert paper.outputs(sp, 1.0, 2.0, 0.3, 0.1).N > 0
 
 
-def test_fit_coefficients_are_floats_equal_to_numpy():
+def test_fit_coefficients_are_the_correctly_rounded_inverse_times_the_samples():
     rng = np.random.default_rng(3)
     for mode in ("derivatives", "positions"):
         r = InputReconstruction(mode)
@@ -68,5 +68,20 @@ def test_fit_coefficients_are_floats_equal_to_numpy():
                 if mode == "derivatives":
                     rows.append((1, tau)); bx.append(vx * hs); by.append(vy * hs)
                     rows.append((2, tau)); bx.append(ax * hs * hs); by.append(ay * hs * hs)
-            c = InputReconstruction._inverse(tuple(rows)) @ np.array([bx, by]).T
-            assert r._cx == tuple(c[:, 0].tolist()) and r._cy == tuple(c[:, 1].tolist())
+            inv = InputReconstruction._inverse(tuple(rows))
+            # left-to-right dot products (what the native FMU's C does)
+            cx = tuple(sum_lr(row, bx) for row in inv)
+            cy = tuple(sum_lr(row, by) for row in inv)
+            assert r._cx == cx and r._cy == cy
+            # the inverse: M inv = I to round-off, and each entry the float nearest the exact value
+            M = np.array([[math.perm(j, der) * round(tau, 12) ** (j - der) if j >= der else 0.0
+                           for j in range(len(rows))] for der, tau in rows])
+            np.testing.assert_allclose(M @ np.array(inv), np.eye(len(rows)), atol=1e-9)
+            assert np.max(np.abs(np.array(inv) - np.linalg.inv(M))) <= 1e-9 * np.max(np.abs(inv))
+
+
+def sum_lr(row, b):
+    acc = row[0] * b[0]
+    for x, y in zip(row[1:], b[1:]):
+        acc += x * y
+    return acc

@@ -1,4 +1,4 @@
-"""The built FMUs carry their own copy of the physics: they run in a Python that
+"""The built pythonfmu FMUs carry their own copy of the physics: they run in a Python that
 has numpy, scipy and fmpy but no ballmill, one after another in one process (fmpy
 deletes each FMU's extracted folder after its run)."""
 import json
@@ -34,8 +34,8 @@ SCRIPT = textwrap.dedent("""
 """)
 
 
-def test_fmus_run_without_an_installed_ballmill(built_fmus, tmp_path):
-    fmus = {name: str(path) for name, path in built_fmus.items()}
+def test_fmus_run_without_an_installed_ballmill(fmus_of, tmp_path):
+    fmus = {name: str(path) for name, path in fmus_of("pythonfmu").items()}
     proc = subprocess.run([sys.executable, "-c", SCRIPT, json.dumps(fmus)], cwd=tmp_path,
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr[-3000:]

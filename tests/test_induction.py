@@ -235,10 +235,11 @@ def test_bad_parameters_are_named_with_the_fmu_names(built_fmus, start_values, f
     (2, {"psi_dot": 6e-5, "P": 1e-4, "N": 1.5e-2}),
     (1, {"psi_dot": 1e-3, "P": 2.5e-3, "N": 0.4}),
 ])
-def test_cosimulated_dol_start_matches_the_coupled_solution(fmu_build_dir, dol_run, m_input, bounds):
+def test_cosimulated_dol_start_matches_the_coupled_solution(fmu_build_dir, fmu_flavour, dol_run, m_input,
+                                                            bounds):
     from ballmill.scenario import runner
     sc, models, paths = runner.prepare("induction_start", [f"motor.M_input={m_input}"], fmu_build_dir,
-                                       log=lambda m: None)
+                                       log=lambda m: None, flavour=fmu_flavour)
     sc.stop, sc.step = 0.7, 1e-3
     res = runner.run(sc, models, paths, progress=False, echo=False)
     assert res.success, res.message

@@ -271,7 +271,7 @@ COUPLED = textwrap.dedent("""
     from ballmill.scenario import runner
     import ballmill.physics.fast as fast
     build_dir, scenario, step, stop, out = sys.argv[1:6]
-    sc, models, paths = runner.prepare(scenario, [], build_dir, log=lambda m: None)
+    sc, models, paths = runner.prepare(scenario, [], build_dir, log=lambda m: None, flavour="pythonfmu")
     sc.step, sc.stop = float(step), float(stop)
     res = runner.run(sc, models, paths, progress=False, echo=False)
     np.save(out, res.data)
@@ -350,14 +350,14 @@ def _standalone(unzipdir, out, no_kernel=False):
     return json.loads(proc.stdout.strip().splitlines()[-1]), np.load(out)
 
 
-def test_fmu_bundles_the_kernel(built_fmus, tmp_path):
+def test_fmu_bundles_the_kernel(fmus_of, tmp_path):
     """The FMUs carry the library built here when it is current (checked at build time, so
     the source stays out and the FMU does not hash it at load time), and nothing else compiled."""
     from ballmill.fmi.build import kernel_to_bundle
 
     lib, why = kernel_to_bundle()
     assert (lib is None) == bool(why)
-    for fmu in built_fmus.values():
+    for fmu in fmus_of("pythonfmu").values():  # (the native FMUs carry C sources instead)
         names = zipfile.ZipFile(fmu).namelist()
         bundled = [n for n in names if n.startswith("resources/ballmill/physics/_kernel")]
         assert bundled == ([f"resources/ballmill/physics/{lib.name}"] if lib else []), bundled
@@ -371,12 +371,12 @@ def test_fmu_bundles_the_kernel(built_fmus, tmp_path):
 
 
 @needs_kernel
-def test_fmu_runs_with_a_missing_or_broken_kernel(built_fmus, tmp_path):
+def test_fmu_runs_with_a_missing_or_broken_kernel(fmus_of, tmp_path):
     """Standalone (no installed ballmill): the FMU loads its own kernel; with the library
     removed, damaged, stale (another _kernel.c put beside it) or switched off it runs in
     Python, with the same outputs bit for bit."""
     base = tmp_path / "intact"
-    zipfile.ZipFile(built_fmus["BallInShell"]).extractall(base)
+    zipfile.ZipFile(fmus_of("pythonfmu")["BallInShell"]).extractall(base)
     physics = base / "resources" / "ballmill" / "physics"
     lib_name = next(p.name for p in physics.glob("_kernel*") if p.suffix != ".c")
     variants = {}

@@ -138,6 +138,29 @@ def test_fast_start_in_libcosim_matches_runner(fast_start_ssp, build_dir):
     np.testing.assert_allclose(lc["drive.T_drive"][2:], ref.column("drive.T_drive")[2:], rtol=0, atol=1e-5)
 
 
+def test_ssp_has_one_parameter_set_and_the_step_where_each_tool_reads_it(build_dir, tmp_path):
+    """One named set across the components (an engine that applies one set by name, as
+    libcosim does, gets every component's values), and the communication step both in
+    the OSP annotation (libcosim) and in OMSimulator's fixed-step master annotation."""
+    overrides = ["drive.n0=45.0", "ball.xC0=0.02"]
+    pkg = ssp.export_ssp("fast_start", tmp_path / "tools.ssp", overrides, build_dir=build_dir, log=_quiet)
+    root = ssp.read_ssd(pkg)
+    by_name = {}
+    for comp in root.iterfind("ssd:System/ssd:Elements/ssd:Component", ssp.NS):
+        for pset in comp.iterfind(".//ssv:ParameterSet", ssp.NS):
+            for par in pset.iterfind(".//ssv:Parameter", ssp.NS):
+                by_name.setdefault(pset.get("name"), set()).add((comp.get("name"), par.get("name")))
+    assert list(by_name) == [ssp.PARAMETER_SET]
+    assert {("drive", "n0"), ("ball", "xC0"), ("drive", "t0"), ("ball", "R")} <= by_name[ssp.PARAMETER_SET]
+    system = root.find("ssd:System", ssp.NS)
+    assert [child.tag.split("}")[1] for child in system][-1] == "Annotations"  # after Connections
+    master = system.find("ssd:Annotations/ssc:Annotation[@type='org.openmodelica']/oms:Annotations/"
+                         "oms:SimulationInformation/oms:FixedStepMaster", ssp.NS)
+    assert master is not None and float(master.get("stepSize")) == STEP
+    from fmpy.ssp.ssd import read_ssd
+    read_ssd(str(pkg), validate=True)  # still valid SSP 1.0
+
+
 def test_ssp_parameter_bindings_are_applied(build_dir, tmp_path):
     """Non-default parameters (Real and Integer) reach the FMUs through the .ssd."""
     overrides = ["drive.n0=45.0", "drive.t0=1.0", "drive.l=0.4", "ball.xC0=0.02", "ball.integrator=2"]

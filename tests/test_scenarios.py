@@ -30,8 +30,9 @@ SUMMARY_KEYS = ("N", "ring", "zP_max_m", "M_reaction_peak_abs_Nm", "validity", "
 PLOTS = ("zP.png", "ring.png", "N.png", "torque.png")
 
 
-def run_cli(build_dir, scenario, out, *sets):
-    args = ["run", str(scenario), "--out", str(out), "--build-dir", str(build_dir), "--quiet"]
+def run_cli(build_dir, scenario, out, *sets, flavour="native"):
+    args = ["run", str(scenario), "--out", str(out), "--build-dir", str(build_dir), "--quiet",
+            "--flavour", flavour]
     for s in sets:
         args += ["--set", s]
     return cli.main(args)
@@ -65,19 +66,19 @@ def models(built_fmus):
 
 
 @pytest.fixture(scope="module")
-def fast_run(fmu_build_dir, tmp_path_factory):
+def fast_run(fmu_build_dir, fmu_flavour, tmp_path_factory):
     out = tmp_path_factory.mktemp("fast_start")
     t0 = time.perf_counter()
-    rc = run_cli(fmu_build_dir, "fast_start", out)
+    rc = run_cli(fmu_build_dir, "fast_start", out, flavour=fmu_flavour)
     return rc, out, time.perf_counter() - t0
 
 
 @pytest.fixture(scope="module")
-def slow_run(fmu_build_dir, tmp_path_factory):
+def slow_run(fmu_build_dir, fmu_flavour, tmp_path_factory):
     # the full 40 s run with t0 = 30 s at the scenario's step (2 ms): about 5 s here
     out = tmp_path_factory.mktemp("slow_start")
     t0 = time.perf_counter()
-    rc = run_cli(fmu_build_dir, "slow_start", out)
+    rc = run_cli(fmu_build_dir, "slow_start", out, flavour=fmu_flavour)
     return rc, out, time.perf_counter() - t0
 
 
@@ -230,10 +231,11 @@ def test_coupled_run_matches_the_monolithic_solution(fast_run):
 
 
 # -- overrides --------------------------------------------------------------------------
-def test_set_overrides_reach_the_fmus(tmp_path, fmu_build_dir):
+def test_set_overrides_reach_the_fmus(tmp_path, fmu_build_dir, fmu_flavour):
     scenario = copy_scenario(tmp_path, "fast_start", stop=2.0)
     out = tmp_path / "out"
-    assert run_cli(fmu_build_dir, scenario, out, "drive.t0=1.0", "drive.n0=30", "ball.mu=0.5") == 0
+    assert run_cli(fmu_build_dir, scenario, out, "drive.t0=1.0", "drive.n0=30", "ball.mu=0.5",
+                   flavour=fmu_flavour) == 0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["parameters"]["drive"]["t0"] == 1.0 and summary["parameters"]["drive"]["n0"] == 30
     assert summary["parameters"]["ball"]["mu"] == 0.5
@@ -261,11 +263,12 @@ def test_bad_set_is_reported(tmp_path, fmu_build_dir, capsys, override, fragment
 
 
 # -- a failing run keeps its data --------------------------------------------------------
-def test_failing_run_keeps_the_rows_up_to_the_failure(tmp_path, fmu_build_dir):
+def test_failing_run_keeps_the_rows_up_to_the_failure(tmp_path, fmu_build_dir, fmu_flavour):
     # the paper formulation driven hard (n0 = 90 1/min reached in 1 s) climbs to the equator
     scenario = copy_scenario(tmp_path, "fast_start", stop=1.5)
     out = tmp_path / "out"
-    rc = run_cli(fmu_build_dir, scenario, out, "ball.formulation=2", "drive.n0=90", "drive.t0=1")
+    rc = run_cli(fmu_build_dir, scenario, out, "ball.formulation=2", "drive.n0=90", "drive.t0=1",
+                 flavour=fmu_flavour)
     assert rc == 1
     summary = json.loads((out / "summary.json").read_text())
     assert summary["success"] is False

@@ -165,10 +165,8 @@ def report(rows, startup_s, scene, forces_us, literal_at_1e5, target=1e-5) -> li
     from ballmill.physics import fast
 
     if fast.KERNEL_AVAILABLE:
-        kernel = ("BallInShell integrates between communication points in the compiled kernel "
-                  "(`BallModel.advance` along the reconstructed input's cubic, the Python path's results "
-                  "bit for bit; the FMUs bundle the kernel and fall back to Python where it cannot load); "
-                  "the paper formulation always integrates in Python.")
+        kernel = ("The FMUs are the native flavour (C on the compiled kernel, build/<Model>.fmu); the "
+                  "next section compares them with the pythonfmu flavour.")
     else:
         kernel = (f"BallInShell integrates in pure Python (compiled kernel unavailable: "
                   f"{fast.KERNEL_REASON}).")

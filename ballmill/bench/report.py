@@ -316,6 +316,8 @@ def markdown(d) -> str:
         add("\n".join(d["cosim_lines"]) + "\n")
     if d.get("turning_lines"):
         add("\n".join(d["turning_lines"]) + "\n")
+    if d.get("flavour_lines"):
+        add("\n".join(d["flavour_lines"]) + "\n")
     add(_defaults(d))
 
     add("## Reproduce\n")

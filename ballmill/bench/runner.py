@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import analysis, cosim, literal, machine, micro, profiling, report, turning
+from . import analysis, cosim, flavours, literal, machine, micro, profiling, report, turning
 from .compiled import Compiled
 from .problem import KERNEL_FAMILY, Problem, prepare_library, reference, round_order, time_round_robin
 
@@ -30,6 +30,7 @@ class Config:
     cc: str = "gcc"
     compiled: bool = True
     cosim: bool = True  # the coupled fast start through fmpy (section 5)
+    flavours: bool = True  # native vs pythonfmu FMUs, fmpy's floor, libcosim (section 6)
 
     @classmethod
     def full_run(cls):
@@ -187,6 +188,13 @@ def run(cfg: Config, root: Path, out: Path, figures: Path, work: Path, progress)
     # 7. a chamber that turns ------------------------------------------------------
     progress("turning chamber: cost per step of the general model against the translation-only one")
     data["turning_lines"] = turning.report(turning.measure(3 if cfg.quick else 7, cfg.micro_min_time))
+
+    # 8. the two FMU flavours ------------------------------------------------------
+    data["flavour_lines"] = []
+    if cfg.flavours:
+        data["flavour_lines"] = flavours.section(
+            cfg.repeats if cfg.quick else 5, cfg.quick,
+            lambda err: analysis.time_at_error(lit, err).time, progress)
 
     figures.mkdir(parents=True, exist_ok=True)
     fig = figures / "error_vs_time.png"

@@ -1,6 +1,14 @@
-"""Build every FMU of the project into build/ and validate it.
+"""Build every FMU of the project, in both flavours, and validate it.
 
-The adapter scripts are the ``*_fmu.py`` files in fmu_src/ (the ball) and
+* native (`ballmill.fmi.native`): C, only libc/libm, at ``build/<Model>.fmu`` -
+  what `ballmill run`, SSP export, libcosim and other tools use by default;
+* pythonfmu: the Python reference at ``build/pythonfmu/<Model>.fmu``.
+
+Both come from the one declaration of each interface (ballmill/fmi/interface.py).
+Without a C compiler (or for a model without a C file) the native path gets a copy
+of the pythonfmu FMU, and the build says so.
+
+The pythonfmu adapter scripts are the ``*_fmu.py`` files in fmu_src/ (the ball) and
 drive_models/ (drives). Each FMU bundles the parts of this package it needs
 (``ballmill.physics`` and ``ballmill.fmi.slave``) in its resources, so a
 built FMU needs only numpy and scipy from the importing Python, not an
@@ -23,10 +31,12 @@ from pathlib import Path
 
 import ballmill
 
+from . import native
+
 PACKAGE_DIR = Path(ballmill.__file__).resolve().parent
 ROOT = PACKAGE_DIR.parent
 SOURCE_DIRS = ("fmu_src", "drive_models")
-BUNDLED = ("__init__.py", "physics", "fmi/__init__.py", "fmi/slave.py")
+BUNDLED = ("__init__.py", "physics", "fmi/__init__.py", "fmi/interface.py", "fmi/slave.py")
 
 
 class BuildError(RuntimeError):
@@ -79,16 +89,33 @@ def kernel_to_bundle() -> tuple[Path | None, str]:
     return (None, why) if why else (path, "")
 
 
-def fmu_path(name: str, build_dir: Path | None = None) -> Path:
-    return Path(build_dir or ROOT / "build") / f"{name}.fmu"
+FLAVOURS = ("native", "pythonfmu")
 
 
-def up_to_date(script: Path, build_dir: Path | None = None) -> bool:
-    target = fmu_path(model_name(script), build_dir)
+def _check_flavour(flavour: str) -> None:
+    if flavour not in FLAVOURS:
+        raise BuildError(f"FMU flavour must be one of {FLAVOURS}, got {flavour!r}")
+
+
+def fmu_path(name: str, build_dir: Path | None = None, flavour: str = "native") -> Path:
+    """build/<name>.fmu (native) or build/pythonfmu/<name>.fmu."""
+    _check_flavour(flavour)
+    base = Path(build_dir or ROOT / "build")
+    return (base if flavour == "native" else base / "pythonfmu") / f"{name}.fmu"
+
+
+def up_to_date(script: Path, build_dir: Path | None = None, flavour: str = "pythonfmu") -> bool:
+    name = model_name(script)
+    target = fmu_path(name, build_dir, flavour)
     if not target.exists():
         return False
     built = target.stat().st_mtime
-    return all(src.stat().st_mtime <= built for src in _sources(script))
+    newest = max(src.stat().st_mtime for src in _sources(script))
+    if flavour == "native" and name in native.available():
+        if native.has_compiler() and not native.is_native(target):
+            return False  # a pythonfmu copy from a build without a compiler
+        newest = native.newest_source_mtime(name)
+    return newest <= built
 
 
 def _stage(dest: Path) -> tuple[Path, str]:
@@ -116,33 +143,62 @@ def validate(fmu: Path) -> list[str]:
     return list(validate_fmu(str(fmu)))
 
 
+def _validated(fmu: Path) -> Path:
+    problems = validate(fmu)
+    if problems:
+        raise BuildError(f"{fmu}: the model description has {len(problems)} problem(s):\n  - "
+                         + "\n  - ".join(problems))
+    return fmu
+
+
+def build_native_one(name: str, build_dir: Path | None = None) -> Path:
+    """Build and validate the native FMU of model `name`."""
+    try:
+        return _validated(native.build_native(name, Path(build_dir or ROOT / "build")))
+    except native.NativeBuildError as e:
+        raise BuildError(str(e)) from None
+
+
 def build_one(script: Path, build_dir: Path | None = None) -> Path:
-    """Build and validate one FMU; raise BuildError listing the problems."""
+    """Build and validate one pythonfmu FMU (into build_dir/pythonfmu/); raise BuildError
+    listing the problems."""
     from pythonfmu.builder import FmuBuilder
 
-    out_dir = Path(build_dir or ROOT / "build")
+    out_dir = fmu_path(model_name(script), build_dir, "pythonfmu").parent
     out_dir.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="ballmill_stage_") as tmp:
         pkg, _ = _stage(Path(tmp))
         fmu = FmuBuilder.build_FMU(script, dest=out_dir, project_files=[pkg],
                                    canGetAndSetFMUstate=True, canSerializeFMUstate=True)
-    problems = validate(Path(fmu))
-    if problems:
-        raise BuildError(f"{fmu}: the model description has {len(problems)} problem(s):\n  - "
-                         + "\n  - ".join(problems))
-    return Path(fmu)
+    return _validated(Path(fmu))
 
 
-def build_all(build_dir: Path | None = None, force: bool = False, log=print) -> list[Path]:
-    """Build every FMU that is missing or older than its sources."""
-    built = []
+def build_all(build_dir: Path | None = None, force: bool = False, log=print,
+              flavour: str = "native") -> list[Path]:
+    """Build both flavours of every FMU that is missing or older than its sources;
+    return the paths of `flavour`'s FMUs."""
+    _check_flavour(flavour)
+    paths = {f: [] for f in FLAVOURS}
     for script in scripts():
-        if not force and up_to_date(script, build_dir):
-            log(f"up to date: {fmu_path(model_name(script), build_dir)}")
-            built.append(fmu_path(model_name(script), build_dir))
-            continue
-        fmu = build_one(script, build_dir)
-        why = kernel_to_bundle()[1]
-        log(f"built and validated: {fmu}" + (f" (without the compiled kernel: {why})" if why else ""))
-        built.append(fmu)
-    return built
+        name = model_name(script)
+        py = fmu_path(name, build_dir, "pythonfmu")
+        if force or not up_to_date(script, build_dir, "pythonfmu"):
+            build_one(script, build_dir)
+            why = kernel_to_bundle()[1]
+            log(f"built and validated: {py}" + (f" (without the compiled kernel: {why})" if why else ""))
+        else:
+            log(f"up to date: {py}")
+        paths["pythonfmu"].append(py)
+        nat = fmu_path(name, build_dir, "native")
+        if not force and up_to_date(script, build_dir, "native"):
+            log(f"up to date: {nat}")
+        elif name in native.available() and native.has_compiler():
+            build_native_one(name, build_dir)
+            log(f"built and validated: {nat} (native)")
+        else:
+            shutil.copy2(py, nat)
+            why = "no native model" if name not in native.available() else \
+                "no C compiler (cc, gcc, clang or $CC) to build the native FMU"
+            log(f"{why} for {name}: {nat} is a copy of the pythonfmu flavour")
+        paths["native"].append(nat)
+    return paths[flavour]

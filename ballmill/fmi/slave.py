@@ -4,7 +4,8 @@ pythonfmu 0.7.0 writes no units, no min/max and no InitialUnknowns, so its
 FMUs fail `fmpy validate` as built. `Slave` declares each variable with its
 unit, description and bounds in one call (`add`), and extends `to_xml` with
 UnitDefinitions, unit/min/max attributes, output dependencies and
-InitialUnknowns. It also provides full FMU-state save/restore: subclasses
+InitialUnknowns. `declare` registers an FMU's variables from its one
+declaration in ballmill.fmi.interface. It also provides full FMU-state save/restore: subclasses
 return their internal state from `internal_state()` and take it back in
 `restore_internal_state()`; pythonfmu alone would save registered variables
 only and rollback would silently lose the integrator's state.
@@ -20,44 +21,7 @@ from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Intege
 from pythonfmu.enums import Fmi2Status
 from pythonfmu.default_experiment import DefaultExperiment
 
-# unit name -> SI base-unit exponents (and factor) for <UnitDefinitions>
-UNITS = {
-    "m": {"m": 1},
-    "kg": {"kg": 1},
-    "s": {"s": 1},
-    "1": {},
-    "rad": {"rad": 1},
-    "rad/s": {"rad": 1, "s": -1},
-    "rad/s2": {"rad": 1, "s": -2},
-    "1/min": {"s": -1, "factor": 1.0 / 60.0},
-    "m/s": {"m": 1, "s": -1},
-    "m/s2": {"m": 1, "s": -2},
-    "N": {"kg": 1, "m": 1, "s": -2},
-    "N.m": {"kg": 1, "m": 2, "s": -2},
-    "J": {"kg": 1, "m": 2, "s": -2},
-    "W": {"kg": 1, "m": 2, "s": -3},
-    "kg.m2": {"kg": 1, "m": 2},
-    "V": {"kg": 1, "m": 2, "s": -3, "A": -1},
-    "A": {"A": 1},
-    "Hz": {"s": -1},
-    "Ohm": {"kg": 1, "m": 2, "s": -3, "A": -2},
-    "H": {"kg": 1, "m": 2, "s": -2, "A": -2},
-    "Wb": {"kg": 1, "m": 2, "s": -2, "A": -1},
-    "N.s/m": {"kg": 1, "s": -1},
-}
-
-# the crank and platform outputs every drive FMU provides (BallInShell's inputs)
-CRANK_KINEMATICS = (
-    ("psi", "rad", "Crank angle"),
-    ("psi_dot", "rad/s", "Crank angular speed"),
-    ("psi_ddot", "rad/s2", "Crank angular acceleration"),
-    ("x1O", "m", "Platform point O, x (crank axis at the origin)"),
-    ("y1O", "m", "Platform point O, y"),
-    ("vx1O", "m/s", "Platform velocity x"),
-    ("vy1O", "m/s", "Platform velocity y"),
-    ("ax1O", "m/s2", "Platform acceleration x"),
-    ("ay1O", "m/s2", "Platform acceleration y"),
-)
+from .interface import CRANK_KINEMATICS, LOG_CATEGORIES, UNITS, Interface  # noqa: F401 (re-exported)
 
 _CAUSALITY = {"parameter": Fmi2Causality.parameter, "input": Fmi2Causality.input,
               "output": Fmi2Causality.output, "local": Fmi2Causality.local}
@@ -67,13 +31,7 @@ _TYPES = {float: Real, int: Integer, bool: Boolean}
 class Slave(Fmi2Slave):
     """pythonfmu slave with units, bounds, dependencies and full state save."""
 
-    log_categories = {
-        "logStatusWarning": "Warnings: loss of contact, onset of slip, refused inputs.",
-        "logStatusDiscard": "A step that was refused; the last good state is kept.",
-        "logStatusError": "Errors: bad parameters, unusable inputs.",
-        "logStatusFatal": "Fatal errors.",
-        "logAll": "All messages.",
-    }
+    log_categories = LOG_CATEGORIES
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
@@ -82,8 +40,16 @@ class Slave(Fmi2Slave):
         self.license = "MIT"
 
     # -- declaration -------------------------------------------------------
+    def declare(self, interface: Interface):
+        """Register every variable of the FMU's one declaration (ballmill.fmi.interface),
+        in its value-reference order, and its DefaultExperiment."""
+        for v in interface.variables:
+            self.add(v.name, v.causality, v.start, v.description, v.unit, v.min, v.max, v.depends,
+                     variability=v.fmi_variability)
+        self.set_default_experiment(*interface.default_experiment)
+
     def add(self, name: str, causality: str, start, description: str, unit: str | None = None,
-            vmin: float | None = None, vmax: float | None = None, depends=None):
+            vmin: float | None = None, vmax: float | None = None, depends=None, variability=None):
         """Declare a variable and set its start value as an attribute.
 
         The Python type of ``start`` chooses the FMI type (float -> Real,
@@ -97,7 +63,9 @@ class Slave(Fmi2Slave):
         if unit is not None and unit not in UNITS:
             raise ValueError(f"unit {unit!r} of {name!r} is not in UNITS")
         setattr(self, name, start)
-        if causality == "parameter":
+        if variability is not None:
+            variability = Fmi2Variability[variability]
+        elif causality == "parameter":
             variability = Fmi2Variability.fixed
         elif kind is Real:
             variability = Fmi2Variability.continuous

@@ -57,14 +57,16 @@
 #define BM_SOURCE_HASH 0ULL /* setup.py defines it: first 60 bits of this file's sha256 */
 #endif
 
-#define BM_ABI 2
-#define BM_NY 6      /* states: nx, ny, nz, wx, wy, wz */
+#define BM_ABI 3
+#define BM_NY 6      /* the ball's states, at most: nx, ny, nz, wx, wy, wz (vector); xC, yC, wx, wy, wz (paper) */
+#define BM_NYMAX 8   /* states the integrators carry, at most (the native induction motor FMU: 7) */
 #define BM_NOUT 22   /* fields of outputs.Outputs */
 #define BM_NS_MAX 12 /* stages of the largest tableau (DOP853) */
 
 enum { BM_FIXED = 0, BM_CRANK = 1, BM_HARMONIC = 2, BM_CIRCLE = 3, BM_POLY = 4 };
 /* start-up laws of BM_CRANK, in the order of drives.LAWS */
 enum { BM_LAW_QUADRATIC = 0, BM_LAW_LINEAR = 1, BM_LAW_SCURVE = 2, BM_LAW_QUINTIC = 3 };
+enum { BM_VECTOR = 0, BM_PAPER = 1, BM_GENERIC = 2 }; /* formulations */
 #define BM_NMP 9 /* motion parameters */
 
 /* Everything a run needs; filled by fast.py (ctypes mirror: fast._Problem). */
@@ -94,8 +96,15 @@ typedef struct {
     double E3[BM_NS_MAX + 1];
     double tol, h_fixed, h_max;
     long long max_steps;
-    double scale[BM_NY];
-    double tols[BM_NY]; /* tol * scale */
+    double scale[BM_NYMAX];
+    double tols[BM_NYMAX]; /* tol * scale */
+    /* formulation: BM_VECTOR (ny = 6; the library's kernel uses only this) or BM_PAPER
+     * (ny = 5, the paper's (xC, yC, omega) of equations.PaperFormulation with d = R - r
+     * and its equator margin; the native BallInShell FMU uses it), or BM_GENERIC (any
+     * ny <= BM_NYMAX, a right-hand side of the caller's, no projection: the native
+     * induction motor FMU) */
+    int form, ny;
+    double pap_d, pap_margin;
 } bm_problem;
 
 typedef struct {
@@ -216,9 +225,43 @@ static void bm_omega_dot_lossy(const double *c, double nx, double ny, double nz,
     wd[0] = wdx; wd[1] = wdy; wd[2] = wdz;
 }
 
+/* PaperFormulation.derivative / _derivative_lossy (closed form). Past the equator
+ * (Python: FormulationLimitError) the derivative is NaN, which no step accepts. */
+static void bm_derivative_paper(const bm_problem *P, const double *y, double ax, double ay, double *f)
+{
+    double xC = y[0], yC = y[1], wx = y[2], wy = y[3], wz = y[4];
+    double lam = P->rhs_lam, d = P->pap_d, r = P->rhs_r, g = P->rhs_g, k = P->rhs_k;
+    double s2 = d * d - xC * xC - yC * yC;
+    if (!(s2 > 0.0)) {
+        for (int i = 0; i < 5; i++) f[i] = NAN;
+        return;
+    }
+    double s = sqrt(s2);
+    double xd = lam * (wy * s + wz * yC);
+    double yd = -lam * (wx * s + wz * xC);
+    double zd = (xC * xd + yC * yd) / s;
+    double nx = xC / d, ny = yC / d, nz = -s / d;
+    double ndx = xd / d, ndy = yd / d, ndz = zd / d;
+    f[0] = xd; f[1] = yd;
+    if (P->rhs_lossy) {
+        bm_omega_dot_lossy(P->rhs_loss, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, f + 2);
+        return;
+    }
+    double bx = ax + r * (ndy * wz - ndz * wy);
+    double by = ay + r * (ndz * wx - ndx * wz);
+    double bz = g + r * (ndx * wy - ndy * wx);
+    f[2] = k * (ny * bz - nz * by);
+    f[3] = k * (nz * bx - nx * bz);
+    f[4] = k * (nx * by - ny * bx);
+}
+
 /* VectorFormulation.derivative / _derivative_lossy */
 static void bm_derivative(const bm_problem *P, const double *y, double ax, double ay, double *f)
 {
+    if (P->form == BM_PAPER) {
+        bm_derivative_paper(P, y, ax, ay, f);
+        return;
+    }
     double nx = y[0], ny = y[1], nz = y[2], wx = y[3], wy = y[4], wz = y[5];
     double lam = P->rhs_lam;
     double ndx = lam * (ny * wz - nz * wy);
@@ -331,6 +374,16 @@ static void bm_outputs(const bm_problem *P, const double *y, double ax, double a
 }
 
 /* ------------------------------------------------------------- integrators.py */
+/* the right-hand side an integrator calls: the ball's (bm_ball_rhs), or another model's
+ * with its own context (the native induction motor FMU) */
+typedef void (*bm_rhs_fn)(const bm_problem *P, const void *ctx, double t, const double *y, double *f);
+
+static void bm_ball_rhs(const bm_problem *P, const void *ctx, double t, const double *y, double *f)
+{
+    (void)ctx;
+    bm_rhs(P, t, y, f);
+}
+
 static double bm_pymax(double a, double b) { return b > a ? b : a; } /* Python's max(a, b) */
 static double bm_pymin(double a, double b) { return b < a ? b : a; } /* Python's min(a, b) */
 
@@ -366,7 +419,7 @@ static void bm_tab_make(const bm_problem *P, bm_tab *T)
 }
 
 /* sum of c * K[j][i] over the row, left to right; 0.0 for an empty row */
-static double bm_dot(const bm_row *row, double K[][BM_NY], int i)
+static double bm_dot(const bm_row *row, double K[][BM_NYMAX], int i)
 {
     if (row->n == 0) return 0.0;
     double acc = row->c[0] * K[row->j[0]][i];
@@ -374,55 +427,63 @@ static double bm_dot(const bm_row *row, double K[][BM_NY], int i)
     return acc;
 }
 
-static int bm_all_finite(const double *v)
+static int bm_all_finite(const double *v, int n)
 {
-    for (int i = 0; i < BM_NY; i++)
+    for (int i = 0; i < n; i++)
         if (!isfinite(v[i])) return 0;
     return 1;
 }
 
 /* The stages of one step (integrators._kernel): K[0] = f(t, y) on entry; K[1..ns-1], y_new. */
-static void bm_stages(const bm_problem *P, const bm_tab *T, double t, const double *y, double h,
-                      double K[][BM_NY], double *ynew)
+static void bm_stages(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, const void *ctx, double t,
+                      const double *y, double h, double K[][BM_NYMAX], double *ynew)
 {
-    int ns = P->ns;
-    double yt[BM_NY];
+    int ns = P->ns, ny = P->ny;
+    double yt[BM_NYMAX];
     for (int s = 1; s < ns; s++) {
-        for (int i = 0; i < BM_NY; i++) yt[i] = y[i] + bm_dot(&T->A[s], K, i) * h;
-        bm_rhs(P, t + P->C[s] * h, yt, K[s]);
+        for (int i = 0; i < ny; i++) yt[i] = y[i] + bm_dot(&T->A[s], K, i) * h;
+        rhs(P, ctx, t + P->C[s] * h, yt, K[s]);
     }
-    for (int i = 0; i < BM_NY; i++) ynew[i] = y[i] + h * bm_dot(&T->B, K, i);
+    for (int i = 0; i < ny; i++) ynew[i] = y[i] + h * bm_dot(&T->B, K, i);
 }
 
 /* error norm of the adaptive methods, K[ns] = f(t + h, y_new) (scaled tolerances) */
-static double bm_error(const bm_problem *P, const bm_tab *T, double K[][BM_NY], double h, const double *y,
+static double bm_error(const bm_problem *P, const bm_tab *T, double K[][BM_NYMAX], double h, const double *y,
                        const double *yn)
 {
-    double sc[BM_NY];
-    for (int i = 0; i < BM_NY; i++)
+    double sc[BM_NYMAX];
+    int ny = P->ny;
+    for (int i = 0; i < ny; i++)
         sc[i] = P->tol * bm_pymax(bm_pymax(fabs(y[i]), fabs(yn[i])), P->scale[i]) + P->tols[i];
     if (!P->has_e3) {
         double sum = 0.0;
-        for (int i = 0; i < BM_NY; i++) {
+        for (int i = 0; i < ny; i++) {
             double e = bm_dot(&T->E, K, i) * h / sc[i];
             sum = i ? sum + e * e : e * e;
         }
-        return sqrt(sum / BM_NY);
+        return sqrt(sum / ny);
     }
     double e5n = 0.0, e3n = 0.0;
-    for (int i = 0; i < BM_NY; i++) {
+    for (int i = 0; i < ny; i++) {
         double e = bm_dot(&T->E, K, i) / sc[i];
         double g = bm_dot(&T->E3, K, i) / sc[i];
         e5n = i ? e5n + e * e : e * e;
         e3n = i ? e3n + g * g : g * g;
     }
     if (e5n == 0.0 && e3n == 0.0) return 0.0;
-    return fabs(h) * e5n / sqrt((e5n + 0.01 * e3n) * BM_NY);
+    return fabs(h) * e5n / sqrt((e5n + 0.01 * e3n) * ny);
 }
 
-/* VectorFormulation.project; 0 when Python's 1.0 / sqrt(0) would raise */
-static int bm_project(double *y)
+/* after an accepted step: VectorFormulation.project (0 when Python's 1.0 / sqrt(0)
+ * would raise), or PaperFormulation.check (0 within the equator margin, where Python
+ * raises FormulationLimitError) */
+static int bm_project(const bm_problem *P, double *y)
 {
+    if (P->form == BM_PAPER) {
+        double d = P->pap_d, s2 = d * d - y[0] * y[0] - y[1] * y[1];
+        return s2 > 0.0 && !(sqrt(s2) < P->pap_margin * d);
+    }
+    if (P->form == BM_GENERIC) return 1;
     double q = sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2]);
     if (q == 0.0) return 0;
     double s = 1.0 / q;
@@ -433,16 +494,17 @@ static int bm_project(double *y)
 /* Integrator.advance (the small-system path) from t to t_end. y and *h are
  * updated only on success (return 1); 0: Python must do this interval (it
  * fails there, or needs the initial step). */
-static int bm_advance(const bm_problem *P, const bm_tab *T, double t, double *y_io, double t_end, double *h_io,
-                      bm_stats *st)
+static int bm_advance(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, const void *ctx, double t,
+                      double *y_io, double t_end, double *h_io, bm_stats *st)
 {
-    double K[BM_NS_MAX + 1][BM_NY], y[BM_NY], ynew[BM_NY];
+    double K[BM_NS_MAX + 1][BM_NYMAX], y[BM_NYMAX], ynew[BM_NYMAX];
+    size_t bytes = (size_t)P->ny * sizeof(double);
     double span = t_end - t;
     if (span <= 0.0) return 1;
-    memcpy(y, y_io, sizeof y);
-    bm_rhs(P, t, y, K[0]);
+    memcpy(y, y_io, bytes);
+    rhs(P, ctx, t, y, K[0]);
     st->nfev++;
-    if (!bm_all_finite(K[0])) return 0;
+    if (!bm_all_finite(K[0], P->ny)) return 0;
     int ns = P->ns;
     if (!P->adaptive) {
         double q = ceil(span / P->h_fixed - 1e-9);
@@ -451,17 +513,17 @@ static int bm_advance(const bm_problem *P, const bm_tab *T, double t, double *y_
         for (long long i = 0; i < count; i++) {
             double ti = t + (double)i * hh;
             if (i) {
-                bm_rhs(P, ti, y, K[0]);
+                rhs(P, ctx, ti, y, K[0]);
                 st->nfev++;
             }
-            bm_stages(P, T, ti, y, hh, K, ynew);
+            bm_stages(P, T, rhs, ctx, ti, y, hh, K, ynew);
             st->nfev += ns - 1;
-            if (!bm_all_finite(ynew)) return 0;
-            memcpy(y, ynew, sizeof y);
-            if (!bm_project(y)) return 0;
+            if (!bm_all_finite(ynew, P->ny)) return 0;
+            memcpy(y, ynew, bytes);
+            if (!bm_project(P, y)) return 0;
             st->steps++;
         }
-        memcpy(y_io, y, sizeof y);
+        memcpy(y_io, y, bytes);
         *h_io = P->h_fixed;
         return 1;
     }
@@ -475,11 +537,11 @@ static int bm_advance(const bm_problem *P, const bm_tab *T, double t, double *y_
         h = bm_pymin(h, P->h_max);
         int last = t + h >= t_last;
         double hh = last ? t_end - t : h;
-        bm_stages(P, T, t, y, hh, K, ynew);
-        bm_rhs(P, t + hh, ynew, K[ns]);
+        bm_stages(P, T, rhs, ctx, t, y, hh, K, ynew);
+        rhs(P, ctx, t + hh, ynew, K[ns]);
         st->nfev += ns;
         double err = bm_error(P, T, K, hh, y, ynew);
-        if (!(bm_all_finite(ynew) && isfinite(err))) {
+        if (!(bm_all_finite(ynew, P->ny) && isfinite(err))) {
             st->rejected++;
             h = 0.2 * hh;
             if (!(h >= h_min_abs)) return 0;
@@ -488,8 +550,8 @@ static int bm_advance(const bm_problem *P, const bm_tab *T, double t, double *y_
         if (err <= 1.0) {
             double factor = err == 0.0 ? 10.0 : bm_pymin(10.0, 0.9 * pow(err, -1.0 / order));
             t = last ? t_end : t + hh;
-            memcpy(y, ynew, sizeof y);
-            if (!bm_project(y)) return 0;
+            memcpy(y, ynew, bytes);
+            if (!bm_project(P, y)) return 0;
             memcpy(K[0], K[ns], sizeof K[0]);
             st->steps++;
             h = last ? bm_pymax(h, hh * factor) : hh * factor;
@@ -499,7 +561,7 @@ static int bm_advance(const bm_problem *P, const bm_tab *T, double t, double *y_
             if (!(h >= h_min_abs)) return 0;
         }
     }
-    memcpy(y_io, y, sizeof y);
+    memcpy(y_io, y, bytes);
     *h_io = h;
     return 1;
 }
@@ -520,7 +582,7 @@ BM_EXPORT long long bm_simulate(const bm_problem *P, const double *times, long l
     for (long long i = start; i < n; i++) {
         if (i > start) {
             bm_stats st = {0, 0, 0};
-            if (!bm_advance(P, &T, times[i - 1], y, times[i], h, &st)) return i - 1;
+            if (!bm_advance(P, &T, bm_ball_rhs, NULL, times[i - 1], y, times[i], h, &st)) return i - 1;
             total->steps += st.steps;
             total->rejected += st.rejected;
             total->nfev += st.nfev;
@@ -552,7 +614,7 @@ BM_EXPORT int bm_advance_interval(const bm_problem *P, int motion, double *io, b
     bm_tab_make(&Q, &T);
     memcpy(y, io + 3, sizeof y);
     st->steps = 0; st->rejected = 0; st->nfev = 0;
-    if (!bm_advance(&Q, &T, io[0], y, io[1], &h, st)) return 0;
+    if (!bm_advance(&Q, &T, bm_ball_rhs, NULL, io[0], y, io[1], &h, st)) return 0;
     io[2] = h;
     memcpy(io + 3, y, sizeof y);
     return 1;
@@ -563,25 +625,26 @@ BM_EXPORT int bm_advance_interval(const bm_problem *P, int motion, double *io, b
  * be ordered differently); the benchmark's standalone C peer needs one. */
 BM_EXPORT double bm_initial_step(const bm_problem *P, double t, const double *y, double span)
 {
-    double sc[BM_NY], f0[BM_NY], f1[BM_NY], y1[BM_NY], d0 = 0.0, d1 = 0.0, d2 = 0.0;
+    double sc[BM_NY], f0[BM_NY], f1[BM_NY], y1[BM_NY] = {0}, d0 = 0.0, d1 = 0.0, d2 = 0.0;
+    int ny = P->ny;
     bm_rhs(P, t, y, f0);
-    for (int i = 0; i < BM_NY; i++) {
+    for (int i = 0; i < ny; i++) {
         double b = bm_pymax(fabs(y[i]), P->scale[i]);
         sc[i] = P->tol * b + P->tols[i];
         d0 += (y[i] / sc[i]) * (y[i] / sc[i]);
         d1 += (f0[i] / sc[i]) * (f0[i] / sc[i]);
     }
-    d0 = sqrt(d0 / BM_NY);
-    d1 = sqrt(d1 / BM_NY);
+    d0 = sqrt(d0 / ny);
+    d1 = sqrt(d1 / ny);
     double h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
     h0 = bm_pymin(h0, span);
-    for (int i = 0; i < BM_NY; i++) y1[i] = y[i] + h0 * f0[i];
+    for (int i = 0; i < ny; i++) y1[i] = y[i] + h0 * f0[i];
     bm_rhs(P, t + h0, y1, f1);
-    for (int i = 0; i < BM_NY; i++) {
+    for (int i = 0; i < ny; i++) {
         double e = (f1[i] - f0[i]) / sc[i];
         d2 += e * e;
     }
-    d2 = sqrt(d2 / BM_NY) / h0;
+    d2 = sqrt(d2 / ny) / h0;
     double h1 = (d1 <= 1e-15 && d2 <= 1e-15) ? bm_pymax(1e-6, h0 * 1e-3)
                                              : pow(0.01 / bm_pymax(d1, d2), 1.0 / P->order);
     return bm_pymin(bm_pymin(100 * h0, h1), P->h_max);
@@ -615,7 +678,8 @@ enum { BMG_LAW_CONST = 0, BMG_LAW_CRANK = 1 };
 
 /* Everything a general run needs; filled by fast_turning.py (ctypes mirror: _GProblem). */
 typedef struct {
-    bm_problem base; /* integrator settings only (its motion and ball fields are not read) */
+    bm_problem base; /* integrator settings, and form = BM_VECTOR, ny = BM_NY (bm_error and bm_project
+                        read them); its motion and ball fields are not read */
     int kind;        /* BMG_SPIN, BMG_FIG1 */
     double sp[10];   /* spin: Omega[3], A[3], axis[3], |Omega| */
     int frame_law, crank_law, parallel;
@@ -758,7 +822,8 @@ static void bmg_rhs(const bmg_problem *G, double t, const double *y, double *f)
 static void bmg_outputs(const double *c, const double *y, const double *cs, double *o)
 {
     double nx = y[0], ny = y[1], nz = y[2], wx = y[3], wy = y[4], wz = y[5];
-    double Rd = c[0], lam = c[1], R = c[2], r = c[3], g = c[4], k = c[5], d = c[6], m = c[7], I = c[8],
+    /* Ib, not I: <complex.h> (which the native induction motor FMU includes first) makes I a macro */
+    double Rd = c[0], lam = c[1], R = c[2], r = c[3], g = c[4], k = c[5], d = c[6], m = c[7], Ib = c[8],
            mu = c[9];
     double Ax = cs[0], Ay = cs[1], Az = cs[2], vAx = cs[3], vAy = cs[4], vAz = cs[5];
     double ax = cs[6], ay = cs[7], az = cs[8], ox = cs[9], oy = cs[10], oz = cs[11];
@@ -794,7 +859,7 @@ static void bmg_outputs(const double *c, const double *y, const double *cs, doub
     double vpy = vAy + R * (oz * nx - ox * nz);
     double vpz = vAz + R * (ox * ny - oy * nx);
     double vcx = vAx + d * ndx, vcy = vAy + d * ndy, vcz = vAz + d * ndz;
-    double E = 0.5 * m * (vcx * vcx + vcy * vcy + vcz * vcz) + 0.5 * I * (wx * wx + wy * wy + wz * wz)
+    double E = 0.5 * m * (vcx * vcx + vcy * vcy + vcz * vcz) + 0.5 * Ib * (wx * wx + wy * wy + wz * wz)
                + m * g * (Az + d * nz);
     o[0] = Px; o[1] = Py; o[2] = Pz;
     o[3] = R * (q[0] * nx + q[3] * ny + q[6] * nz);
@@ -817,7 +882,7 @@ static void bmg_outputs(const double *c, const double *y, const double *cs, doub
 
 /* bm_stages for the general right-hand side */
 static void bmg_stages(const bmg_problem *G, const bm_tab *T, double t, const double *y, double h,
-                       double K[][BM_NY], double *ynew)
+                       double K[][BM_NYMAX], double *ynew)
 {
     int ns = G->base.ns;
     double yt[BM_NY];
@@ -833,13 +898,13 @@ static int bmg_advance(const bmg_problem *G, const bm_tab *T, double t, double *
                        double *h_io, bm_stats *st)
 {
     const bm_problem *P = &G->base;
-    double K[BM_NS_MAX + 1][BM_NY], y[BM_NY], ynew[BM_NY];
+    double K[BM_NS_MAX + 1][BM_NYMAX], y[BM_NY], ynew[BM_NY];
     double span = t_end - t;
     if (span <= 0.0) return 1;
     memcpy(y, y_io, sizeof y);
     bmg_rhs(G, t, y, K[0]);
     st->nfev++;
-    if (!bm_all_finite(K[0])) return 0;
+    if (!bm_all_finite(K[0], BM_NY)) return 0;
     int ns = P->ns;
     if (!P->adaptive) {
         double q = ceil(span / P->h_fixed - 1e-9);
@@ -853,9 +918,9 @@ static int bmg_advance(const bmg_problem *G, const bm_tab *T, double t, double *
             }
             bmg_stages(G, T, ti, y, hh, K, ynew);
             st->nfev += ns - 1;
-            if (!bm_all_finite(ynew)) return 0;
+            if (!bm_all_finite(ynew, BM_NY)) return 0;
             memcpy(y, ynew, sizeof y);
-            if (!bm_project(y)) return 0;
+            if (!bm_project(P, y)) return 0;
             st->steps++;
         }
         memcpy(y_io, y, sizeof y);
@@ -876,7 +941,7 @@ static int bmg_advance(const bmg_problem *G, const bm_tab *T, double t, double *
         bmg_rhs(G, t + hh, ynew, K[ns]);
         st->nfev += ns;
         double err = bm_error(P, T, K, hh, y, ynew);
-        if (!(bm_all_finite(ynew) && isfinite(err))) {
+        if (!(bm_all_finite(ynew, BM_NY) && isfinite(err))) {
             st->rejected++;
             h = 0.2 * hh;
             if (!(h >= h_min_abs)) return 0;
@@ -886,7 +951,7 @@ static int bmg_advance(const bmg_problem *G, const bm_tab *T, double t, double *
             double factor = err == 0.0 ? 10.0 : bm_pymin(10.0, 0.9 * pow(err, -1.0 / order));
             t = last ? t_end : t + hh;
             memcpy(y, ynew, sizeof y);
-            if (!bm_project(y)) return 0;
+            if (!bm_project(P, y)) return 0;
             memcpy(K[0], K[ns], sizeof K[0]);
             st->steps++;
             h = last ? bm_pymax(h, hh * factor) : hh * factor;

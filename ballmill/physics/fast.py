@@ -58,8 +58,9 @@ from .outputs import Outputs
 __all__ = ["KERNEL_AVAILABLE", "KERNEL_REASON", "KERNEL_PATH", "KernelUnavailable", "applicable",
            "simulate"]
 
-ABI = 2
+ABI = 3
 NY = 6
+NYMAX = 8  # BM_NYMAX: the integrators' largest state
 NOUT = len(Outputs._fields)
 NS_MAX = 12
 SOURCE = Path(__file__).with_name("_kernel.c")
@@ -89,7 +90,9 @@ class _Problem(ctypes.Structure):
         ("E3", ctypes.c_double * (NS_MAX + 1)),
         ("tol", ctypes.c_double), ("h_fixed", ctypes.c_double), ("h_max", ctypes.c_double),
         ("max_steps", ctypes.c_longlong),
-        ("scale", ctypes.c_double * NY), ("tols", ctypes.c_double * NY),
+        ("scale", ctypes.c_double * NYMAX), ("tols", ctypes.c_double * NYMAX),
+        ("form", ctypes.c_int), ("ny", ctypes.c_int), ("pap_d", ctypes.c_double),
+        ("pap_margin", ctypes.c_double),
     ]
 
 
@@ -275,6 +278,7 @@ def _model_reason(model) -> str:
 def _problem(model, motion) -> _Problem:
     """The problem structure; ``motion=None``: no motion (`advance` passes its own)."""
     P = _Problem()
+    P.form, P.ny = 0, NY  # the vector formulation (the paper's is the native FMU's only)
     if motion is not None:
         kind, mp = _motion_params(motion)
         P.motion = kind
@@ -309,8 +313,8 @@ def _problem(model, motion) -> _Problem:
         P.E3[:ns + 1] = [float(v) for v in tab.E3]
     P.tol, P.h_fixed, P.h_max = float(integ.tol), float(integ.h_fixed), float(integ.h_max)
     P.max_steps = int(min(integ.max_steps, 2 ** 62))
-    P.scale[:] = integ.scale.tolist()
-    P.tols[:] = (integ.tol * integ.scale).tolist()  # as the Python kernel's tol * scale
+    P.scale[:NY] = integ.scale.tolist()
+    P.tols[:NY] = (integ.tol * integ.scale).tolist()  # as the Python kernel's tol * scale
     return P
 
 

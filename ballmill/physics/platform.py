@@ -16,10 +16,16 @@ axis through them, which it then extrapolates over the coming step:
   baseline that DESIGN.md warns about; kept for measurements.
 
 Until enough samples exist the fit uses what it has (lower degree).
+
+The fit is reproducible in C (the native BallInShell FMU, fmu_src/ballinshell.c, does
+the same): the inverse of the constraint matrix is the exact inverse of the float
+matrix built from the sample times rounded to 12 decimals, correctly rounded to floats,
+and the coefficients are its rows' dot products with the samples, summed left to right.
 """
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 
 import numpy as np
 
@@ -103,8 +109,8 @@ class InputReconstruction:
             else:
                 bx = [smp[1] for smp in s]
                 by = [smp[2] for smp in s]
-            c = inv @ np.array([bx, by]).T  # numpy's product: the coefficients as before, bit for bit
-            self._cx, self._cy = tuple(c[:, 0].tolist()), tuple(c[:, 1].tolist())
+            self._cx = tuple([_dot(row, bx) for row in inv])
+            self._cy = tuple([_dot(row, by) for row in inv])
         self._dirty = False
         # derivative coefficient tuples for fast evaluation
         self._dx = self._deriv(self._cx)
@@ -155,16 +161,16 @@ class InputReconstruction:
     @classmethod
     def _inverse(cls, rows):
         """Inverse of the confluent Vandermonde matrix of the constraints (derivative order,
-        tau): row i asks d^der/dtau^der of sum c_j tau^j at tau_i. Cached per pattern."""
+        tau): row i asks d^der/dtau^der of sum c_j tau^j at tau_i, with tau rounded to 12
+        decimals. Exact (in rationals) for the float matrix, then correctly rounded: rows of
+        floats. Cached per pattern."""
         key = tuple((der, round(tau, 12)) for der, tau in rows)
         inv = cls._INVERSES.get(key)
         if inv is None:
-            n = len(rows)
-            M = np.zeros((n, n))
-            for i, (der, tau) in enumerate(rows):
-                for j in range(der, n):
-                    M[i, j] = math.perm(j, der) * tau ** (j - der)
-            inv = np.linalg.inv(M)
+            n = len(key)
+            M = [[Fraction(math.perm(j, der) * tau ** (j - der)) if j >= der else Fraction(0)
+                  for j in range(n)] for der, tau in key]
+            inv = tuple(tuple(float(x) for x in row) for row in _exact_inverse(M))
             if len(cls._INVERSES) < 256:
                 cls._INVERSES[key] = inv
         return inv
@@ -204,3 +210,30 @@ class InputReconstruction:
         hz = self._horner
         return (hz(self._cx, tau), hz(self._cy, tau), hz(self._dx, tau) / hs, hz(self._dy, tau) / hs,
                 hz(self._ddx, tau) / hs**2, hz(self._ddy, tau) / hs**2)
+
+
+def _dot(row, b):
+    """sum(row[j] * b[j]), left to right (the C reconstruction sums in this order)."""
+    acc = row[0] * b[0]
+    for j in range(1, len(row)):
+        acc += row[j] * b[j]
+    return acc
+
+
+def _exact_inverse(M):
+    """Inverse of a square matrix of Fractions by Gauss-Jordan elimination (exact)."""
+    n = len(M)
+    A = [list(row) + [Fraction(int(i == j)) for j in range(n)] for i, row in enumerate(M)]
+    for col in range(n):
+        piv = next((i for i in range(col, n) if A[i][col] != 0), None)
+        if piv is None:
+            raise InputError("the input samples do not determine the reconstruction "
+                             "(two samples at the same time?)")
+        A[col], A[piv] = A[piv], A[col]
+        p = A[col][col]
+        A[col] = [x / p for x in A[col]]
+        for i in range(n):
+            f = A[i][col]
+            if i != col and f != 0:
+                A[i] = [x - f * y for x, y in zip(A[i], A[col])]
+    return [row[n:] for row in A]

@@ -346,12 +346,14 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
                      time.perf_counter() - wall0, init_time, steps)
 
 
-def prepare(name_or_path: str, overrides=(), build_dir: Path | None = None, log=print):
-    """Build the FMUs if needed, read their model descriptions, load and check the scenario."""
+def prepare(name_or_path: str, overrides=(), build_dir: Path | None = None, log=print,
+            flavour: str = "native"):
+    """Build the FMUs if needed, read their model descriptions, load and check the scenario.
+    flavour: "native" (C, build/<Model>.fmu) or "pythonfmu" (build/pythonfmu/<Model>.fmu)."""
     from fmpy import read_model_description
 
     from ..fmi import build as _build
-    fmus = _build.build_all(build_dir, log=log)
+    fmus = _build.build_all(build_dir, log=log, flavour=flavour)
     paths = {p.stem: p for p in fmus}
     models = {name: read_model_description(str(p)) for name, p in paths.items()}
     sc = _spec.load(name_or_path, overrides, models)

@@ -1,12 +1,22 @@
 """Scenarios as SSP packages, for other FMI tools; running an SSP in libcosim.
 
 `export_ssp` writes a scenario as an SSP 1.0 package (a zip: SystemStructure.ssd
-plus the FMUs under resources/): one ssd:Component per FMU instance, its
-connectors with units, the scenario's parameter values as an inline
-ssv:ParameterSet, the connections, and the experiment's start and stop time.
-The communication step goes into the DefaultExperiment as the Open Simulation
-Platform's fixed-step annotation (SSP 1.0 itself has no place for it); other
-tools ignore it and need the step given to them (see docs/OTHER_TOOLS.md).
+plus the native FMUs under resources/): one ssd:Component per FMU instance, its
+connectors with units, the scenario's parameter values as inline
+ssv:ParameterSets, the connections, and the experiment's start and stop time.
+
+Written so that tools apply it as written:
+* every component's parameter set has the same name (`PARAMETER_SET`): an engine
+  that applies one named set per run (libcosim keys its sets by name across the
+  components: asked for one name it applies only the components' sets of that
+  name, and by default each component's first set) applies all the scenario's
+  values, not one component's;
+* the communication step (SSP 1.0 has no place for it) goes where each
+  co-simulation tool reads it: the Open Simulation Platform's fixed-step
+  algorithm annotation in the DefaultExperiment (libcosim), and OMSimulator's
+  fixed-step master in the system's org.openmodelica annotation
+  (oms:SimulationInformation/oms:FixedStepMaster stepSize). Tools that read
+  neither need the step given to them (see docs/OTHER_TOOLS.md).
 
 `run_ssp_libcosim` runs such a package with libcosimpy (libcosim, the Open
 Simulation Platform's C++ co-simulation engine) and returns the recorded
@@ -36,7 +46,9 @@ NS = {
     "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
     "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues",
     "osp": "http://opensimulationplatform.com/SSP/OSPAnnotations",
+    "oms": "https://raw.githubusercontent.com/OpenModelica/OMSimulator/master/schema/oms.xsd",
 }
+PARAMETER_SET = "scenario"  # the one name of every component's parameter set
 FMU_MIME = "application/x-fmu-sharedlibrary"
 SSD_NAME = "SystemStructure.ssd"
 _KINDS = {"parameter": "parameter", "input": "input", "output": "output",
@@ -96,7 +108,7 @@ def build_ssd(sc: _spec.Scenario, models: dict) -> ET.ElementTree:
             binding = ET.SubElement(bindings, _q("ssd", "ParameterBinding"))
             values = ET.SubElement(binding, _q("ssd", "ParameterValues"))
             pset = ET.SubElement(values, _q("ssv", "ParameterSet"),
-                                 {"version": "1.0", "name": f"{name}_parameters"})
+                                 {"version": "1.0", "name": PARAMETER_SET})
             params = ET.SubElement(pset, _q("ssv", "Parameters"))
             for pname, value in inst.parameters.items():
                 kind = kinds[pname]
@@ -110,6 +122,12 @@ def build_ssd(sc: _spec.Scenario, models: dict) -> ET.ElementTree:
         for si, sv, di, dv in sc.connections:
             ET.SubElement(connections, _q("ssd", "Connection"),
                           {"startElement": si, "startConnector": sv, "endElement": di, "endConnector": dv})
+    # OMSimulator's fixed-step master (its SSD annotation, at the end of the system)
+    sys_annotations = ET.SubElement(system, _q("ssd", "Annotations"))
+    oms = ET.SubElement(ET.SubElement(sys_annotations, _q("ssc", "Annotation"), {"type": "org.openmodelica"}),
+                        _q("oms", "Annotations"))
+    ET.SubElement(ET.SubElement(oms, _q("oms", "SimulationInformation")), _q("oms", "FixedStepMaster"),
+                  {"description": "oms-ma", "stepSize": repr(sc.step)})
     if units_used:
         units = ET.SubElement(root, _q("ssd", "Units"))
         for u in sorted(units_used):

@@ -1,0 +1,230 @@
+"""Benchmark of the two FMU flavours (native C and pythonfmu), for BENCHMARKS.md.
+
+Measures, in one run on this machine:
+
+* the cost of one communication step of each FMU in each flavour through fmpy's
+  FMU2Slave (set the inputs, doStep), median of repeats;
+* the floor the master itself sets: the same for a native FMU of our own that does
+  nothing (ballmill/bench/null_model.c on the project's plumbing): no FMU can be
+  cheaper per step through fmpy than that;
+* the coupled fast start through fmpy (`ballmill run`'s master) at the default 2 ms
+  step, whole run (load, initialisation, steps), native against pythonfmu, with its
+  contact-point error against the converged monolithic solution, against the
+  paper-literal monolithic program's time at the same error;
+* the same coupled run through libcosim (native FMUs, an SSP package from
+  `ballmill export-ssp`), its time per communication step against the compiled
+  kernel's own integration time per step (the monolithic `simulate(kernel="c")` of
+  the same problem at the same output step, once for the predictor and once for the
+  corrector: what the ball FMU integrates per step).
+"""
+from __future__ import annotations
+
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+from ..fmi.interface import Interface, Variable
+
+NULL = Interface("Null", "Does nothing: y = u (the master's per-call floor)", (
+    Variable("u", "input", 0.0, "Input", unit="1"),
+    Variable("y", "output", 0.0, "Output, equal to the input", unit="1", depends=("u",)),
+))
+H = 0.002
+
+
+def _instance(path: Path, name: str):
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    md = read_model_description(str(path))
+    unzip = extract(str(path))
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzip, modelIdentifier=md.coSimulation.modelIdentifier,
+                    instanceName=name)
+    fmu.instantiate()
+    return fmu, {v.name: v.valueReference for v in md.modelVariables}
+
+
+def _per_step_us(path: Path, inputs, n_steps: int, repeats: int) -> float:
+    """Median microseconds per (setReal inputs + doStep) over n_steps steps of H."""
+    times = []
+    for _ in range(repeats):
+        fmu, vr = _instance(path, "bench")
+        fmu.setupExperiment(startTime=0.0)
+        fmu.enterInitializationMode()
+        fmu.exitInitializationMode()
+        refs = [vr[n] for n in inputs(0.0)]
+        t = 0.0
+        t0 = time.perf_counter()
+        for _ in range(n_steps):
+            fmu.setReal(refs, list(inputs(t).values()))
+            fmu.doStep(t, H)
+            t += H
+        times.append((time.perf_counter() - t0) / n_steps * 1e6)
+        fmu.terminate()
+        fmu.freeInstance()
+    return statistics.median(times)
+
+
+def step_costs(repeats: int, n_steps: int, build_dir: Path | None = None):
+    """{(model, flavour): us per step} and the do-nothing FMU's us per step."""
+    from ..fmi import native
+    from ..fmi.build import fmu_path
+    from ..physics import CrankStartup
+
+    law = CrankStartup()
+    platform = ("x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O")
+
+    def ball_inputs(t):
+        return dict(zip(platform, law.state(t)))
+
+    def drive_inputs(t):
+        return {"M_reaction": 0.0}
+
+    rows = {}
+    for model, inputs in (("BallInShell", ball_inputs), ("MotorStartup", drive_inputs),
+                          ("InductionMotor", drive_inputs)):
+        for flavour in ("native", "pythonfmu"):
+            rows[(model, flavour)] = _per_step_us(fmu_path(model, build_dir, flavour), inputs, n_steps, repeats)
+    with tempfile.TemporaryDirectory(prefix="ballmill_null_") as tmp:
+        null = native.build_native("Null", Path(tmp), NULL, Path(__file__).with_name("null_model.c"))
+        floor = _per_step_us(null, lambda t: {"u": t}, n_steps, repeats)
+    return rows, floor
+
+
+def coupled_fast_start(repeats: int, stop: float | None = None):
+    """{flavour: (median wall s, load+init s, steps, max contact-point error m)} of the
+    fast start through fmpy at H = 2 ms (whole run)."""
+    from ..physics import Ball, BallModel, CrankStartup, simulate
+    from ..scenario import runner
+    from .cosim import COMPARED, _errors
+
+    cases = {}
+    for flavour in ("native", "pythonfmu"):
+        sc, models, paths = runner.prepare("fast_start", [], log=lambda m: None, flavour=flavour)
+        sc.step = H
+        if stop is not None:
+            sc.stop = stop
+        sc.record = list(COMPARED)
+        cases[flavour] = (sc, models, paths)
+    ref = simulate(BallModel(Ball(), tol=1e-13), CrankStartup(0.5, 60.0, 2.5), cases["native"][0].stop, H)
+    out = {}
+    walls = {f: [] for f in cases}
+    inits = {f: [] for f in cases}
+    results = {}
+    for _ in range(repeats):  # round-robin
+        for flavour, (sc, models, paths) in cases.items():
+            res = runner.run(sc, models, paths, progress=False, echo=False)
+            walls[flavour].append(res.wall_time)
+            inits[flavour].append(res.init_time)
+            results[flavour] = res
+    for flavour, res in results.items():
+        dP, _ = _errors(res, ref)
+        out[flavour] = (statistics.median(walls[flavour]), statistics.median(inits[flavour]), res.steps, dP)
+    return out
+
+
+def libcosim_fast_start(repeats: int, stop: float | None = None):
+    """(median s of the steps, steps, us per step, median s of loading) of the fast start
+    in libcosim with the native FMUs (an SSP package from export-ssp, no observer), or
+    None when libcosimpy is not installed."""
+    try:
+        from libcosimpy.CosimExecution import CosimExecution
+    except ImportError:
+        return None
+    import zipfile
+
+    from ..scenario import ssp
+
+    ssp.set_libcosim_log_level("warning")
+    with tempfile.TemporaryDirectory(prefix="ballmill_ssp_bench_") as tmp:
+        pkg = ssp.export_ssp("fast_start", Path(tmp) / "fast_start.ssp", [], log=lambda m: None)
+        _, ssd_stop, _ = ssp._experiment(ssp.read_ssd(pkg))
+        stop = stop or ssd_stop
+        unzipped = Path(tmp) / "unzipped"
+        zipfile.ZipFile(pkg).extractall(unzipped)
+        n = int(round(stop / H))
+        step_ns = int(round(H * 1e9))
+        loads, walls = [], []
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            execution = CosimExecution.from_ssp_file(str(unzipped), step_size=step_ns)
+            t1 = time.perf_counter()
+            if not execution.simulate_until(n * step_ns):
+                raise RuntimeError("libcosim did not complete the fast start")
+            walls.append(time.perf_counter() - t1)
+            loads.append(t1 - t0)
+            del execution
+    wall = statistics.median(walls)
+    return wall, n, wall / n * 1e6, statistics.median(loads)
+
+
+def kernel_us_per_step(repeats: int, stop: float = 10.0) -> float:
+    """The compiled kernel's integration time per 2 ms interval of the fast start (RK45
+    1e-8 as the FMU), times two (predictor and corrector), in us."""
+    from ..physics import Ball, BallModel, CrankStartup, fast, simulate
+
+    if not fast.KERNEL_AVAILABLE:
+        return float("nan")
+    times = []
+    for _ in range(repeats):
+        model = BallModel(Ball(), method="RK45", tol=1e-8)
+        t0 = time.perf_counter()
+        simulate(model, CrankStartup(0.5, 60.0, 2.5), stop, H, outputs=False, kernel="c")
+        times.append(time.perf_counter() - t0)
+    return 2.0 * statistics.median(times) / round(stop / H) * 1e6
+
+
+def section(repeats: int, quick: bool, literal_time_at, progress=print) -> list[str]:
+    """Markdown lines for BENCHMARKS.md. literal_time_at(err) -> the paper-literal
+    monolithic program's time [s] at contact-point error err (or None)."""
+    n_steps = 200 if quick else 1000
+    stop = 2.0 if quick else None
+    progress("flavours: per-step cost of each FMU through fmpy")
+    costs, floor = step_costs(repeats, n_steps)
+    progress("flavours: coupled fast start through fmpy, native vs pythonfmu")
+    coupled = coupled_fast_start(repeats, stop)
+    progress("flavours: coupled fast start through libcosim (native FMUs)")
+    lc = libcosim_fast_start(repeats, stop)
+    kernel = kernel_us_per_step(repeats, stop or 10.0)
+    lines = ["## Native and pythonfmu FMUs", "",
+             "The same three FMUs in both flavours (`build/<Model>.fmu`: C, no Python; "
+             "`build/pythonfmu/<Model>.fmu`: the Python reference); they give the same results bit for "
+             "bit on every scenario (tests/test_flavours.py). "
+             + ("Quick run: reduced steps and a 2 s coupled run. " if quick else ""), "",
+             "### One communication step through fmpy", "",
+             f"Set the inputs, doStep H = {H * 1e3:g} ms; median of {repeats} runs of {n_steps} steps. "
+             f"The do-nothing native FMU is the floor that fmpy's per-call cost sets: {floor:.1f} us "
+             f"per step.", "",
+             "| FMU | native [us] | pythonfmu [us] | pythonfmu / native | native / floor |",
+             "| --- | ---: | ---: | ---: | ---: |"]
+    for model in ("BallInShell", "MotorStartup", "InductionMotor"):
+        a, b = costs[(model, "native")], costs[(model, "pythonfmu")]
+        lines.append(f"| {model} | {a:.1f} | {b:.1f} | {b / a:.1f} | {a / floor:.1f} |")
+    lines += ["", "### The coupled fast start, whole run (load, initialisation, steps)", "",
+              f"MotorStartup -> BallInShell at H = {H * 1e3:g} ms through `ballmill run`'s fmpy master; "
+              f"contact-point error against the converged monolithic solution; medians of {repeats} "
+              f"round-robin runs.", "",
+              "| flavour | wall [s] | load+init [s] | steps | max \\|dP\\| [m] | paper-literal at that error [s] "
+              "| literal / this |", "| --- | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for flavour, (wall, init, steps, dP) in coupled.items():
+        lit = literal_time_at(dP) if literal_time_at else None
+        lit_s = f"{lit:.3f}" if lit else "-"
+        ratio = f"{lit / wall:.1f}" if lit else "-"
+        lines.append(f"| {flavour} | {wall:.3f} | {init:.3f} | {steps} | {dP:.2e} | {lit_s} | {ratio} |")
+    a, b = coupled["native"][0], coupled["pythonfmu"][0]
+    lines += ["", f"Native is {b / a:.1f}x faster than pythonfmu on the whole run." + (
+        "" if literal_time_at and literal_time_at(coupled["native"][3]) else
+        " (The paper-literal program's tolerances in this run do not reach the coupled run's "
+        "contact-point error: no time at that error.)"), ""]
+    if lc:
+        wall, n, us, load = lc
+        lines += ["### The same in libcosim (native FMUs, from the SSP export)", "",
+                  f"{wall:.3f} s for {n} steps (loading the package and instantiating: {load:.3f} s more): "
+                  f"{us:.1f} us per communication step for both FMUs and libcosim's master, against "
+                  f"{kernel:.1f} us of the compiled kernel's own integration per step (predictor and "
+                  f"corrector, measured as the monolithic `simulate(kernel=\"c\")` of the same problem): "
+                  f"{us / kernel:.1f}x the kernel.", ""]
+    else:
+        lines += ["(libcosimpy is not installed: the libcosim row is left out.)", ""]
+    return lines

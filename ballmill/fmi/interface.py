@@ -1,0 +1,367 @@
+"""The one declaration of each FMU's interface, shared by both flavours.
+
+Names, value references (the position in ``variables``), causality,
+variability, type, units, descriptions, bounds, start values, the outputs'
+dependencies during initialisation (InitialUnknowns) and the DefaultExperiment
+of BallInShell, MotorStartup and InductionMotor are written here once. The
+pythonfmu adapters (fmu_src/, drive_models/) register these variables
+(`ballmill.fmi.slave.Slave.declare`), and the native build
+(`ballmill.fmi.native`) writes the model description and the C header of
+value references from them; tests/test_interface.py checks that the two
+model descriptions agree variable by variable.
+
+Plain data, no FMI library and no physics beyond the default values.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from ballmill.physics.drives import CrankStartup
+from ballmill.physics.motor import CrankDrive
+from ballmill.physics.motor import InductionMotor as MotorData
+from ballmill.physics.params import Ball
+
+# unit name -> SI base-unit exponents (and factor) for <UnitDefinitions>
+UNITS = {
+    "m": {"m": 1},
+    "kg": {"kg": 1},
+    "s": {"s": 1},
+    "1": {},
+    "rad": {"rad": 1},
+    "rad/s": {"rad": 1, "s": -1},
+    "rad/s2": {"rad": 1, "s": -2},
+    "1/min": {"s": -1, "factor": 1.0 / 60.0},
+    "m/s": {"m": 1, "s": -1},
+    "m/s2": {"m": 1, "s": -2},
+    "N": {"kg": 1, "m": 1, "s": -2},
+    "N.m": {"kg": 1, "m": 2, "s": -2},
+    "J": {"kg": 1, "m": 2, "s": -2},
+    "W": {"kg": 1, "m": 2, "s": -3},
+    "kg.m2": {"kg": 1, "m": 2},
+    "V": {"kg": 1, "m": 2, "s": -3, "A": -1},
+    "A": {"A": 1},
+    "Hz": {"s": -1},
+    "Ohm": {"kg": 1, "m": 2, "s": -3, "A": -2},
+    "H": {"kg": 1, "m": 2, "s": -2, "A": -2},
+    "Wb": {"kg": 1, "m": 2, "s": -2, "A": -1},
+    "N.s/m": {"kg": 1, "s": -1},
+}
+
+LOG_CATEGORIES = {
+    "logStatusWarning": "Warnings: loss of contact, onset of slip, refused inputs.",
+    "logStatusDiscard": "A step that was refused; the last good state is kept.",
+    "logStatusError": "Errors: bad parameters, unusable inputs.",
+    "logStatusFatal": "Fatal errors.",
+    "logAll": "All messages.",
+}
+
+CAUSALITIES = ("parameter", "input", "output")
+_TYPES = {float: "Real", int: "Integer", bool: "Boolean"}
+
+
+@dataclass(frozen=True)
+class Variable:
+    """One scalar variable. The Python type of ``start`` is its FMI type (float ->
+    Real, int -> Integer, bool -> Boolean). ``depends``: the inputs an output depends
+    on during initialisation (in continuous time no output has direct feedthrough)."""
+
+    name: str
+    causality: str
+    start: float | int | bool
+    description: str
+    unit: str | None = None
+    min: float | int | None = None
+    max: float | int | None = None
+    depends: tuple = ()
+    variability: str | None = None  # None: fixed for parameters, continuous for Reals, else discrete
+
+    def __post_init__(self):
+        if self.causality not in CAUSALITIES:
+            raise ValueError(f"{self.name}: causality {self.causality!r} not in {CAUSALITIES}")
+        if type(self.start) not in _TYPES:
+            raise ValueError(f"{self.name}: start {self.start!r} is not a float, int or bool")
+        if self.type == "Real" and self.unit is None:
+            raise ValueError(f"Real variable {self.name!r} needs a unit")
+        if self.unit is not None and self.unit not in UNITS:
+            raise ValueError(f"unit {self.unit!r} of {self.name!r} is not in UNITS")
+        if not self.description.strip():
+            raise ValueError(f"{self.name}: no description")
+
+    @property
+    def type(self) -> str:
+        return _TYPES[type(self.start)]
+
+    @property
+    def fmi_variability(self) -> str:
+        if self.variability:
+            return self.variability
+        if self.causality == "parameter":
+            return "fixed"
+        return "continuous" if self.type == "Real" else "discrete"
+
+
+@dataclass(frozen=True)
+class Interface:
+    """An FMU's variables in value-reference order, with its model-level facts."""
+
+    name: str
+    description: str
+    variables: tuple
+    # start, stop, communication step [s]: 2 ms, the step docs/OTHER_TOOLS.md recommends and the
+    # scenarios use (the ball coupled through derivative inputs: contact point within 1e-9 m)
+    default_experiment: tuple = (0.0, 10.0, 2e-3)
+    log_categories: dict = field(default_factory=lambda: dict(LOG_CATEGORIES))
+
+    def __post_init__(self):
+        names = [v.name for v in self.variables]
+        dup = {n for n in names if names.count(n) > 1}
+        if dup:
+            raise ValueError(f"{self.name}: variables declared twice: {sorted(dup)}")
+        for v in self.variables:
+            unknown = set(v.depends) - {w.name for w in self.variables if w.causality == "input"}
+            if unknown:
+                raise ValueError(f"{self.name}.{v.name} depends on non-inputs {sorted(unknown)}")
+
+    def __getitem__(self, name: str) -> Variable:
+        for v in self.variables:
+            if v.name == name:
+                return v
+        raise KeyError(f"{self.name} has no variable {name!r}")
+
+    def value_reference(self, name: str) -> int:
+        return [v.name for v in self.variables].index(name)
+
+    def of(self, causality: str) -> list[Variable]:
+        return [v for v in self.variables if v.causality == causality]
+
+
+def _interface(name, description, rows, **kw) -> Interface:
+    return Interface(name, description, tuple(Variable(*r[:4], **(r[4] if len(r) > 4 else {}))
+                                              for r in rows), **kw)
+
+
+# ----------------------------------------------------------------------------- the drives
+# the crank and platform outputs every drive FMU provides (BallInShell's inputs)
+CRANK_KINEMATICS = (
+    ("psi", "rad", "Crank angle"),
+    ("psi_dot", "rad/s", "Crank angular speed"),
+    ("psi_ddot", "rad/s2", "Crank angular acceleration"),
+    ("x1O", "m", "Platform point O, x (crank axis at the origin)"),
+    ("y1O", "m", "Platform point O, y"),
+    ("vx1O", "m/s", "Platform velocity x"),
+    ("vy1O", "m/s", "Platform velocity y"),
+    ("ax1O", "m/s2", "Platform acceleration x"),
+    ("ay1O", "m/s2", "Platform acceleration y"),
+)
+
+_law = CrankStartup()
+MOTOR_STARTUP = _interface(
+    "MotorStartup",
+    "Kinematic crank start-up law (quadratic speed rise to n0 in t0) driving a platform on a circle "
+    "of radius l; reports the drive torque and power",
+    [
+        ("l", "parameter", _law.l, "Crank length (radius of the platform's circle)", dict(unit="m", min=0.0)),
+        ("n0", "parameter", _law.n0, "Steady crank speed", dict(unit="1/min", min=0.0)),
+        ("t0", "parameter", _law.t0, "Start-up time to reach n0", dict(unit="s", min=0.0)),
+        ("m_platform", "parameter", 0.0, "Mass of the platform and chamber (adds m l^2 to the inertia)",
+         dict(unit="kg", min=0.0)),
+        ("J_crank", "parameter", 0.0, "Inertia of cranks and gear about the crank axis",
+         dict(unit="kg.m2", min=0.0)),
+        ("M_reaction", "input", 0.0, "Torque of the ball on the crank shaft (BallInShell.M_reaction)",
+         dict(unit="N.m")),
+        *[(name, "output", 0.0, desc, dict(unit=unit)) for name, unit, desc in CRANK_KINEMATICS],
+        ("T_drive", "output", 0.0, "Torque the drive must supply: J_total psi'' - M_reaction",
+         dict(unit="N.m", depends=("M_reaction",))),
+        ("P_drive", "output", 0.0, "Power the drive must supply: T_drive psi'",
+         dict(unit="W", depends=("M_reaction",))),
+        # declared last: earlier value references stay as they were
+        ("law", "parameter", 1, "Shape of the speed rise to n0 in t0: 1 = quadratic (the paper's), "
+         "2 = S-curve (cubic smoothstep, zero acceleration at both ends), 3 = linear (constant "
+         "acceleration), 4 = quintic (zero acceleration and jerk at both ends)", dict(min=1, max=4)),
+    ])
+
+
+def _motor(name):
+    return MotorData.__dataclass_fields__[name].default
+
+
+def _drive(name):
+    return CrankDrive.__dataclass_fields__[name].default
+
+
+_FEEDTHROUGH = ("psi_ddot", "ax1O", "ay1O")  # InductionMotor: depend on M_reaction at initialisation
+INDUCTION_MOTOR = _interface(
+    "InductionMotor",
+    "Three-phase induction motor from its datasheet (Kloss or dq model; direct on line, voltage ramp "
+    "or V/f ramp) driving a platform on cranks through a gear; the ball's reaction torque M_reaction "
+    "loads the crank shaft",
+    [
+        # motor datasheet
+        ("P_rated", "parameter", _motor("rated_power"), "Rated (shaft) power of the motor",
+         dict(unit="W", min=0.0)),
+        ("n_rated", "parameter", _motor("rated_speed"), "Rated speed of the motor", dict(unit="1/min", min=0.0)),
+        ("U_rated", "parameter", _motor("rated_voltage"), "Rated line-to-line voltage (rms)",
+         dict(unit="V", min=0.0)),
+        ("f_rated", "parameter", _motor("rated_frequency"), "Rated supply frequency", dict(unit="Hz", min=0.0)),
+        ("pole_pairs", "parameter", _motor("pole_pairs"), "Number of pole pairs (2 for a 4-pole motor)",
+         dict(min=1)),
+        ("I_rated", "parameter", _motor("rated_current"), "Rated line current (rms) at U_rated",
+         dict(unit="A", min=0.0)),
+        ("cos_phi", "parameter", _motor("power_factor"), "Power factor at the rated point (dq fit)",
+         dict(unit="1", min=0.0, max=1.0)),
+        ("eta", "parameter", _motor("efficiency"), "Efficiency at the rated point (dq fit)",
+         dict(unit="1", min=0.0, max=1.0)),
+        ("Tb_ratio", "parameter", _motor("breakdown_ratio"), "Breakdown torque / rated torque",
+         dict(unit="1", min=1.0)),
+        ("J_rotor", "parameter", _motor("J_rotor"), "Rotor inertia (and anything on the motor shaft)",
+         dict(unit="kg.m2", min=0.0)),
+        ("Rs_share", "parameter", _motor("stator_copper_share"), "Share of the rated losses (other than "
+         "rotor copper) attributed to stator copper; sets Rs of the fitted dq model",
+         dict(unit="1", min=0.0, max=1.0)),
+        # starter
+        ("start_mode", "parameter", 1, "Starter: 1 = direct on line, 2 = voltage ramp (soft starter, "
+         "U/Un from u_start to 1 in ramp_time), 3 = frequency ramp (inverter, V/f, f/fn from f_start "
+         "to 1 in ramp_time)", dict(min=1, max=3)),
+        ("ramp_time", "parameter", _motor("ramp_time"), "Duration of the voltage or frequency ramp",
+         dict(unit="s", min=0.0)),
+        ("u_start", "parameter", _motor("u_start"), "U/Un at t = 0 of a voltage ramp",
+         dict(unit="1", min=0.0, max=1.0)),
+        ("f_start", "parameter", _motor("f_start"), "f/fn at t = 0 of a frequency ramp",
+         dict(unit="1", min=0.0, max=1.0)),
+        ("model", "parameter", 1, "Motor model: 1 = Kloss (quasi-static torque-speed curve), "
+         "2 = dq (4 flux states, electrical transients, current and power)", dict(min=1, max=2)),
+        # gear, crank, platform
+        ("i", "parameter", _drive("i"), "Gear ratio: motor speed / crank speed", dict(unit="1", min=0.0)),
+        ("J_crank", "parameter", _drive("J_crank"), "Inertia of cranks and gear output about the crank "
+         "axis", dict(unit="kg.m2", min=0.0)),
+        ("m_platform", "parameter", _drive("m_platform"), "Mass of the translating platform with the "
+         "chamber (adds m l^2 to the inertia)", dict(unit="kg", min=0.0)),
+        ("l", "parameter", _drive("l"), "Crank length (radius of the platform's circle)",
+         dict(unit="m", min=0.0)),
+        # numerics
+        ("tolerance", "parameter", 1e-9, "Relative tolerance of the internal DOP853 integrator",
+         dict(unit="1", min=1e-14, max=0.1)),
+        ("M_input", "parameter", 2, "M_reaction over a communication step: 1 = held at its value at "
+         "the step's start, 2 = extrapolated linearly from the last two communication points",
+         dict(min=1, max=2)),
+        ("M_reaction", "input", 0.0, "Torque of the load (BallInShell.M_reaction) on the crank shaft, "
+         "positive counter-clockwise seen from above", dict(unit="N.m")),
+        *[(name, "output", 0.0,
+           "Crank angular acceleration (i T_motor + M_reaction) / J_total" if name == "psi_ddot" else desc,
+           dict(unit=unit, depends=("M_reaction",) if name in _FEEDTHROUGH else ()))
+          for name, unit, desc in CRANK_KINEMATICS],
+        ("w_motor", "output", 0.0, "Motor speed i psi'", dict(unit="rad/s")),
+        ("n_motor", "output", 0.0, "Motor speed i psi'", dict(unit="1/min")),
+        ("slip", "output", 1.0, "Slip (w_sync(t) - w_motor) / w_sync(t) of the supply at t "
+         "(0 while the supply frequency is zero)", dict(unit="1")),
+        ("T_motor", "output", 0.0, "Electromagnetic (air-gap) torque of the motor, at the motor shaft",
+         dict(unit="N.m")),
+        ("I_motor", "output", 0.0, "Stator line current (rms); dq model only, 0 with Kloss", dict(unit="A")),
+        ("P_el", "output", 0.0, "Electrical input power; dq model only, 0 with Kloss", dict(unit="W")),
+        ("P_motor", "output", 0.0, "Mechanical power of the motor T_motor w_motor", dict(unit="W")),
+        ("W_motor", "output", 0.0, "Mechanical work of the motor since the start, integral of P_motor",
+         dict(unit="J")),
+        ("E_drive", "output", 0.0, "Kinetic energy of rotor, gear, cranks and platform 1/2 J_total psi'^2",
+         dict(unit="J")),
+    ])
+
+# ----------------------------------------------------------------------------- the ball
+BALL_INPUTS = ("x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O")
+BALL_OUTPUTS = (  # the Real outputs that come straight from outputs.Outputs (same names)
+    ("xP", "m", "Contact point P, x in the chamber frame Oxyz"),
+    ("yP", "m", "Contact point P, y in the chamber frame Oxyz"),
+    ("zP", "m", "Contact point P, height above the chamber's lowest point O"),
+    ("N", "N", "Normal force of the chamber on the ball (> 0: ball pressed on the wall)"),
+    ("Fx", "N", "Force of the ball on the chamber, x"),
+    ("Fy", "N", "Force of the ball on the chamber, y"),
+    ("Fz", "N", "Force of the ball on the chamber, z (-m g at rest)"),
+    ("M_reaction", "N.m", "Torque of the ball's force on the crank shaft about the vertical crank axis "
+                          "through O1 (positive counter-clockwise seen from above)"),
+    ("MAx", "N.m", "Moment of the ball's force about the chamber centre A, x"),
+    ("MAy", "N.m", "Moment of the ball's force about the chamber centre A, y"),
+    ("MAz", "N.m", "Moment of the ball's force about the chamber centre A, z"),
+    ("xC", "m", "Ball centre C, x in Oxyz"),
+    ("yC", "m", "Ball centre C, y in Oxyz"),
+    ("zC", "m", "Ball centre C, z in Oxyz"),
+    ("wx", "rad/s", "Absolute angular velocity of the ball, x"),
+    ("wy", "rad/s", "Absolute angular velocity of the ball, y"),
+    ("wz", "rad/s", "Absolute angular velocity of the ball, z"),
+    ("Ft", "N", "Magnitude of the friction (tangential) force on the ball"),
+    ("friction_ratio", "1", "|F_t| / N: the ball rolls while this is <= mu (1e300 when N <= 0)"),
+)
+_INPUT_TEXT = {
+    "x1O": ("Platform point O, x in the fixed frame (crank axis at the origin)", "m"),
+    "y1O": ("Platform point O, y in the fixed frame", "m"),
+    "vx1O": ("Platform velocity x (used with input_mode = 1)", "m/s"),
+    "vy1O": ("Platform velocity y (used with input_mode = 1)", "m/s"),
+    "ax1O": ("Platform acceleration x (used with input_mode = 1 or 3)", "m/s2"),
+    "ay1O": ("Platform acceleration y (used with input_mode = 1 or 3)", "m/s2"),
+}
+_ball = Ball()
+_out = dict(depends=BALL_INPUTS)
+BALL_IN_SHELL = _interface(
+    "BallInShell",
+    "Ball rolling without slip inside a translating spherical chamber (Gibbs-Appell model of the "
+    "shockless ball mill)",
+    [
+        ("r", "parameter", _ball.r, "Ball radius", dict(unit="m", min=0.0)),
+        ("R", "parameter", _ball.R, "Chamber (inner sphere) radius, > r", dict(unit="m", min=0.0)),
+        ("m", "parameter", _ball.m, "Ball mass (default: steel ball of r = 25 mm)", dict(unit="kg", min=0.0)),
+        ("g", "parameter", _ball.g, "Gravitational acceleration", dict(unit="m/s2", min=0.0)),
+        ("mu", "parameter", _ball.mu, "Friction coefficient ball/chamber, for the rolling check",
+         dict(unit="1", min=0.0)),
+        ("xC0", "parameter", 0.0, "Initial ball centre x (lower half of the chamber)", dict(unit="m")),
+        ("yC0", "parameter", 0.0, "Initial ball centre y (lower half of the chamber)", dict(unit="m")),
+        ("wx0", "parameter", 0.0, "Initial angular velocity x", dict(unit="rad/s")),
+        ("wy0", "parameter", 0.0, "Initial angular velocity y", dict(unit="rad/s")),
+        ("wz0", "parameter", 0.0, "Initial angular velocity z", dict(unit="rad/s")),
+        ("formulation", "parameter", 1, "Equations: 1 = vector (n, omega; whole sphere), "
+         "2 = paper (xC, yC, omega; lower hemisphere only)", dict(min=1, max=2)),
+        # default RK45 at 1e-8: with communication steps of a few ms the coupling error dominates
+        # and RK45 gives the same contact point and N as DOP853 at 1e-9 for ~30 % less time
+        # (BENCHMARKS.md, co-simulation section)
+        ("integrator", "parameter", 2, "Internal integrator: 1 = DOP853 (adaptive, 8th order), "
+         "2 = RK45 (adaptive), 3 = RK4 (fixed step h_fixed)", dict(min=1, max=3)),
+        ("tolerance", "parameter", 1e-8, "Relative tolerance of the adaptive integrators",
+         dict(unit="1", min=1e-15, max=0.1)),
+        ("h_fixed", "parameter", 1e-3, "Step of the fixed-step RK4 integrator", dict(unit="s", min=0.0)),
+        ("input_mode", "parameter", 1, "How the platform acceleration between communication points "
+         "is obtained: 1 = from the derivative inputs vx1O..ay1O (Hermite extrapolation), "
+         "2 = from the positions x1O, y1O alone (polynomial through the last 6 samples), "
+         "3 = hold ax1O, ay1O constant (first order)", dict(min=1, max=3)),
+        ("max_step", "parameter", 0.0, "Largest communication step accepted; longer steps are "
+         "refused (fmi2Discard) because the platform motion cannot be extrapolated accurately over "
+         "them. 0 = automatic: 1/20 of the ball's natural period 2 pi sqrt(7 (R - r) / (5 g))",
+         dict(unit="s", min=0.0)),
+        ("corrector", "parameter", True, "Predictor-corrector (input modes 1 and 2): once the inputs "
+         "at the end of a step are known, re-integrate the steps inside the input window (1 step with "
+         "derivative inputs, 5 with positions only) along the interpolating fit, so extrapolation "
+         "errors do not accumulate; costs that many extra integrations per step"),
+        *[(name, "input", 0.0, _INPUT_TEXT[name][0], dict(unit=_INPUT_TEXT[name][1]))
+          for name in BALL_INPUTS],
+        *[(name, "output", 0.0, desc, dict(unit=unit, **_out)) for name, unit, desc in BALL_OUTPUTS],
+        ("contact", "output", True, "The ball touches the wall (N > 0); the model is invalid otherwise",
+         _out),
+        ("rolling", "output", True, "Contact and |F_t| <= mu N: the ball rolls without slip", _out),
+        # losses to the ground material (declared after the outputs: earlier value references stay)
+        ("delta", "parameter", 0.0, "Rolling-resistance length: the ground material resists the "
+         "rolling with a moment delta N opposite to the rolling angular velocity (0 = none)",
+         dict(unit="m", min=0.0)),
+        ("c_drag", "parameter", 0.0, "Viscous drag of the ground material on the ball's centre, "
+         "F_d = -c_drag v_C,rel (0 = none); Fx..Fz and M_reaction then include its reaction on the "
+         "material the chamber carries", dict(unit="N.s/m", min=0.0)),
+        ("P_diss", "output", 0.0, "Power dissipated by rolling resistance and drag (0 without them)",
+         dict(unit="W", **_out)),
+        ("coupling_error", "output", 0.0, "Estimated error of the communication step: distance "
+         "between the contact point predicted at the last communication point and the one the "
+         "corrector computed there with the true inputs (0 without the corrector)",
+         dict(unit="m", min=0.0, **_out)),
+        ("coupling_warn", "parameter", 1e-4, "coupling_error above which a warning is logged (once): "
+         "the communication step is too long for how fast the inputs change", dict(unit="m", min=0.0)),
+    ])
+
+INTERFACES = {i.name: i for i in (BALL_IN_SHELL, MOTOR_STARTUP, INDUCTION_MOTOR)}
+
+BIG = 1e300  # stands for infinity in outputs (FMI tools choke on inf)
+assert math.isfinite(BIG)

@@ -1,0 +1,159 @@
+/* drive_models/motorstartup.c: the native MotorStartup FMU's model (the FMI plumbing is
+ * fmu_src/native/fmi2.c; the variables come from ballmill/fmi/interface.py through the
+ * generated MotorStartup_interface.h).
+ *
+ * The crank start-up laws as ballmill.physics.drives.CrankStartup computes them, in
+ * the same operation order (same values bit for bit as the pythonfmu flavour,
+ * drive_models/motorstartup_fmu.py): the crank speed rises to w0 = 2 pi n0 / 60 in t0
+ * along the law the parameter `law` chooses (1 = the paper's quadratic rise, 2 = S-curve,
+ * 3 = linear, 4 = quintic), the platform point moves on a circle of radius l, and with
+ * the ball's reaction torque M_reaction as input the drive must supply
+ *     T_drive = J_total psi'' - M_reaction,  J_total = J_crank + m_platform l^2,
+ *     P_drive = T_drive psi'.
+ */
+#include <math.h>
+
+#include "fmu_model.h"
+#include "MotorStartup_interface.h"
+
+/* the parameter law's values (the pythonfmu flavour's LAWS) */
+enum { LAW_QUADRATIC = 1, LAW_SCURVE = 2, LAW_LINEAR = 3, LAW_QUINTIC = 4 };
+
+typedef struct {
+    double l, w0, t0, j_total; /* configuration */
+    int law;                   /* LAW_* */
+    double unused;             /* dynamic state: none beyond the plumbing's time */
+} motor_startup;
+
+/* CrankStartup.angle: (psi, psi', psi'') at t */
+static void angle(const motor_startup *m, double t, double out[3])
+{
+    double w0 = m->w0, t0 = m->t0;
+    if (t < 0.0) {
+        out[0] = 0.0; out[1] = 0.0; out[2] = 0.0;
+    } else if (m->law == LAW_QUADRATIC) {
+        if (t <= t0) {
+            double u = 1.0 - t / t0;
+            out[0] = -w0 * pow(t - t0, 3.0) / (3.0 * t0 * t0) + w0 * t - w0 * t0 / 3.0;
+            out[1] = w0 * (1.0 - u * u);
+            out[2] = 2.0 * w0 * u / t0;
+        } else {
+            out[0] = 2.0 / 3.0 * w0 * t0 + w0 * (t - t0);
+            out[1] = w0;
+            out[2] = 0.0;
+        }
+    } else if (t > t0) { /* every other law: psi = w0 t0 / 2 + w0 (t - t0) after the rise */
+        out[0] = 0.5 * w0 * t0 + w0 * (t - t0);
+        out[1] = w0;
+        out[2] = 0.0;
+    } else {
+        double s = t / t0;
+        if (m->law == LAW_LINEAR) {
+            out[0] = 0.5 * w0 * t0 * s * s;
+            out[1] = w0 * s;
+            out[2] = w0 / t0;
+        } else if (m->law == LAW_SCURVE) {
+            out[0] = w0 * t0 * s * s * s * (1.0 - 0.5 * s);
+            out[1] = w0 * s * s * (3.0 - 2.0 * s);
+            out[2] = 6.0 * w0 * s * (1.0 - s) / t0;
+        } else { /* LAW_QUINTIC */
+            double u = 1.0 - s;
+            out[0] = w0 * t0 * pow(s, 4.0) * (2.5 - 3.0 * s + s * s);
+            out[1] = w0 * pow(s, 3.0) * (10.0 - 15.0 * s + 6.0 * s * s);
+            out[2] = 30.0 * w0 * s * s * u * u / t0;
+        }
+    }
+}
+
+/* the outputs at t, from the input M_reaction */
+static void publish(const motor_startup *m, double *v, double t)
+{
+    double a[3];
+    angle(m, t, a);
+    double psi = a[0], wd = a[1], wdd = a[2];
+    double c = cos(psi), s = sin(psi), l = m->l;
+    v[VR_psi] = psi;
+    v[VR_psi_dot] = wd;
+    v[VR_psi_ddot] = wdd;
+    v[VR_x1O] = l * c;
+    v[VR_y1O] = l * s;
+    v[VR_vx1O] = -l * s * wd;
+    v[VR_vy1O] = l * c * wd;
+    v[VR_ax1O] = -l * (s * wdd + c * wd * wd);
+    v[VR_ay1O] = l * (c * wdd - s * wd * wd);
+    v[VR_T_drive] = m->j_total * wdd - v[VR_M_reaction];
+    v[VR_P_drive] = v[VR_T_drive] * wd;
+}
+
+static fmi2Status refuse(fmu_instance *fi, const char *name, double value, const char *unit, const char *expected)
+{
+    char a[32];
+    fmu_log(fi, fmi2Error, "MotorStartup '%s': initialisation failed: %s must be %s, got %s = %s %s",
+            fmu_instance_name(fi), name, expected, name, fmu_repr(value, a), unit);
+    return fmi2Error;
+}
+
+static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
+{
+    motor_startup *m = data;
+    double l = v[VR_l], n0 = v[VR_n0], t0 = v[VR_t0];
+    if (!(isfinite(l) && l > 0.0)) return refuse(fi, "l", l, "m", "positive and finite");
+    if (!(isfinite(n0) && n0 >= 0.0)) return refuse(fi, "n0", n0, "1/min", "non-negative and finite");
+    if (!(isfinite(t0) && t0 > 0.0)) return refuse(fi, "t0", t0, "s", "positive and finite");
+    if (!(isfinite(v[VR_m_platform]) && v[VR_m_platform] >= 0.0))
+        return refuse(fi, "m_platform", v[VR_m_platform], "kg", "non-negative and finite");
+    if (!(isfinite(v[VR_J_crank]) && v[VR_J_crank] >= 0.0))
+        return refuse(fi, "J_crank", v[VR_J_crank], "kg.m2", "non-negative and finite");
+    int law = (int)v[VR_law];
+    if (law < LAW_QUADRATIC || law > LAW_QUINTIC) { /* the declared bounds keep it out; as the Python flavour */
+        fmu_log(fi, fmi2Error, "MotorStartup '%s': initialisation failed: law must be one of [1, 2, 3, 4] "
+                "(1 = quadratic, 2 = scurve, 3 = linear, 4 = quintic), got %d", fmu_instance_name(fi), law);
+        return fmi2Error;
+    }
+    m->law = law;
+    m->l = l;
+    m->w0 = 2.0 * M_PI * n0 / 60.0;
+    m->t0 = t0;
+    m->j_total = v[VR_J_crank] + v[VR_m_platform] * (l * l);
+    if (!isfinite(m->w0) || !isfinite(m->j_total) || !isfinite(2.0 * m->w0 / t0)) {
+        char a[32], b[32], c[32];
+        fmu_log(fi, fmi2Error, "MotorStartup '%s': initialisation failed: l = %s m, n0 = %s 1/min, t0 = %s s "
+                "give a non-finite crank acceleration or inertia", fmu_instance_name(fi), fmu_repr(l, a),
+                fmu_repr(n0, b), fmu_repr(t0, c));
+        return fmi2Error;
+    }
+    if (!isfinite(v[VR_M_reaction])) {
+        char a[32];
+        fmu_log(fi, fmi2Error, "MotorStartup '%s': initialisation failed: input M_reaction must be finite, got %s N.m",
+                fmu_instance_name(fi), fmu_repr(v[VR_M_reaction], a));
+        return fmi2Error;
+    }
+    publish(m, v, t);
+    return fmi2OK;
+}
+
+static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double h)
+{
+    if (!isfinite(v[VR_M_reaction])) {
+        char a[32], b[32];
+        fmu_log(fi, fmi2Discard, "MotorStartup '%s': input M_reaction must be finite, got %s at t = %s s; "
+                "step refused", fmu_instance_name(fi), fmu_repr(v[VR_M_reaction], a), fmu_repr(t, b));
+        return fmi2Discard;
+    }
+    publish(data, v, t + h);
+    return fmi2OK;
+}
+
+static fmi2Status check(fmu_instance *fi, const void *data, const double *v)
+{
+    (void)fi;
+    (void)data;
+    (void)v;
+    return fmi2OK; /* nothing beyond the configuration, which setup has checked */
+}
+
+const fmu_model FMU_MODEL = {
+    FMU_IDENTIFIER, FMU_GUID, FMU_N_VARS, FMU_VARIABLES,
+    sizeof(motor_startup), offsetof(motor_startup, unused),
+    setup, step, check,
+};

@@ -1,0 +1,791 @@
+/* fmu_src/native/fmi2.c: the FMI 2.0 co-simulation plumbing of every native ballmill FMU.
+ *
+ * Written once for all models (fmu_model.h is the contract): the fmi2 functions, one
+ * state machine that checks every call against the instance's state, logging,
+ * parameter bounds, atomic steps (a refused step keeps the last good state), and FMU
+ * states with their serialisation (validated before use: size, magic, version, model
+ * identity, configuration). Nothing here knows physics.
+ *
+ * Semantics (FMI 2.0, section 4.2.4 for the allowed calls):
+ *   - a call that is not allowed in the instance's state: fmi2Error, "fmi2X is not
+ *     allowed in state Y", nothing changed;
+ *   - fmi2DoStep with a communicationStepSize that is not positive and finite, or a
+ *     currentCommunicationPoint other than the instance's time: fmi2Error, state kept;
+ *   - a fixed parameter (or an output) set after initialisation: fmi2Error, value kept;
+ *   - every parameter outside its declared bounds, or not finite: fmi2Error at
+ *     fmi2ExitInitializationMode, naming variable, value and accepted range (after the
+ *     model's own checks, whose messages say what the physics needs);
+ *   - a step whose outputs are not all finite: fmi2Discard, state kept;
+ *   - fmi2Discard from a step leaves the instance in stepComplete at the last good
+ *     state, so that a master may retry (with other inputs or a shorter step) or
+ *     restore an FMU state.
+ */
+#include <math.h>
+#include <stdarg.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "fmu_model.h"
+
+typedef enum {
+    S_INSTANTIATED = 1,
+    S_INIT = 2,
+    S_STEP_COMPLETE = 4,
+    S_STEP_FAILED = 8,
+    S_TERMINATED = 16,
+    S_ERROR = 32,
+    S_FATAL = 64
+} fmu_state;
+
+struct fmu_instance {
+    char *name;
+    fmi2CallbackLogger logger;
+    fmi2ComponentEnvironment env;
+    int logging_on;
+    fmu_state state;
+    double t_start, t;   /* start time, time of the current state */
+    int built;           /* setup succeeded for the current parameters */
+    double *v;           /* values by value reference */
+    unsigned char *data; /* the model's data */
+    double *v_work;      /* scratch copies for steps */
+    unsigned char *data_work;
+};
+
+static const char *state_name(fmu_state s)
+{
+    switch (s) {
+    case S_INSTANTIATED: return "instantiated";
+    case S_INIT: return "initializationMode";
+    case S_STEP_COMPLETE: return "stepComplete";
+    case S_STEP_FAILED: return "stepFailed";
+    case S_TERMINATED: return "terminated";
+    case S_ERROR: return "error";
+    default: return "fatal";
+    }
+}
+
+/* ------------------------------------------------------------------ logging */
+const char *fmu_instance_name(const fmu_instance *fi) { return fi->name; }
+
+void fmu_log(fmu_instance *fi, fmi2Status status, const char *fmt, ...)
+{
+    char msg[2048], esc[4096];
+    va_list ap;
+    if (!fi || !fi->logger) return;
+    if (status == fmi2OK && !fi->logging_on) return;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    /* the host's logger takes the message as a printf format: '%' travels as "%%" */
+    size_t j = 0;
+    for (size_t i = 0; msg[i] && j + 2 < sizeof esc; i++) {
+        if (msg[i] == '%') esc[j++] = '%';
+        esc[j++] = msg[i];
+    }
+    esc[j] = '\0';
+    const char *category = status == fmi2OK        ? "logAll"
+                           : status == fmi2Warning ? "logStatusWarning"
+                           : status == fmi2Discard ? "logStatusDiscard"
+                           : status == fmi2Error   ? "logStatusError"
+                                                   : "logStatusFatal";
+    fi->logger(fi->env, fi->name, status, category, esc);
+}
+
+const char *fmu_repr(double x, char buf[32])
+{
+    if (isnan(x)) return strcpy(buf, "nan");
+    if (isinf(x)) return strcpy(buf, x > 0 ? "inf" : "-inf");
+    int p = 1;
+    for (; p < 17; p++) { /* shortest precision that reads back as x */
+        snprintf(buf, 32, "%.*e", p - 1, x);
+        if (strtod(buf, NULL) == x) break;
+    }
+    snprintf(buf, 32, "%.*e", p - 1, x);
+    int exp10 = atoi(strchr(buf, 'e') + 1);
+    if (exp10 >= -4 && exp10 < 16) {
+        int decimals = p - 1 - exp10;
+        snprintf(buf, 32, "%.*f", decimals > 0 ? decimals : 0, x);
+        if (!strchr(buf, '.')) strcat(buf, ".0");
+    } else { /* Python: 1e-06, 1e+300, 1.5e+20 */
+        char mant[24];
+        snprintf(mant, sizeof mant, "%.*e", p - 1, x);
+        *strchr(mant, 'e') = '\0';
+        snprintf(buf, 32, "%.23se%c%02d", mant, exp10 < 0 ? '-' : '+', (exp10 < 0 ? -exp10 : exp10) % 1000);
+    }
+    return buf;
+}
+
+/* "fmi2X is not allowed in state Y": the one message for an illegal call */
+static int allowed(fmu_instance *fi, const char *function, int states)
+{
+    if (!fi) return 0;
+    if (fi->state & states) return 1;
+    fmu_log(fi, fmi2Error, "%s '%s': %s is not allowed in state %s", FMU_MODEL.identifier, fi->name,
+            function, state_name(fi->state));
+    return 0;
+}
+
+#define ANY_STATE (S_INSTANTIATED | S_INIT | S_STEP_COMPLETE | S_STEP_FAILED | S_TERMINATED | S_ERROR)
+#define READABLE (S_INIT | S_STEP_COMPLETE | S_STEP_FAILED | S_TERMINATED | S_ERROR)
+
+/* ------------------------------------------------------------------ set up */
+static void start_values(fmu_instance *fi)
+{
+    for (int i = 0; i < FMU_MODEL.n_vars; i++) fi->v[i] = FMU_MODEL.vars[i].start;
+}
+
+/* every parameter finite and within its declared bounds; fmi2Error naming the first bad one */
+static fmi2Status check_parameters(fmu_instance *fi, const double *v)
+{
+    for (int i = 0; i < FMU_MODEL.n_vars; i++) {
+        const fmu_variable *var = &FMU_MODEL.vars[i];
+        if (var->causality != FMU_PARAMETER || var->type == FMU_BOOLEAN) continue;
+        double x = v[i];
+        if (isfinite(x) && x >= var->min && x <= var->max) continue;
+        char a[32], lo[32], hi[32], range[96];
+        if (isfinite(var->min) && isfinite(var->max))
+            snprintf(range, sizeof range, "%s <= %s <= %s", fmu_repr(var->min, lo), var->name,
+                     fmu_repr(var->max, hi));
+        else if (isfinite(var->min))
+            snprintf(range, sizeof range, "%s >= %s and finite", var->name, fmu_repr(var->min, lo));
+        else if (isfinite(var->max))
+            snprintf(range, sizeof range, "%s <= %s and finite", var->name, fmu_repr(var->max, hi));
+        else
+            snprintf(range, sizeof range, "%s finite", var->name);
+        fmu_log(fi, fmi2Error, "%s '%s': initialisation failed: %s = %s%s%s is out of range: expected %s",
+                FMU_MODEL.identifier, fi->name, var->name,
+                var->type == FMU_INTEGER ? (snprintf(a, sizeof a, "%.0f", x), a) : fmu_repr(x, a),
+                *var->unit ? " " : "", var->unit, range);
+        return fmi2Error;
+    }
+    return fmi2OK;
+}
+
+/* no non-finite output published with fmi2OK */
+static fmi2Status check_outputs(fmu_instance *fi, const double *v, double t)
+{
+    for (int i = 0; i < FMU_MODEL.n_vars; i++) {
+        if (FMU_MODEL.vars[i].causality != FMU_OUTPUT || isfinite(v[i])) continue;
+        char a[32], b[32];
+        fmu_log(fi, fmi2Discard, "%s '%s': output %s would be %s at t = %s s; refused, last good state kept",
+                FMU_MODEL.identifier, fi->name, FMU_MODEL.vars[i].name, fmu_repr(v[i], a), fmu_repr(t, b));
+        return fmi2Discard;
+    }
+    return fmi2OK;
+}
+
+/* setup on the work copies from the current values; committed on success */
+static fmi2Status build(fmu_instance *fi)
+{
+    size_t nv = (size_t)FMU_MODEL.n_vars * sizeof(double);
+    memcpy(fi->v_work, fi->v, nv);
+    memset(fi->data_work, 0, FMU_MODEL.data_size);
+    /* the model's own checks first (its messages say what the physics needs), then the
+     * declared bounds of every parameter */
+    fmi2Status s = FMU_MODEL.setup(fi, fi->data_work, fi->v_work, fi->t_start);
+    if (s > fmi2Warning || check_parameters(fi, fi->v) != fmi2OK ||
+        check_outputs(fi, fi->v_work, fi->t_start) != fmi2OK) {
+        memcpy(fi->data_work, fi->data, FMU_MODEL.data_size); /* keep the copies equal */
+        return fmi2Error;
+    }
+    memcpy(fi->v, fi->v_work, nv);
+    memcpy(fi->data, fi->data_work, FMU_MODEL.data_size); /* both copies hold the configuration */
+    fi->t = fi->t_start;
+    fi->built = 1;
+    return s;
+}
+
+/* ------------------------------------------------------------------ life cycle */
+const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
+const char *fmi2GetVersion(void) { return fmi2Version; }
+
+static void free_instance(fmu_instance *fi)
+{
+    if (!fi) return;
+    free(fi->name);
+    free(fi->v);
+    free(fi->data);
+    free(fi->v_work);
+    free(fi->data_work);
+    free(fi);
+}
+
+fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
+                              fmi2String fmuResourceLocation, const fmi2CallbackFunctions *functions,
+                              fmi2Boolean visible, fmi2Boolean loggingOn)
+{
+    (void)fmuResourceLocation;
+    (void)visible;
+    fmu_instance tmp = {0};
+    tmp.name = (char *)(instanceName ? instanceName : "?");
+    tmp.logger = functions ? functions->logger : NULL;
+    tmp.env = functions ? functions->componentEnvironment : NULL;
+    if (!instanceName || !*instanceName) {
+        fmu_log(&tmp, fmi2Error, "%s: fmi2Instantiate: the instance name must not be empty", FMU_MODEL.identifier);
+        return NULL;
+    }
+    if (fmuType != fmi2CoSimulation) {
+        fmu_log(&tmp, fmi2Error, "%s '%s': fmi2Instantiate: only co-simulation is supported (fmuType = %d)",
+                FMU_MODEL.identifier, instanceName, (int)fmuType);
+        return NULL;
+    }
+    if (!fmuGUID || strcmp(fmuGUID, FMU_MODEL.guid) != 0) {
+        fmu_log(&tmp, fmi2Error, "%s '%s': fmi2Instantiate: GUID %s does not match this binary's %s",
+                FMU_MODEL.identifier, instanceName, fmuGUID ? fmuGUID : "(null)", FMU_MODEL.guid);
+        return NULL;
+    }
+    fmu_instance *fi = calloc(1, sizeof *fi);
+    size_t nv = (size_t)FMU_MODEL.n_vars;
+    if (fi) {
+        fi->name = malloc(strlen(instanceName) + 1);
+        fi->v = calloc(nv, sizeof(double));
+        fi->v_work = calloc(nv, sizeof(double));
+        fi->data = calloc(1, FMU_MODEL.data_size);
+        fi->data_work = calloc(1, FMU_MODEL.data_size);
+    }
+    if (!fi || !fi->name || !fi->v || !fi->v_work || !fi->data || !fi->data_work) {
+        free_instance(fi);
+        fmu_log(&tmp, fmi2Fatal, "%s '%s': fmi2Instantiate: out of memory", FMU_MODEL.identifier, instanceName);
+        return NULL;
+    }
+    strcpy(fi->name, instanceName);
+    fi->logger = tmp.logger;
+    fi->env = tmp.env;
+    fi->logging_on = loggingOn ? 1 : 0;
+    fi->state = S_INSTANTIATED;
+    start_values(fi);
+    return fi;
+}
+
+void fmi2FreeInstance(fmi2Component c)
+{
+    free_instance((fmu_instance *)c);
+}
+
+fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t nCategories,
+                               const fmi2String categories[])
+{
+    fmu_instance *fi = c;
+    (void)nCategories;
+    (void)categories;
+    if (!allowed(fi, "fmi2SetDebugLogging", ANY_STATE)) return fmi2Error;
+    fi->logging_on = loggingOn ? 1 : 0;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fmi2Real tolerance,
+                               fmi2Real startTime, fmi2Boolean stopTimeDefined, fmi2Real stopTime)
+{
+    fmu_instance *fi = c;
+    char a[32];
+    (void)toleranceDefined;
+    (void)tolerance;
+    (void)stopTimeDefined;
+    (void)stopTime;
+    if (!allowed(fi, "fmi2SetupExperiment", S_INSTANTIATED)) return fmi2Error;
+    if (!isfinite(startTime)) {
+        fmu_log(fi, fmi2Error, "%s '%s': fmi2SetupExperiment: startTime = %s s must be finite",
+                FMU_MODEL.identifier, fi->name, fmu_repr(startTime, a));
+        return fmi2Error;
+    }
+    fi->t_start = fi->t = startTime;
+    return fmi2OK;
+}
+
+fmi2Status fmi2EnterInitializationMode(fmi2Component c)
+{
+    fmu_instance *fi = c;
+    if (!allowed(fi, "fmi2EnterInitializationMode", S_INSTANTIATED)) return fmi2Error;
+    fi->state = S_INIT;
+    fi->built = 0;
+    return fmi2OK;
+}
+
+fmi2Status fmi2ExitInitializationMode(fmi2Component c)
+{
+    fmu_instance *fi = c;
+    if (!allowed(fi, "fmi2ExitInitializationMode", S_INIT)) return fmi2Error;
+    fmi2Status s = build(fi);
+    if (s > fmi2Warning) return fmi2Error; /* stays in initialisation mode: fix the parameters and retry */
+    fi->state = S_STEP_COMPLETE;
+    return s;
+}
+
+fmi2Status fmi2Terminate(fmi2Component c)
+{
+    fmu_instance *fi = c;
+    if (!allowed(fi, "fmi2Terminate", S_STEP_COMPLETE | S_STEP_FAILED)) return fmi2Error;
+    fi->state = S_TERMINATED;
+    return fmi2OK;
+}
+
+fmi2Status fmi2Reset(fmi2Component c)
+{
+    fmu_instance *fi = c;
+    if (!allowed(fi, "fmi2Reset", ANY_STATE)) return fmi2Error;
+    fi->state = S_INSTANTIATED;
+    fi->built = 0;
+    fi->t_start = fi->t = 0.0;
+    start_values(fi);
+    memset(fi->data, 0, FMU_MODEL.data_size);
+    memset(fi->data_work, 0, FMU_MODEL.data_size);
+    return fmi2OK;
+}
+
+/* ------------------------------------------------------------------ get / set */
+static const char *type_name(fmu_type t)
+{
+    return t == FMU_REAL ? "Real" : t == FMU_INTEGER ? "Integer" : "Boolean";
+}
+
+static fmi2Status check_vr(fmu_instance *fi, const char *function, fmi2ValueReference vr, fmu_type type)
+{
+    if (vr >= (fmi2ValueReference)FMU_MODEL.n_vars) {
+        fmu_log(fi, fmi2Error, "%s '%s': %s: no variable has value reference %u", FMU_MODEL.identifier,
+                fi->name, function, (unsigned)vr);
+        return fmi2Error;
+    }
+    if (FMU_MODEL.vars[vr].type != type) {
+        fmu_log(fi, fmi2Error, "%s '%s': %s: value reference %u is %s, a %s, not a %s", FMU_MODEL.identifier,
+                fi->name, function, (unsigned)vr, FMU_MODEL.vars[vr].name,
+                type_name(FMU_MODEL.vars[vr].type), type_name(type));
+        return fmi2Error;
+    }
+    return fmi2OK;
+}
+
+static fmi2Status get_values(fmu_instance *fi, const char *function, const fmi2ValueReference vr[],
+                             size_t nvr, fmu_type type, double *out)
+{
+    if (!allowed(fi, function, READABLE)) return fmi2Error;
+    if (nvr && (!vr || !out)) return fmi2Error;
+    for (size_t i = 0; i < nvr; i++)
+        if (check_vr(fi, function, vr[i], type) != fmi2OK) return fmi2Error;
+    if (fi->state == S_INIT && build(fi) > fmi2Warning) /* outputs consistent with the inputs set so far */
+        return fmi2Error;
+    for (size_t i = 0; i < nvr; i++) out[i] = fi->v[vr[i]];
+    return fmi2OK;
+}
+
+/* may vr be set now? A fixed parameter only before the end of initialisation, an input
+ * from instantiation on, an output never. */
+static fmi2Status settable(fmu_instance *fi, const char *function, fmi2ValueReference vr)
+{
+    const fmu_variable *var = &FMU_MODEL.vars[vr];
+    const char *why = NULL;
+    if (var->causality == FMU_OUTPUT)
+        why = "it is an output";
+    else if (var->causality == FMU_PARAMETER && !var->tunable && !(fi->state & (S_INSTANTIATED | S_INIT)))
+        why = "it is a fixed parameter and the instance is initialised (fmi2Reset, then set it)";
+    if (!why) return fmi2OK;
+    fmu_log(fi, fmi2Error, "%s '%s': %s: %s cannot be set in state %s: %s; value unchanged",
+            FMU_MODEL.identifier, fi->name, function, var->name, state_name(fi->state), why);
+    return fmi2Error;
+}
+
+static fmi2Status set_values(fmu_instance *fi, const char *function, const fmi2ValueReference vr[],
+                             size_t nvr, fmu_type type, const double *in)
+{
+    if (!allowed(fi, function, S_INSTANTIATED | S_INIT | S_STEP_COMPLETE)) return fmi2Error;
+    if (nvr && (!vr || !in)) return fmi2Error;
+    for (size_t i = 0; i < nvr; i++) /* all or nothing */
+        if (check_vr(fi, function, vr[i], type) != fmi2OK || settable(fi, function, vr[i]) != fmi2OK)
+            return fmi2Error;
+    for (size_t i = 0; i < nvr; i++) fi->v[vr[i]] = in[i];
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Real value[])
+{
+    return get_values(c, "fmi2GetReal", vr, nvr, FMU_REAL, value);
+}
+
+#define CHUNK 64
+fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Integer value[])
+{
+    double buf[CHUNK];
+    for (size_t k = 0; k < nvr || k == 0; k += CHUNK) {
+        size_t n = nvr - k < CHUNK ? nvr - k : CHUNK;
+        fmi2Status s = get_values(c, "fmi2GetInteger", vr ? vr + k : NULL, n, FMU_INTEGER, buf);
+        if (s != fmi2OK) return s;
+        for (size_t i = 0; i < n; i++) value[k + i] = (fmi2Integer)buf[i];
+        if (nvr == 0) break;
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Boolean value[])
+{
+    double buf[CHUNK];
+    for (size_t k = 0; k < nvr || k == 0; k += CHUNK) {
+        size_t n = nvr - k < CHUNK ? nvr - k : CHUNK;
+        fmi2Status s = get_values(c, "fmi2GetBoolean", vr ? vr + k : NULL, n, FMU_BOOLEAN, buf);
+        if (s != fmi2OK) return s;
+        for (size_t i = 0; i < n; i++) value[k + i] = buf[i] != 0.0 ? fmi2True : fmi2False;
+        if (nvr == 0) break;
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2String value[])
+{
+    fmu_instance *fi = c;
+    (void)vr;
+    (void)value;
+    if (!allowed(fi, "fmi2GetString", READABLE)) return fmi2Error;
+    if (nvr == 0) return fmi2OK;
+    fmu_log(fi, fmi2Error, "%s '%s': fmi2GetString: this FMU has no String variables", FMU_MODEL.identifier,
+            fi->name);
+    return fmi2Error;
+}
+
+fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Real value[])
+{
+    return set_values(c, "fmi2SetReal", vr, nvr, FMU_REAL, value);
+}
+
+fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Integer value[])
+{
+    fmu_instance *fi = c;
+    double *buf = malloc((nvr ? nvr : 1) * sizeof(double));
+    if (!buf) return fmi2Error;
+    for (size_t i = 0; i < nvr; i++) buf[i] = (double)value[i];
+    fmi2Status s = set_values(fi, "fmi2SetInteger", vr, nvr, FMU_INTEGER, buf);
+    free(buf);
+    return s;
+}
+
+fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Boolean value[])
+{
+    fmu_instance *fi = c;
+    double *buf = malloc((nvr ? nvr : 1) * sizeof(double));
+    if (!buf) return fmi2Error;
+    for (size_t i = 0; i < nvr; i++) buf[i] = value[i] ? 1.0 : 0.0;
+    fmi2Status s = set_values(fi, "fmi2SetBoolean", vr, nvr, FMU_BOOLEAN, buf);
+    free(buf);
+    return s;
+}
+
+fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2String value[])
+{
+    fmu_instance *fi = c;
+    (void)vr;
+    (void)value;
+    if (!allowed(fi, "fmi2SetString", S_INSTANTIATED | S_INIT | S_STEP_COMPLETE)) return fmi2Error;
+    if (nvr == 0) return fmi2OK;
+    fmu_log(fi, fmi2Error, "%s '%s': fmi2SetString: this FMU has no String variables", FMU_MODEL.identifier,
+            fi->name);
+    return fmi2Error;
+}
+
+/* ------------------------------------------------------------------ stepping */
+fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2Real communicationStepSize,
+                      fmi2Boolean noSetFMUStatePriorToCurrentPoint)
+{
+    fmu_instance *fi = c;
+    char a[32], b[32];
+    double t = currentCommunicationPoint, h = communicationStepSize;
+    (void)noSetFMUStatePriorToCurrentPoint;
+    if (!allowed(fi, "fmi2DoStep", S_STEP_COMPLETE)) return fmi2Error;
+    if (!(isfinite(h) && h > 0.0)) {
+        fmu_log(fi, fmi2Error, "%s '%s': fmi2DoStep: communicationStepSize = %s s refused: it must be positive "
+                "and finite; state unchanged", FMU_MODEL.identifier, fi->name, fmu_repr(h, a));
+        return fmi2Error;
+    }
+    if (!(fabs(t - fi->t) <= 1e-9 * fmax(1.0, fabs(fi->t)))) {
+        fmu_log(fi, fmi2Error, "%s '%s': fmi2DoStep: currentCommunicationPoint = %s s, but the instance is at "
+                "t = %s s; steps must be contiguous (restore an FMU state to go back); state unchanged",
+                FMU_MODEL.identifier, fi->name, fmu_repr(t, a), fmu_repr(fi->t, b));
+        return fmi2Error;
+    }
+    /* the step runs on the work copies; the configuration part of the data is the same in
+     * both (build and fmi2SetFMUstate write both), so only the dynamic part is copied */
+    size_t nv = (size_t)FMU_MODEL.n_vars * sizeof(double);
+    memcpy(fi->v_work, fi->v, nv);
+    memcpy(fi->data_work + FMU_MODEL.dyn_offset, fi->data + FMU_MODEL.dyn_offset,
+           FMU_MODEL.data_size - FMU_MODEL.dyn_offset);
+    fmi2Status s = FMU_MODEL.step(fi, fi->data_work, fi->v_work, t, h);
+    if (s <= fmi2Warning && check_outputs(fi, fi->v_work, t + h) != fmi2OK) s = fmi2Discard;
+    if (s > fmi2Warning) return s == fmi2Discard ? fmi2Discard : fmi2Error; /* the last good state stays */
+    double *tv = fi->v;
+    fi->v = fi->v_work;
+    fi->v_work = tv;
+    unsigned char *td = fi->data;
+    fi->data = fi->data_work;
+    fi->data_work = td;
+    fi->t = t + h;
+    return s;
+}
+
+fmi2Status fmi2CancelStep(fmi2Component c)
+{
+    fmu_instance *fi = c;
+    if (fi) fmu_log(fi, fmi2Error, "%s '%s': fmi2CancelStep is not allowed in state %s (steps are synchronous)",
+                    FMU_MODEL.identifier, fi->name, state_name(fi->state));
+    return fmi2Error;
+}
+
+fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                       const fmi2Integer order[], const fmi2Real value[])
+{
+    fmu_instance *fi = c;
+    (void)vr;
+    (void)nvr;
+    (void)order;
+    (void)value;
+    if (fi) fmu_log(fi, fmi2Error, "%s '%s': fmi2SetRealInputDerivatives: not supported "
+                    "(canInterpolateInputs = false)", FMU_MODEL.identifier, fi->name);
+    return fmi2Error;
+}
+
+fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                        const fmi2Integer order[], fmi2Real value[])
+{
+    fmu_instance *fi = c;
+    (void)vr;
+    (void)nvr;
+    (void)order;
+    (void)value;
+    if (fi) fmu_log(fi, fmi2Error, "%s '%s': fmi2GetRealOutputDerivatives: not supported "
+                    "(maxOutputDerivativeOrder = 0)", FMU_MODEL.identifier, fi->name);
+    return fmi2Error;
+}
+
+fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference vUnknown_ref[], size_t nUnknown,
+                                        const fmi2ValueReference vKnown_ref[], size_t nKnown,
+                                        const fmi2Real dvKnown[], fmi2Real dvUnknown[])
+{
+    fmu_instance *fi = c;
+    (void)vUnknown_ref;
+    (void)nUnknown;
+    (void)vKnown_ref;
+    (void)nKnown;
+    (void)dvKnown;
+    (void)dvUnknown;
+    if (fi) fmu_log(fi, fmi2Error, "%s '%s': fmi2GetDirectionalDerivative: not supported "
+                    "(providesDirectionalDerivative = false)", FMU_MODEL.identifier, fi->name);
+    return fmi2Error;
+}
+
+fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value)
+{
+    fmu_instance *fi = c;
+    if (!allowed(fi, "fmi2GetStatus", S_STEP_COMPLETE | S_STEP_FAILED | S_TERMINATED)) return fmi2Error;
+    if (s != fmi2DoStepStatus || !value) return fmi2Discard;
+    *value = fmi2OK; /* steps are synchronous: never pending */
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value)
+{
+    fmu_instance *fi = c;
+    if (!allowed(fi, "fmi2GetRealStatus", S_STEP_COMPLETE | S_STEP_FAILED | S_TERMINATED)) return fmi2Error;
+    if (s != fmi2LastSuccessfulTime || !value) return fmi2Discard;
+    *value = fi->t;
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *value)
+{
+    (void)c;
+    (void)s;
+    (void)value;
+    return fmi2Discard;
+}
+
+fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value)
+{
+    fmu_instance *fi = c;
+    if (!allowed(fi, "fmi2GetBooleanStatus", S_STEP_COMPLETE | S_STEP_FAILED | S_TERMINATED)) return fmi2Error;
+    if (s != fmi2Terminated || !value) return fmi2Discard;
+    *value = fmi2False;
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value)
+{
+    (void)c;
+    (void)s;
+    (void)value;
+    return fmi2Discard;
+}
+
+/* ------------------------------------------------------------------ FMU states */
+#define BLOB_MAGIC "ballmill"
+#define BLOB_VERSION 1u
+
+/* An FMU state is one block: this header, the values v[], the model's data. Serialised,
+ * it is the same bytes (same machine and build: the model identity includes the GUID). */
+typedef struct {
+    char magic[8];
+    uint32_t version;
+    uint32_t n_vars;
+    uint64_t data_size;
+    uint64_t total_size;
+    char identifier[32];
+    char guid[64];
+    int32_t state, built;
+    double t_start, t;
+} blob_header;
+
+static size_t blob_size(void)
+{
+    return sizeof(blob_header) + (size_t)FMU_MODEL.n_vars * sizeof(double) + FMU_MODEL.data_size;
+}
+
+static void blob_identity(blob_header *h)
+{
+    memset(h, 0, sizeof *h);
+    memcpy(h->magic, BLOB_MAGIC, 8);
+    h->version = BLOB_VERSION;
+    h->n_vars = (uint32_t)FMU_MODEL.n_vars;
+    h->data_size = FMU_MODEL.data_size;
+    h->total_size = blob_size();
+    strncpy(h->identifier, FMU_MODEL.identifier, sizeof h->identifier - 1);
+    strncpy(h->guid, FMU_MODEL.guid, sizeof h->guid - 1);
+}
+
+/* '' when the bytes are a state of this model, else why not */
+static const char *blob_invalid(const unsigned char *bytes, size_t size)
+{
+    blob_header ref, h;
+    if (!bytes) return "no state given (NULL)";
+    if (size < sizeof h) return "it is shorter than a state header";
+    memcpy(&h, bytes, sizeof h);
+    blob_identity(&ref);
+    if (memcmp(h.magic, ref.magic, 8) != 0) return "it is not a ballmill FMU state (wrong magic)";
+    if (h.version != ref.version) return "it was written by another version of the FMU state format";
+    if (strncmp(h.identifier, ref.identifier, sizeof h.identifier) != 0) return "it is a state of another model";
+    if (strncmp(h.guid, ref.guid, sizeof h.guid) != 0) return "it is a state of another build of this model (GUID differs)";
+    if (h.n_vars != ref.n_vars || h.data_size != ref.data_size || h.total_size != ref.total_size || size != ref.total_size)
+        return "its size does not match this model's";
+    if (!(h.state == S_INSTANTIATED || h.state == S_INIT || h.state == S_STEP_COMPLETE ||
+          h.state == S_STEP_FAILED || h.state == S_TERMINATED))
+        return "its instance state is not one a state can be taken in";
+    if (!(isfinite(h.t_start) && isfinite(h.t))) return "its times are not finite";
+    return "";
+}
+
+fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state)
+{
+    fmu_instance *fi = c;
+    if (!allowed(fi, "fmi2GetFMUstate", ANY_STATE)) return fmi2Error;
+    if (!state) return fmi2Error;
+    unsigned char *b = *state ? *state : malloc(blob_size()); /* a given state is overwritten */
+    if (!b) {
+        fmu_log(fi, fmi2Error, "%s '%s': fmi2GetFMUstate: out of memory", FMU_MODEL.identifier, fi->name);
+        return fmi2Error;
+    }
+    blob_header h;
+    blob_identity(&h);
+    h.state = fi->state;
+    h.built = fi->built;
+    h.t_start = fi->t_start;
+    h.t = fi->t;
+    memcpy(b, &h, sizeof h);
+    memcpy(b + sizeof h, fi->v, (size_t)FMU_MODEL.n_vars * sizeof(double));
+    memcpy(b + sizeof h + (size_t)FMU_MODEL.n_vars * sizeof(double), fi->data, FMU_MODEL.data_size);
+    *state = b;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state)
+{
+    fmu_instance *fi = c;
+    const unsigned char *b = state;
+    if (!allowed(fi, "fmi2SetFMUstate", ANY_STATE)) return fmi2Error;
+    const char *why = blob_invalid(b, b ? blob_size() : 0);
+    if (*why) {
+        fmu_log(fi, fmi2Error, "%s '%s': fmi2SetFMUstate: state refused, instance unchanged: %s",
+                FMU_MODEL.identifier, fi->name, why);
+        return fmi2Error;
+    }
+    blob_header h;
+    memcpy(&h, b, sizeof h);
+    const double *v = (const double *)(b + sizeof h);
+    const unsigned char *data = b + sizeof h + (size_t)FMU_MODEL.n_vars * sizeof(double);
+    size_t nv = (size_t)FMU_MODEL.n_vars * sizeof(double);
+    if (h.built) {
+        /* the configuration is rebuilt from the state's parameters (checked like at
+         * initialisation), then the dynamic state is taken over and checked */
+        memcpy(fi->v_work, v, nv);
+        memset(fi->data_work, 0, FMU_MODEL.data_size);
+        if (FMU_MODEL.setup(fi, fi->data_work, fi->v_work, h.t_start) > fmi2Warning) goto refused;
+        if (check_parameters(fi, v) != fmi2OK) goto refused;
+        memcpy(fi->v_work, v, nv); /* outputs and inputs as they were saved */
+        memcpy(fi->data_work + FMU_MODEL.dyn_offset, data + FMU_MODEL.dyn_offset,
+               FMU_MODEL.data_size - FMU_MODEL.dyn_offset);
+        if (FMU_MODEL.check(fi, fi->data_work, fi->v_work) > fmi2Warning) goto refused;
+        memcpy(fi->data, fi->data_work, FMU_MODEL.data_size); /* both copies hold the configuration */
+    } else {
+        memset(fi->data, 0, FMU_MODEL.data_size);
+        memset(fi->data_work, 0, FMU_MODEL.data_size);
+        memcpy(fi->v_work, v, nv);
+    }
+    memcpy(fi->v, fi->v_work, nv);
+    fi->state = (fmu_state)h.state;
+    fi->built = h.built;
+    fi->t_start = h.t_start;
+    fi->t = h.t;
+    return fmi2OK;
+refused:
+    memcpy(fi->data_work, fi->data, FMU_MODEL.data_size); /* keep the copies equal */
+    fmu_log(fi, fmi2Error, "%s '%s': fmi2SetFMUstate: state refused (see the message before), instance unchanged",
+            FMU_MODEL.identifier, fi->name);
+    return fmi2Error;
+}
+
+fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *state)
+{
+    fmu_instance *fi = c;
+    if (!allowed(fi, "fmi2FreeFMUstate", ANY_STATE)) return fmi2Error;
+    if (state) {
+        free(*state);
+        *state = NULL;
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate state, size_t *size)
+{
+    fmu_instance *fi = c;
+    (void)state;
+    if (!allowed(fi, "fmi2SerializedFMUstateSize", ANY_STATE) || !size) return fmi2Error;
+    *size = blob_size();
+    return fmi2OK;
+}
+
+fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate state, fmi2Byte serializedState[], size_t size)
+{
+    fmu_instance *fi = c;
+    if (!allowed(fi, "fmi2SerializeFMUstate", ANY_STATE)) return fmi2Error;
+    const char *why = blob_invalid(state, blob_size());
+    if (!*why && size < blob_size()) why = "the buffer is smaller than fmi2SerializedFMUstateSize";
+    if (*why || !serializedState) {
+        fmu_log(fi, fmi2Error, "%s '%s': fmi2SerializeFMUstate: %s", FMU_MODEL.identifier, fi->name,
+                *why ? why : "no buffer given");
+        return fmi2Error;
+    }
+    memcpy(serializedState, state, blob_size());
+    return fmi2OK;
+}
+
+fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedState[], size_t size,
+                                   fmi2FMUstate *state)
+{
+    fmu_instance *fi = c;
+    if (!allowed(fi, "fmi2DeSerializeFMUstate", ANY_STATE) || !state) return fmi2Error;
+    const char *why = blob_invalid((const unsigned char *)serializedState, size);
+    if (*why) {
+        fmu_log(fi, fmi2Error, "%s '%s': fmi2DeSerializeFMUstate: state refused: %s", FMU_MODEL.identifier,
+                fi->name, why);
+        return fmi2Error;
+    }
+    unsigned char *b = malloc(size);
+    if (!b) return fmi2Error;
+    memcpy(b, serializedState, size);
+    *state = b;
+    return fmi2OK;
+}

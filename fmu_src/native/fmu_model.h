@@ -1,0 +1,80 @@
+/* fmu_src/native/fmu_model.h: what a native model gives the FMI plumbing (fmi2.c) and
+ * what the plumbing gives it back.
+ *
+ * A model is one C file (fmu_src/ballinshell.c, drive_models/motorstartup.c, ...) that
+ * defines `const fmu_model FMU_MODEL`. Its variables come from the interface header
+ * that `ballmill build` generates from the one declaration (ballmill/fmi/interface.py):
+ * value references VR_<name>, the table FMU_VARIABLES, the model identifier and GUID.
+ *
+ * The plumbing keeps every variable's value in one array `double v[]` indexed by value
+ * reference (Integers and Booleans as exact doubles), checks every FMI call against the
+ * instance's state, checks the declared bounds of every parameter before `setup`, runs
+ * each step on a copy of v and the model's data and keeps the copy only when the step
+ * succeeds, and saves/restores FMU states. The model's data is one block of plain
+ * values (no pointers): the configuration that `setup` derives from the parameters,
+ * then, from `dyn_offset` on, the dynamic state that FMU states carry.
+ */
+#ifndef BALLMILL_FMU_MODEL_H
+#define BALLMILL_FMU_MODEL_H
+
+#include <stddef.h>
+
+#include "fmi2Functions.h"
+
+typedef enum { FMU_REAL, FMU_INTEGER, FMU_BOOLEAN } fmu_type;
+typedef enum { FMU_PARAMETER, FMU_INPUT, FMU_OUTPUT } fmu_causality;
+
+typedef struct {
+    const char *name;
+    fmu_type type;
+    fmu_causality causality;
+    int tunable;       /* parameter that may change after initialisation */
+    double start;
+    double min, max;   /* declared bounds; -INFINITY / INFINITY when none */
+    const char *unit;  /* "" when none */
+} fmu_variable;
+
+typedef struct fmu_instance fmu_instance;
+
+typedef struct {
+    const char *identifier;
+    const char *guid;
+    int n_vars;
+    const fmu_variable *vars;
+    size_t data_size;  /* bytes of the model's data */
+    size_t dyn_offset; /* the dynamic state starts here */
+    /* Build the configuration from the parameters in v (bounds already checked) and the
+     * start state at time t; publish the outputs at t from the inputs in v.
+     * fmi2OK, or fmi2Error after fmu_log said why. */
+    fmi2Status (*setup)(fmu_instance *fi, void *data, double *v, double t);
+    /* One communication step t -> t + h (h > 0 and finite, t the instance's time).
+     * fmi2OK / fmi2Warning: the plumbing keeps data and v; fmi2Discard / fmi2Error:
+     * it drops them (the last good state stays). */
+    fmi2Status (*step)(fmu_instance *fi, void *data, double *v, double t, double h);
+    /* A dynamic state restored from an FMU state into a freshly set up configuration:
+     * fmi2OK when it is one this configuration can continue from, else fmi2Error after
+     * fmu_log said why. */
+    fmi2Status (*check)(fmu_instance *fi, const void *data, const double *v);
+} fmu_model;
+
+extern const fmu_model FMU_MODEL;
+
+/* log through the host's logger (warnings and worse always, OK-level messages when
+ * debug logging is on); printf format */
+void fmu_log(fmu_instance *fi, fmi2Status status, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+const char *fmu_instance_name(const fmu_instance *fi);
+
+/* x as Python's repr(float) writes it (1.0, 0.3, 1e-05, nan, inf), for messages */
+const char *fmu_repr(double x, char buf[32]);
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
+#define FMU_BIG 1e300 /* stands for infinity in outputs (FMI tools choke on inf) */
+
+#endif

@@ -1,0 +1,89 @@
+"""The two flavours of each FMU (native C and the pythonfmu reference) give the same run,
+bit for bit, on every scenario in scenarios/ (the first 2 s at the scenario's own step,
+coupled through ballmill's fmpy master), and the same refusal where a run stops.
+
+Bit for bit because the C mirrors the Python path's operation order: the kernel for the
+ball's right-hand side, outputs and integrators; the input reconstruction's correctly
+rounded inverse and left-to-right dot products (platform.py); numpy's order of summation
+in the adaptive integrators' initial step; libm's pow where Python writes ``** 2``.
+The exception: the induction motor's dq model, whose parameters Python fits with scipy's
+least_squares and C with Newton's method (the same solution within ~1e-15): the motor
+alone agrees to ~2e-14 of each output's magnitude (the test allows 1e-13). Coupled with
+the ball on the V/f soft start (the ball keeps rolling) the worst column (psi'') differs by
+4e-10 of its magnitude (measured; the test allows 1e-8): the ball's input reconstruction
+fits a quintic through the platform's position, velocity and acceleration over one 2 ms
+step, so a difference of 5e-15 m in the drive's x1O becomes ~1e-7 m/s2 of acceleration
+(the 1/H^2 sensitivity of issue 9, point 6), which the ball feeds back through M_reaction.
+Not compared coupled on a direct-on-line start: the ball slips and leaves the wall within
+0.1 s, and the coupled system then amplifies any difference further.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ballmill.scenario import runner, spec
+
+SCENARIOS = sorted(p.stem for p in spec.SCENARIO_DIR.glob("*.toml"))
+
+
+def _run(name, build_dir, flavour, overrides=(), stop=2.0):
+    sc, models, paths = runner.prepare(name, list(overrides), build_dir, log=lambda m: None, flavour=flavour)
+    sc.stop = min(sc.stop, sc.start + stop)
+    return runner.run(sc, models, paths, progress=False, echo=False)
+
+
+def _same(a, b):
+    assert a.success == b.success, (a.message, b.message)
+    assert a.columns == b.columns and a.data.shape == b.data.shape
+    for j, name in enumerate(a.columns):
+        assert np.array_equal(a.data[:, j], b.data[:, j]), \
+            (name, float(np.max(np.abs(a.data[:, j] - b.data[:, j]))))
+
+
+@pytest.mark.parametrize("scenario", SCENARIOS)
+def test_native_and_pythonfmu_flavours_agree_bit_for_bit(fmu_build_dir, scenario):
+    a = _run(scenario, fmu_build_dir, "native")
+    b = _run(scenario, fmu_build_dir, "pythonfmu")
+    assert a.success, a.message
+    assert len(a.data) > 100
+    _same(a, b)
+
+
+@pytest.mark.parametrize("overrides", [
+    ("ball.formulation=2", "ball.integrator=1", "ball.tolerance=1e-10"),
+    ("ball.integrator=3", "ball.input_mode=3"),
+    ("ball.corrector=false", "ball.delta=1e-4", "ball.c_drag=0.05"),
+    ("ball.formulation=2", "drive.n0=90", "drive.t0=1"),  # stops at the equator, in both
+], ids=["paper-DOP853", "RK4-hold", "no-corrector-losses", "paper-to-the-equator"])
+def test_flavours_agree_on_other_numerics(fmu_build_dir, overrides):
+    a = _run("fast_start", fmu_build_dir, "native", overrides, stop=1.5)
+    b = _run("fast_start", fmu_build_dir, "pythonfmu", overrides, stop=1.5)
+    _same(a, b)
+
+
+@pytest.mark.parametrize("overrides", [
+    ("motor.model=2",),
+    ("motor.model=2", "motor.start_mode=3", "motor.ramp_time=1.0"),
+    ("motor.model=2", "motor.start_mode=2", "motor.M_input=1"),
+], ids=["dq-dol", "dq-vf-ramp", "dq-voltage-ramp-held-load"])
+def test_flavours_agree_on_the_dq_motor_to_round_off(fmu_build_dir, overrides):
+    from fmpy import simulate_fmu
+
+    from ballmill.fmi.build import fmu_path
+    start = dict(o.split("=") for o in (x.split(".", 1)[1] for x in overrides))
+    start = {k: int(v) if v.isdigit() else float(v) for k, v in start.items()}
+    alone = [simulate_fmu(str(fmu_path("InductionMotor", fmu_build_dir, f)), stop_time=0.5,
+                          output_interval=1e-3, start_values=start) for f in ("native", "pythonfmu")]
+    for name in alone[0].dtype.names:
+        scale = np.max(np.abs(alone[1][name]))
+        assert np.max(np.abs(alone[0][name] - alone[1][name])) <= 1e-13 * scale, name
+    if "motor.start_mode=3" not in overrides:
+        return  # coupled only on the soft start (see the module docstring)
+    a = _run("induction_soft_start", fmu_build_dir, "native", overrides, stop=1.0)
+    b = _run("induction_soft_start", fmu_build_dir, "pythonfmu", overrides, stop=1.0)
+    assert a.success and b.success, (a.message, b.message)
+    assert a.columns == b.columns and a.data.shape == b.data.shape
+    for j, name in enumerate(a.columns):
+        scale = np.max(np.abs(b.data[:, j]))
+        assert np.max(np.abs(a.data[:, j] - b.data[:, j])) <= 1e-8 * scale, name

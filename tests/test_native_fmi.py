@@ -1,0 +1,185 @@
+"""The native FMUs' FMI plumbing (fmu_src/native/fmi2.c): the calls the FMI 2.0 standard
+rules out for the instance's state, step sizes that are not steps, fixed parameters after
+initialisation, FMU states that are not this instance's, bad parameters. Each refused
+call returns the exact status with a message naming what was wrong, and leaves the
+instance as it was (its outputs bit for bit, and its next steps).
+
+(The conformance suite of issue 9, tests/conformance/, covers both flavours; this file
+pins what the native plumbing does on its own.)
+"""
+from __future__ import annotations
+
+import ctypes
+import math
+
+import pytest
+from fmpy.fmi1 import FMICallException
+
+from fmu_instance import Opened
+
+OK, WARNING, DISCARD, ERROR = 0, 1, 2, 3
+MODELS = ("BallInShell", "MotorStartup", "InductionMotor")
+WATCH = {"BallInShell": "xC", "MotorStartup": "psi_dot", "InductionMotor": "psi_dot"}
+H = 0.002
+
+
+@pytest.fixture
+def opened():
+    o = Opened()
+    yield o.open
+    o.close_all()
+
+
+def _raw(inst, name, *args):
+    """Call an fmi2 function directly: its status (fmpy would raise)."""
+    f = getattr(inst.fmu.dll, name)
+    return f(inst.fmu.component, *args)
+
+
+def _start(opened, fmus_of, model, name=None, **parameters):
+    if model == "BallInShell":
+        parameters.setdefault("xC0", 0.05)
+    inst = opened(fmus_of("native")[model], name or model.lower(), **parameters)
+    inst.initialize()
+    for k in range(3):
+        inst.fmu.doStep(k * H, H)
+    return inst
+
+
+def _errors(inst):
+    return [m for s, m in inst.messages if s == ERROR]
+
+
+@pytest.mark.parametrize("model", MODELS)
+def test_step_sizes_that_are_not_steps_are_refused_state_intact(opened, fmus_of, model):
+    inst = _start(opened, fmus_of, model)
+    ref = _start(opened, fmus_of, model, name="reference")
+    before = inst.get(WATCH[model])
+    for bad in (0.0, -H, math.nan, math.inf, -math.inf):
+        status = _raw(inst, "fmi2DoStep", ctypes.c_double(3 * H), ctypes.c_double(bad), 1)
+        assert status == ERROR, bad
+        assert "communicationStepSize" in _errors(inst)[-1] and "must be positive and finite" in _errors(inst)[-1]
+        assert inst.get(WATCH[model]) == before
+    # not the instance's time: behind, ahead
+    for t in (2 * H, 4 * H):
+        assert _raw(inst, "fmi2DoStep", ctypes.c_double(t), ctypes.c_double(H), 1) == ERROR
+        assert "currentCommunicationPoint" in _errors(inst)[-1] and "t = 0.006 s" in _errors(inst)[-1]
+    # and the instance carries on exactly like one that never saw them
+    for k in range(3, 8):
+        inst.fmu.doStep(k * H, H)
+        ref.fmu.doStep(k * H, H)
+    assert inst.get(WATCH[model]) == ref.get(WATCH[model])
+
+
+@pytest.mark.parametrize("model", MODELS)
+def test_calls_not_allowed_in_the_state_get_one_uniform_error(opened, fmus_of, model):
+    inst = opened(fmus_of("native")[model], "s")
+    # doStep before initialisation
+    assert _raw(inst, "fmi2DoStep", ctypes.c_double(0.0), ctypes.c_double(H), 1) == ERROR
+    assert _errors(inst)[-1].endswith("fmi2DoStep is not allowed in state instantiated")
+    inst.initialize()
+    assert _raw(inst, "fmi2EnterInitializationMode") == ERROR
+    assert _errors(inst)[-1].endswith("fmi2EnterInitializationMode is not allowed in state stepComplete")
+    inst.fmu.doStep(0.0, H)
+    assert _raw(inst, "fmi2Terminate") == OK
+    # doStep after terminate
+    assert _raw(inst, "fmi2DoStep", ctypes.c_double(H), ctypes.c_double(H), 1) == ERROR
+    assert _errors(inst)[-1].endswith("fmi2DoStep is not allowed in state terminated")
+    # reset brings the instance back to instantiated, with the start values
+    assert _raw(inst, "fmi2Reset") == OK
+    inst.initialize()
+    inst.fmu.doStep(0.0, H)
+
+
+@pytest.mark.parametrize("model,name,value", [("BallInShell", "m", 2.0), ("BallInShell", "integrator", 1),
+                                              ("MotorStartup", "t0", 1.0), ("InductionMotor", "model", 2)])
+def test_fixed_parameters_cannot_change_after_initialisation(opened, fmus_of, model, name, value):
+    inst = _start(opened, fmus_of, model)
+    old = inst.get(name)
+    with pytest.raises(FMICallException) as info:
+        inst.set(**{name: value})
+    assert info.value.status == ERROR
+    assert f"{name} cannot be set in state stepComplete" in _errors(inst)[-1]
+    assert inst.get(name) == old
+
+
+@pytest.mark.parametrize("model,parameters,fragments", [
+    ("BallInShell", {"r": 0.3}, ["R must be larger than r", "r = 0.3 m"]),
+    ("BallInShell", {"tolerance": 1.0}, ["tolerance", "1.0", "[1e-15, 0.1]"]),
+    ("BallInShell", {"coupling_warn": -1.0}, ["coupling_warn = -1.0 m", "coupling_warn >= 0.0"]),
+    ("MotorStartup", {"t0": 0.0}, ["t0 must be positive and finite", "t0 = 0.0 s"]),
+    ("MotorStartup", {"J_crank": math.nan}, ["J_crank must be non-negative and finite", "J_crank = nan kg.m2"]),
+    ("InductionMotor", {"cos_phi": 1.5}, ["cos_phi must lie in (0, 1]", "cos_phi = 1.5"]),
+    ("InductionMotor", {"start_mode": 4}, ["start_mode must be one of [1, 2, 3]", "got 4"]),
+])
+def test_bad_parameters_are_refused_at_exit_of_initialisation(opened, fmus_of, model, parameters, fragments):
+    inst = opened(fmus_of("native")[model], "bad", **parameters)
+    inst.fmu.setupExperiment(startTime=0.0)
+    inst.fmu.enterInitializationMode()
+    with pytest.raises(FMICallException) as info:
+        inst.fmu.exitInitializationMode()
+    assert info.value.status == ERROR
+    msg = _errors(inst)[-1]
+    assert "initialisation failed" in msg
+    for fragment in fragments:
+        assert fragment in msg, (fragment, msg)
+
+
+def test_fmu_states_from_elsewhere_are_refused(opened, fmus_of):
+    ball = _start(opened, fmus_of, "BallInShell")
+    drive = _start(opened, fmus_of, "MotorStartup")
+    blob = bytearray(ball.fmu.serializeFMUstate(ball.fmu.getFMUstate()))
+    before = ball.get("xC")
+
+    def refused(data, fragment, inst=ball):
+        with pytest.raises(FMICallException) as info:
+            inst.fmu.deSerializeFMUstate(bytes(data))
+        assert info.value.status == ERROR
+        assert fragment in _errors(inst)[-1], _errors(inst)[-1]
+
+    refused(blob[:100], "shorter than a state header")
+    bad = bytearray(blob)
+    bad[0] ^= 0xFF
+    refused(bad, "not a ballmill FMU state")
+    refused(blob, "a state of another model", inst=drive)
+    refused(blob + b"\0", "size does not match")
+    assert ball.get("xC") == before
+
+
+def test_a_state_with_impossible_parameters_is_refused_instance_unchanged(opened, fmus_of):
+    ball = _start(opened, fmus_of, "BallInShell")
+    names = list(ball.vars)
+    blob = bytearray(ball.fmu.serializeFMUstate(ball.fmu.getFMUstate()))
+    # the values follow the header: find r (0.025) by its bytes and make it -1
+    r = ctypes.c_double(ball.get("r"))
+    at = bytes(blob).find(bytes(r))
+    assert at > 0 and names.index("r") == 0
+    blob[at:at + 8] = bytes(ctypes.c_double(-1.0))
+    state = ball.fmu.deSerializeFMUstate(bytes(blob))  # the format is right: it loads
+    before = ball.get("xC")
+    with pytest.raises(FMICallException) as info:
+        ball.fmu.setFMUstate(state)
+    assert info.value.status == ERROR
+    assert any("r must be positive" in m for m in _errors(ball))
+    assert ball.get("xC") == before and ball.get("r") == 0.025
+    ball.fmu.doStep(3 * H, H)  # and it carries on
+
+
+def test_a_state_from_another_configuration_restores_that_configuration(opened, fmus_of):
+    """A state carries its parameters: set into an instance with other parameters, the
+    configuration is rebuilt from the state's (checked like at initialisation) and the
+    instance continues exactly like the one the state came from."""
+    heavy = _start(opened, fmus_of, "BallInShell", name="heavy", m=2.0, input_mode=2)
+    light = _start(opened, fmus_of, "BallInShell", name="light", m=0.51)
+    blob = heavy.fmu.serializeFMUstate(heavy.fmu.getFMUstate())
+    state = light.fmu.deSerializeFMUstate(blob)
+    light.fmu.setFMUstate(state)
+    assert light.get("m") == 2.0 and light.get("input_mode") == 2
+    for k in range(3, 10):
+        x = 0.01 * math.sin(5.0 * k * H)
+        for inst in (heavy, light):
+            inst.set(x1O=x)
+            inst.fmu.doStep(k * H, H)
+    assert light.reals(("N", "xC", "M_reaction")) == heavy.reals(("N", "xC", "M_reaction"))
+    # the heavy ball, off-centre (xC0 = 0.05 m of R - r = 0.225 m): N near m g cos(12.8 deg)
+    assert light.get("N") == pytest.approx(2.0 * 9.81 * math.cos(math.asin(0.05 / 0.225)), rel=0.02)
