@@ -87,3 +87,40 @@ def test_flavours_agree_on_the_dq_motor_to_round_off(fmu_build_dir, overrides):
     for j, name in enumerate(a.columns):
         scale = np.max(np.abs(b.data[:, j]))
         assert np.max(np.abs(a.data[:, j] - b.data[:, j])) <= 1e-8 * scale, name
+
+
+# psi' / w0 and psi'' t0 / w0 half way up (t = t0 / 2) and c in psi = c w0 t0 + w0 (t - t0)
+# after it, from each law's formula (drives.CrankStartup's docstring)
+_LAW_VALUES = {1: (0.75, 1.0, 2.0 / 3.0), 2: (0.5, 1.5, 0.5), 3: (0.5, 1.0, 0.5), 4: (0.5, 1.875, 0.5)}
+
+
+@pytest.mark.parametrize("law", sorted(_LAW_VALUES), ids=["quadratic", "scurve", "linear", "quintic"])
+def test_flavours_agree_on_every_start_up_law(fmu_build_dir, law):
+    """MotorStartup's `law` (1 quadratic, 2 S-curve, 3 linear, 4 quintic): both flavours give
+    the same outputs bit for bit, and they are the law's: psi', psi'' half way up, psi after t0,
+    T_drive = J_crank psi'' without load."""
+    from fmpy import simulate_fmu
+
+    from ballmill.fmi.build import fmu_path
+    t0, n0, j = 2.0, 60.0, 0.1
+    start = {"law": law, "t0": t0, "n0": n0, "J_crank": j}
+    res = [simulate_fmu(str(fmu_path("MotorStartup", fmu_build_dir, f)), stop_time=3.0, output_interval=0.25,
+                        start_values=start) for f in ("native", "pythonfmu")]
+    for name in res[0].dtype.names:
+        assert np.array_equal(res[0][name], res[1][name]), (name, law)
+    r, w0 = res[0], 2.0 * np.pi * n0 / 60.0
+    half, end = int(np.argmin(np.abs(r["time"] - t0 / 2))), len(r) - 1
+    wd, wdd, c = _LAW_VALUES[law]
+    assert r["time"][half] == pytest.approx(t0 / 2, abs=1e-12) and r["time"][end] == pytest.approx(3.0, abs=1e-12)
+    assert r["psi_dot"][half] == pytest.approx(wd * w0, rel=1e-12)
+    assert r["psi_ddot"][half] == pytest.approx(wdd * w0 / t0, rel=1e-12)
+    assert r["T_drive"][half] == pytest.approx(j * wdd * w0 / t0, rel=1e-12)
+    assert r["psi"][end] == pytest.approx(c * w0 * t0 + w0 * (3.0 - t0), rel=1e-12)
+    assert r["psi_dot"][end] == pytest.approx(w0, rel=1e-12) and r["psi_ddot"][end] == 0.0
+
+
+def test_flavours_agree_coupled_on_the_quintic_start(fmu_build_dir):
+    a = _run("fast_start", fmu_build_dir, "native", ("drive.law=4",), stop=1.5)
+    b = _run("fast_start", fmu_build_dir, "pythonfmu", ("drive.law=4",), stop=1.5)
+    assert a.success, a.message
+    _same(a, b)
