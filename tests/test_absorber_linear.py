@@ -1,0 +1,121 @@
+"""The ball absorber against its linear theory (ballmill.absorber.linear).
+
+* the equivalent tuned-mass damper (mass 5/7 m on a structure that carries
+  2/7 m) has the same natural frequencies as the (q, u) model;
+* the nonlinear structure + ball model at small amplitude reproduces the
+  closed-form response within 2 %, and a model with the naive mass ratio m/M
+  would not (so the check can fail);
+* an undamped tuned ball splits the resonance into two peaks, the worse above
+  the bare structure's with 1 % structural damping; damping the ball (Den
+  Hartog's drag) lowers the peak by what the linear theory says, simulated;
+* the numerical optimum for an undamped structure is Den Hartog's.
+"""
+import math
+
+import numpy as np
+import pytest
+
+from ballmill.absorber.linear import (LinearAbsorber, cavity_radius, den_hartog, den_hartog_ball,
+                                      drag_for_damping_ratio, equivalent_tmd, optimum, peak_of)
+from ballmill.absorber.response import AbsorberCase, frf, steady_state
+from ballmill.physics import Ball
+from ballmill.physics.structure import Structure, StructureAxis
+
+M, F_S, ZETA_S = 100.0, 0.8, 0.01
+R_BALL, M_BALL = 0.025, 2.0
+STRUCT = Structure.single(M, F_S, ZETA_S)
+TUNED = Ball(r=R_BALL, R=cavity_radius(F_S, R_BALL), m=M_BALL)
+
+
+def test_cavity_radius_tunes_the_ball():
+    assert TUNED.omega_small / (2 * math.pi) == pytest.approx(F_S, rel=1e-14)
+    # 5 g / (7 omega^2) written out
+    assert TUNED.R - TUNED.r == pytest.approx(5 * 9.81 / (7 * (2 * math.pi * F_S) ** 2), rel=1e-14)
+
+
+def test_equivalent_tmd_has_the_same_frequencies():
+    """Natural frequencies of the classic 2-DOF TMD (M', m_a, k, k_a), from the
+    quadratic of its characteristic equation, against the (q, u) model's."""
+    tmd = equivalent_tmd(STRUCT.x, TUNED)
+    assert tmd.m_a == pytest.approx(5 / 7 * M_BALL)
+    assert tmd.M_main == pytest.approx(M + 2 / 7 * M_BALL)
+    assert tmd.mu == pytest.approx(0.0142045, rel=1e-5)  # not m / M = 0.02
+    assert tmd.f_a == pytest.approx(F_S, rel=1e-13)
+    # det([[k - w2 (M' + m), -w2 m], [-w2 m, k_a - w2 m]]) = 0
+    Mp, m, k, ka = tmd.M_main, tmd.m_a, tmd.k_main, tmd.k_a
+    a, b, c = Mp * m, -(k * m + ka * (Mp + m)), k * ka
+    w2 = sorted(((-b - s * math.sqrt(b * b - 4 * a * c)) / (2 * a)) for s in (1, -1))
+    f_tmd = np.sqrt(w2) / (2 * math.pi)
+    undamped = LinearAbsorber(Structure.single(M, F_S, 0.0).x, TUNED)
+    f_model, z_model = undamped.modes()
+    assert np.allclose(f_model, f_tmd, rtol=1e-12)
+    assert np.allclose(z_model, 0.0, atol=1e-12)
+
+
+def small_amplitude(ball, freqs, force=0.05):
+    case = AbsorberCase(STRUCT, ball, force)
+    return np.array([steady_state(case, f).amplitude_m for f in freqs])
+
+
+def naive_frf(freqs, ball):
+    """The response if the ball were a point mass m on a pendulum of its frequency
+    (mass ratio m/M): what the model must NOT give."""
+    wb2 = ball.omega_small ** 2
+    Mm = np.array([[M + ball.m, ball.m], [ball.m, ball.m]])
+    K = np.diag([M * (2 * math.pi * F_S) ** 2, ball.m * wb2])
+    C = np.diag([2 * ZETA_S * M * 2 * math.pi * F_S, 0.0])
+    out = []
+    for f in freqs:
+        W = 2 * math.pi * f
+        out.append(abs(np.linalg.solve(K - W * W * Mm + 1j * W * C, [1.0, 0.0])[0]))
+    return np.array(out)
+
+
+FREQS = [0.55, 0.70, 0.74, 0.7525, 0.77, 0.79, 0.815, 0.84, 0.848, 0.87, 1.0]
+
+
+def test_small_amplitude_matches_closed_form():
+    lin = np.abs(LinearAbsorber(STRUCT.x, TUNED).frf(FREQS)) * 0.05
+    got = small_amplitude(TUNED, FREQS)
+    rel = np.abs(got / lin - 1)
+    assert rel.max() < 0.02, dict(zip(FREQS, rel))
+    naive = naive_frf(FREQS, TUNED) * 0.05
+    # the naive mass ratio is far off near the peaks: this comparison can fail
+    assert np.abs(naive / lin - 1).max() > 0.3
+
+
+def test_undamped_ball_splits_the_peak_and_damping_makes_the_absorber():
+    bare = LinearAbsorber(STRUCT.x)
+    undamped = LinearAbsorber(STRUCT.x, TUNED)
+    bare_peak = max(a for _, a in bare.peaks(0.5, 1.1))
+    split = undamped.peaks(0.5, 1.1)
+    assert len(split) == 2
+    assert max(a for _, a in split) > bare_peak  # the worse peak is above the bare structure's
+    damped_ball = den_hartog_ball(STRUCT.x, R_BALL, M_BALL)
+    damped = LinearAbsorber(STRUCT.x, damped_ball)
+    damped_peak = max(a for _, a in damped.peaks(0.5, 1.1))
+    assert damped_peak < 0.3 * bare_peak
+    # the nonlinear model at small amplitude, peaks found on a refined grid
+    force = 0.05
+    for ball, lin in ((TUNED, undamped), (damped_ball, damped)):
+        pts = frf(AbsorberCase(STRUCT, ball, force), np.arange(0.70, 0.901, 0.01))
+        top = max(p.amplitude_m for p in pts) / force
+        assert top == pytest.approx(max(a for _, a in lin.peaks(0.5, 1.1)), rel=0.02)
+    # and so is the ratio of the two: the change the damping makes
+    ratio_sim = (max(p.amplitude_m for p in pts) / force) / max(a for _, a in split)
+    assert ratio_sim == pytest.approx(damped_peak / max(a for _, a in split), rel=0.02)
+
+
+def test_numerical_optimum_is_den_hartog_for_an_undamped_structure():
+    axis = StructureAxis.single(M, F_S, 0.0)
+    fb, zb, peak, ball = optimum(axis, R_BALL, M_BALL, 0.6, 1.0)
+    tmd = equivalent_tmd(axis, ball)
+    f_ratio, zeta, peak_dh = den_hartog(tmd.mu)
+    # Den Hartog's fixed-point rules are near-optimal, not exact: within 1 %
+    assert peak * tmd.k_main == pytest.approx(peak_dh, rel=0.01)
+    # the search does at least as well as the ball built by Den Hartog's rules
+    dh_ball = den_hartog_ball(axis, R_BALL, M_BALL)
+    assert peak <= peak_of(axis, dh_ball, 0.6, 1.0) * (1 + 1e-9)
+    assert fb / tmd.f_main == pytest.approx(f_ratio, rel=0.01)
+    assert zb == pytest.approx(zeta, rel=0.1)
+    assert ball.drag == pytest.approx(drag_for_damping_ratio(zb, ball))
