@@ -8,9 +8,11 @@ response built from such points:
   linear steady state (or continues from a given state), integrates window
   after window of whole excitation periods, fits each window's cavity
   motion x_O(t) with a mean and the first three harmonics by least squares,
-  and stops when the fundamental amplitude of the last three windows agrees
-  to ``rtol``. The error estimate is the spread of those three amplitudes
-  together with the Aitken extrapolation of their trend; a point that does
+  and stops when the fundamental amplitude of the last K windows agrees to
+  ``rtol``, K chosen so that the windows span a beat of the slowest
+  transient against the forcing or its decay time (`settling_windows`). The
+  error estimate is the spread of those K amplitudes, or the Aitken
+  extrapolation of their trend when larger; a point that does
   not settle within ``max_periods`` is returned with ``converged`` False and
   the spread of its last windows as the error. Validity over the last
   window: the largest friction ratio |F_t|/N against mu (rolling), the
@@ -88,6 +90,7 @@ class Point:
     t_end: float  # simulated time at the end [s]
     state: AbsorberState | None = field(default=None, repr=False)
     theta_end: float = 0.0  # excitation phase at t_end [rad]
+    restarted: bool = False  # a sweep point that did not continue from its predecessor
 
     def row(self) -> dict:
         d = asdict(self)
@@ -113,13 +116,20 @@ def _window_amplitude(t, x, frequency):
     return math.hypot(a[0], b[0]), float(np.abs(fit).max()), math.atan2(a[0], b[0])
 
 
+LINEAR_START_LIMIT = 0.25  # largest ball amplitude / (R - r) for which the linear start is used
+
+
 def linear_start(case: AbsorberCase, frequency: float, theta: float = 0.0, t0: float = 0.0):
-    """The state of the linear steady response at the instant the force's phase is theta."""
+    """The state of the linear steady response at the instant the force's phase is theta;
+    where that puts the ball beyond LINEAR_START_LIMIT (R - r) from the bottom (the linear
+    answer near a resonance with a large force), everything at rest instead."""
     lin = case.linear("x")
     q, qd, u, ud = lin.steady_state(case.force, frequency, theta)
     sysb = case.system(frequency)
     d, r = case.ball.d, case.ball.r
-    u = max(-0.9 * d, min(0.9 * d, u))  # the linear answer may be beyond reach at resonance
+    U = abs(complex(lin.ball_frf(frequency)[0])) * case.force
+    if U > LINEAR_START_LIMIT * d:
+        return sysb.initial(t0, yC0=case.seed_y)
     return sysb.initial(t0, qx=q, qdx=qd, xC0=u, yC0=case.seed_y, w0=(0.0, ud / r, 0.0))
 
 
@@ -130,11 +140,15 @@ def bare_amplitude(case: AbsorberCase, frequency) -> np.ndarray:
 
 def steady_state(case: AbsorberCase, frequency: float, state: AbsorberState | None = None,
                  theta: float = 0.0, periods_per_window: int = 4, samples: int = 16,
-                 rtol: float = 1e-3, min_windows: int = 3, max_periods: int = 400) -> Point:
+                 rtol: float = 1e-3, min_windows: int = 3, max_periods: int = 400,
+                 stop_on_contact_loss: bool = True) -> Point:
     """The steady-state response at one frequency (module docstring).
 
     state: continue from this state with the force's phase ``theta`` at state.t
-    (a sweep); None: start from the linear steady state at t = 0.
+    (a sweep); None: start from the linear steady state at t = 0. The ball's
+    validity is checked at every sample; when it leaves the wall (N <= 0) the
+    rolling model no longer holds and, with ``stop_on_contact_loss``, the point
+    ends there (contact False, converged False).
     """
     if not (frequency > 0 and math.isfinite(frequency)):
         raise ValueError(f"frequency must be positive and finite, got {frequency!r} Hz")
@@ -144,53 +158,79 @@ def steady_state(case: AbsorberCase, frequency: float, state: AbsorberState | No
     sysb = case.system(frequency, phase=theta, t0=t_start)
     T = 1.0 / frequency
     x_ref = max(float(abs(case.linear("x").frf(frequency)[0])) * case.force, 1e-6)
-    amps, res, periods = [], None, 0
-    ib = sysb.ib
-    converged = False
+    K = settling_windows(case, frequency, periods_per_window, min_windows)
+    windows, periods = [], 0
+    converged = ok = False
+    lost = False
     while periods < max_periods:
         t_end = t_start + (periods + periods_per_window) * T
         res = simulate_absorber(sysb, t_end, T / samples, state=state, tol=case.tol, x_ref=x_ref,
                                 record="motion")
         if not res.success:
             break
+        ok = True
         periods += periods_per_window
         state = res.state
-        tw, xw = res.t[:-1], res["xO"][:-1]
-        amps.append(_window_amplitude(tw, xw, frequency))
-        if len(amps) >= min_windows:
-            last = [a[0] for a in amps[-3:]]
+        windows.append(_window(sysb, res, frequency))
+        if windows[-1]["N_min"] <= 0.0:
+            lost = True
+            if stop_on_contact_loss:
+                break
+        if len(windows) >= K:
+            last = [w["A"] for w in windows[-K:]]
             if max(last) - min(last) <= rtol * max(last):
                 converged = True
                 break
-    last = [a[0] for a in amps[-3:]] if amps else [math.nan]
+    last = [w["A"] for w in windows[-K:]] if windows else [math.nan]
     A = last[-1]
     err = max(last) - min(last) if len(last) > 1 else math.inf
-    if len(last) == 3:
-        d1, d2 = last[1] - last[0], last[2] - last[1]
+    if len(last) >= 3:
+        d1, d2 = last[-2] - last[-3], last[-1] - last[-2]
         if d1 != d2 and abs(d2) < abs(d1) and d1 * d2 > 0:  # a geometric trend: extrapolate it
             err = max(err, abs(d2 * d2 / (d1 - d2)))
-    # the last window in full: ball outputs and the y motion
-    ball_u, angle, ratio, Nmin, amp_y = math.nan, math.nan, math.nan, math.nan, math.nan
-    if res is not None and res.success:
-        zs = res.z[-samples * periods_per_window - 1:]
-        rows = [sysb.outputs(float(tt), zz) for tt, zz in zip(res.t[-len(zs):], zs)]
-        tw = res.t[-len(zs):-1]
-        xc = np.array([r["xC"] for r in rows[:-1]])
-        yO = np.array([r["yO"] for r in rows[:-1]])
-        ball_u = _window_amplitude(tw, xc, frequency)[0]
-        amp_y = _window_amplitude(tw, yO, frequency)[0]
-        angle = max(r["theta"] for r in rows)
-        ratio = max(r["friction_ratio"] for r in rows)
-        Nmin = min(r["N"] for r in rows)
-    pk, ph = (amps[-1][1], amps[-1][2]) if amps else (math.nan, math.nan)
+    w = windows[-1] if windows else {k: math.nan for k in ("A", "peak", "phase", "Ay", "U", "angle",
+                                                          "ratio", "N_min")}
     theta_end = sysb.excitation.theta(state.t)
     return Point(frequency_Hz=float(frequency), amplitude_m=float(A), amplitude_err_m=float(err),
-                 peak_m=float(pk), amplitude_y_m=float(amp_y), phase_rad=float(ph),
-                 ball_angle_max_rad=float(angle), ball_amplitude_m=float(ball_u),
-                 friction_ratio_max=float(ratio), N_min=float(Nmin),
-                 rolling=bool(ratio <= case.ball.mu), contact=bool(Nmin > 0.0),
-                 converged=converged and res.success, periods=periods, t_end=float(state.t),
+                 peak_m=float(w["peak"]), amplitude_y_m=float(w["Ay"]), phase_rad=float(w["phase"]),
+                 ball_angle_max_rad=float(w["angle"]), ball_amplitude_m=float(w["U"]),
+                 friction_ratio_max=float(w["ratio"]), N_min=float(w["N_min"]),
+                 rolling=bool(w["ratio"] <= case.ball.mu), contact=bool(w["N_min"] > 0.0 and not lost),
+                 converged=converged and ok and not lost, periods=periods, t_end=float(state.t),
                  state=state, theta_end=float(math.fmod(theta_end, 2 * math.pi)))
+
+
+def settling_windows(case: AbsorberCase, frequency: float, periods_per_window: int = 4,
+                     min_windows: int = 3, max_windows: int = 10) -> int:
+    """How many consecutive windows must agree before a point counts as settled.
+
+    A transient of a mode at f_j leaks into the fit at f and makes the window
+    amplitudes oscillate with the beat period 1/|f - f_j| while it decays with
+    1/(zeta_j omega_j). The windows compared must span the shorter of the two for
+    the mode where that is longest (linear modes), so that their spread shows the
+    leakage rather than a quiet stretch of it."""
+    fj, zj = case.linear("x").modes()
+    span = 0.0
+    for f_, z_ in zip(fj, zj):
+        decay = 1.0 / (z_ * 2 * math.pi * f_) if z_ > 0 else math.inf
+        beat = 1.0 / abs(frequency - f_) if frequency != f_ else math.inf
+        span = max(span, min(decay, beat))
+    k = math.ceil(span * frequency / periods_per_window) + 1 if math.isfinite(span) else max_windows
+    return int(min(max_windows, max(min_windows, k)))
+
+
+def _window(sysb: StructureBall, res, frequency: float) -> dict:
+    """Amplitudes and the ball's validity over one window of whole periods (the
+    last sample, which starts the next window, left out of the fits)."""
+    rows = [sysb.outputs(float(tt), zz) for tt, zz in zip(res.t, res.z)]
+    tw = res.t[:-1]
+    A, pk, ph = _window_amplitude(tw, res["xO"][:-1], frequency)
+    col = lambda k: np.array([r[k] for r in rows[:-1]])  # noqa: E731
+    return {"A": A, "peak": pk, "phase": ph,
+            "Ay": _window_amplitude(tw, col("yO"), frequency)[0],
+            "U": _window_amplitude(tw, col("xC"), frequency)[0],
+            "angle": max(r["theta"] for r in rows), "ratio": max(r["friction_ratio"] for r in rows),
+            "N_min": min(r["N"] for r in rows)}
 
 
 def refine(frequencies, amplitudes, rtol: float = 0.003, df_min: float = 2e-4):
@@ -246,7 +286,10 @@ def sweep(case: AbsorberCase, frequencies, start: AbsorberState | None = None, p
     state, theta = start, 0.0
     for f in frequencies:
         p = steady_state(case, float(f), state=state, theta=theta, **kw)
+        p.restarted = state is None and bool(out)
         state, theta = p.state, p.theta_end
+        if not p.contact:  # the rolling model ended: the next point starts afresh
+            state, theta = None, 0.0
         p.state = None
         out.append(p)
         if progress:

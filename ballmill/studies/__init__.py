@@ -2,4 +2,5 @@
 
     python -m ballmill.studies.coupling     coupling error of BallInShell against the step, per input path
     python -m ballmill.studies.induction    induction motor: coupling error, starts compared
+    python -m ballmill.studies.absorber     ball absorber on a structure: FRF, sweeps, tuning, ground record
 """
