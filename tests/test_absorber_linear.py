@@ -17,7 +17,7 @@ import pytest
 
 from ballmill.absorber.linear import (LinearAbsorber, cavity_radius, den_hartog, den_hartog_ball,
                                       drag_for_damping_ratio, equivalent_tmd, optimum, peak_of)
-from ballmill.absorber.response import AbsorberCase, frf, steady_state
+from ballmill.absorber.response import AbsorberCase, steady_state
 from ballmill.physics import Ball
 from ballmill.physics.structure import Structure, StructureAxis
 
@@ -95,15 +95,19 @@ def test_undamped_ball_splits_the_peak_and_damping_makes_the_absorber():
     damped = LinearAbsorber(STRUCT.x, damped_ball)
     damped_peak = max(a for _, a in damped.peaks(0.5, 1.1))
     assert damped_peak < 0.3 * bare_peak
-    # the nonlinear model at small amplitude, peaks found on a refined grid
+    # the nonlinear model at small amplitude, at the linear peaks (the refined FRF search
+    # of the peaks is tested in test_absorber_response)
     force = 0.05
-    for ball, lin in ((TUNED, undamped), (damped_ball, damped)):
-        pts = frf(AbsorberCase(STRUCT, ball, force), np.arange(0.70, 0.901, 0.01))
-        top = max(p.amplitude_m for p in pts) / force
-        assert top == pytest.approx(max(a for _, a in lin.peaks(0.5, 1.1)), rel=0.02)
+    top = {}
+    for name, ball, lin in (("undamped", TUNED, undamped), ("damped", damped_ball, damped)):
+        case = AbsorberCase(STRUCT, ball, force)
+        peaks = lin.peaks(0.5, 1.1)
+        sim = [steady_state(case, fp).amplitude_m / force for fp, _ in peaks]
+        for s_, (_, hp) in zip(sim, peaks):
+            assert s_ == pytest.approx(hp, rel=0.02)
+        top[name] = max(sim)
     # and so is the ratio of the two: the change the damping makes
-    ratio_sim = (max(p.amplitude_m for p in pts) / force) / max(a for _, a in split)
-    assert ratio_sim == pytest.approx(damped_peak / max(a for _, a in split), rel=0.02)
+    assert top["damped"] / top["undamped"] == pytest.approx(damped_peak / max(a for _, a in split), rel=0.02)
 
 
 def test_numerical_optimum_is_den_hartog_for_an_undamped_structure():
@@ -119,3 +123,24 @@ def test_numerical_optimum_is_den_hartog_for_an_undamped_structure():
     assert fb / tmd.f_main == pytest.approx(f_ratio, rel=0.01)
     assert zb == pytest.approx(zeta, rel=0.1)
     assert ball.drag == pytest.approx(drag_for_damping_ratio(zb, ball))
+
+
+def test_two_modes_and_ground_load_match_the_closed_form():
+    """The general linear model (n modes with shapes, ball coordinate u) against the
+    nonlinear model at small amplitude: a two-mode axis (ball tuned to the first mode,
+    force at another point than the ball) under a force, and under a ground acceleration
+    (participations L_j)."""
+    from ballmill.physics.structure import Mode
+
+    x = StructureAxis((Mode(100.0, 0.8, 0.01, shape=1.0, force_shape=0.6, participation=140.0),
+                       Mode(40.0, 2.3, 0.02, shape=-0.5, force_shape=0.9, participation=-30.0)))
+    st = Structure(x, None)
+    for load, amp in (("force", 0.05), ("ground", 5e-4)):
+        case = AbsorberCase(st, TUNED, amp, load=load)
+        freqs = [0.6, 0.745, 0.79, 0.86, 1.5, 2.25, 2.4]
+        lin = np.abs(case.linear_frf(freqs)) * amp
+        got = np.array([steady_state(case, f).amplitude_m for f in freqs])
+        assert np.abs(got / lin - 1).max() < 0.02, (load, got / lin - 1)
+        # and the second mode matters here: a one-mode model misses it by far
+        one = LinearAbsorber(StructureAxis((x.modes[0],)), TUNED).frf(freqs, load)
+        assert np.abs(np.abs(one) * amp / lin - 1).max() > 0.5

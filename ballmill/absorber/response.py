@@ -41,31 +41,41 @@ import numpy as np
 
 from ballmill.physics.absorber import AbsorberState, StructureBall, simulate_absorber
 from ballmill.physics.params import Ball
-from ballmill.physics.structure import HarmonicForce, Structure
+from ballmill.physics.structure import HarmonicForce, HarmonicGround, Structure
 
 from .linear import LinearAbsorber
 
 
 @dataclass(frozen=True)
 class AbsorberCase:
-    """Structure, ball and a harmonic force F_x = force sin(2 pi f t) on the structure
-    (at the modes' force_shape). ``seed_y`` [m]: the ball starts this far off the
-    x-z plane (0: planar motion stays planar; a tiny seed lets an out-of-plane
-    instability of the ball show)."""
+    """Structure, ball and a harmonic load in x: with ``load = "force"`` a force
+    F_x = force sin(2 pi f t) [N] on the structure (at the modes' force_shape), with
+    ``load = "ground"`` a ground acceleration a_gx = force sin(2 pi f t) [m/s2].
+    ``seed_y`` [m]: the ball starts this far off the x-z plane (0: planar motion
+    stays planar; a tiny seed lets an out-of-plane instability of the ball show)."""
 
     structure: Structure
     ball: Ball
-    force: float = 0.05  # N
+    force: float = 0.05  # N, or m/s2 for load = "ground"
     seed_y: float = 0.0  # m
     tol: float = 1e-9
+    load: str = "force"
+
+    def __post_init__(self):
+        if self.load not in ("force", "ground"):
+            raise ValueError(f"load must be 'force' or 'ground', got load = {self.load!r}")
 
     def system(self, frequency: float, phase: float = 0.0, t0: float = 0.0) -> StructureBall:
-        return StructureBall(self.structure, self.ball, HarmonicForce(self.force, frequency,
-                                                                       phase=phase, t0=t0))
+        kind = HarmonicForce if self.load == "force" else HarmonicGround
+        return StructureBall(self.structure, self.ball, kind(self.force, frequency, phase=phase, t0=t0))
 
     def linear(self, axis: str = "x", ball: bool = True) -> LinearAbsorber:
         ax = self.structure.x if axis == "x" else self.structure.y
         return LinearAbsorber(ax, self.ball if ball else None)
+
+    def linear_frf(self, frequency, ball: bool = True):
+        """Complex cavity displacement of the linear model per unit of this case's load."""
+        return self.linear("x", ball).frf(frequency, self.load)
 
 
 @dataclass
@@ -124,10 +134,10 @@ def linear_start(case: AbsorberCase, frequency: float, theta: float = 0.0, t0: f
     where that puts the ball beyond LINEAR_START_LIMIT (R - r) from the bottom (the linear
     answer near a resonance with a large force), everything at rest instead."""
     lin = case.linear("x")
-    q, qd, u, ud = lin.steady_state(case.force, frequency, theta)
+    q, qd, u, ud = lin.steady_state(case.force, frequency, theta, case.load)
     sysb = case.system(frequency)
     d, r = case.ball.d, case.ball.r
-    U = abs(complex(lin.ball_frf(frequency)[0])) * case.force
+    U = abs(complex(lin.ball_frf(frequency, case.load)[0])) * case.force
     if U > LINEAR_START_LIMIT * d:
         return sysb.initial(t0, yC0=case.seed_y)
     return sysb.initial(t0, qx=q, qdx=qd, xC0=u, yC0=case.seed_y, w0=(0.0, ud / r, 0.0))
@@ -135,7 +145,7 @@ def linear_start(case: AbsorberCase, frequency: float, theta: float = 0.0, t0: f
 
 def bare_amplitude(case: AbsorberCase, frequency) -> np.ndarray:
     """Steady-state amplitude of the bare structure (no ball) [m]: the closed form."""
-    return np.abs(case.linear("x", ball=False).frf(frequency)) * case.force
+    return np.abs(case.linear_frf(frequency, ball=False)) * case.force
 
 
 def steady_state(case: AbsorberCase, frequency: float, state: AbsorberState | None = None,
@@ -157,7 +167,7 @@ def steady_state(case: AbsorberCase, frequency: float, state: AbsorberState | No
     t_start = state.t
     sysb = case.system(frequency, phase=theta, t0=t_start)
     T = 1.0 / frequency
-    x_ref = max(float(abs(case.linear("x").frf(frequency)[0])) * case.force, 1e-6)
+    x_ref = max(float(abs(case.linear_frf(frequency)[0])) * case.force, 1e-6)
     K = settling_windows(case, frequency, periods_per_window, min_windows)
     windows, periods = [], 0
     converged = ok = False

@@ -12,12 +12,15 @@ layer (ballmill.absorber.response) and the linear theory
     OUT/sweeps.csv       up/down stepped sweeps at F0 = 1 N and 5 N (undamped and
                          optimally damped ball)
     OUT/tuning.csv       bare, tuned undamped, Den Hartog and optimum designs
+    OUT/rolling.csv      a ball damped by rolling resistance alone, at several forces
     OUT/ground.json      the summary of a run under the synthetic ground record
+    OUT/opt_frf.csv, OUT/timings.json   the optimum design's FRF at 0.05 N, the run times
     DOCS/absorber.md     the page, with its figures in DOCS/figures/absorber_*.png
 
     python -m ballmill.studies.absorber [--quick] [--out OUT] [--docs DOCS]
 
---quick: coarse grids, sweeps at 1 N only (for tests; about a minute).
+--quick: coarse grids, sweeps and rolling resistance at 1 N only (a few minutes).
+--report-only: figures and page again from the data of an earlier run in OUT.
 """
 from __future__ import annotations
 
@@ -36,7 +39,7 @@ from ballmill.absorber.response import AbsorberCase, bare_amplitude, frf, sweep
 from ballmill.absorber.summary import structure_summary
 from ballmill.physics import Ball
 from ballmill.physics.absorber import StructureBall, simulate_absorber, simulate_structure
-from ballmill.physics.structure import GroundRecord, Structure, StructureAxis
+from ballmill.physics.structure import GroundRecord, Structure
 
 ROOT = Path(__file__).resolve().parents[2]
 M, F_S, ZETA_S = 100.0, 0.8, 0.01
@@ -83,7 +86,8 @@ class Progress:
     def __call__(self, p):
         self.done += 1
         flag = "" if p.contact and p.rolling else (" SLIP" if p.contact else " CONTACT LOST")
-        print(f"\r[{self.done:3d}/{self.total}] {self.label}: {p.frequency_Hz:.4f} Hz  "
+        count = f"{self.done:3d}/{self.total}" if self.done <= self.total else f"{self.done:3d}, refining"
+        print(f"\r[{count}] {self.label}: {p.frequency_Hz:.4f} Hz  "
               f"A = {p.amplitude_m * 1e3:8.4f} mm{flag}  ({time.perf_counter() - self.t0:5.1f} s)",
               end="", file=sys.stderr, flush=True)
 
@@ -91,10 +95,10 @@ class Progress:
         print(file=sys.stderr, flush=True)
 
 
-def run_frf(force: float = FRF_FORCE, ball: Ball | None = None, quick: bool = False):
+def run_frf(force: float = FRF_FORCE, ball: Ball | None = None, quick: bool = False, grid=None):
     """Rows of frf.csv for the ball (default the tuned, undamped one) at ``force``."""
     c = case(force, ball)
-    grid = frf_grid(quick)
+    grid = frf_grid(quick) if grid is None else grid
     prog = Progress(f"FRF {force:g} N", len(grid))
     pts = frf(c, grid, progress=prog)
     prog.close()
@@ -113,10 +117,13 @@ def run_frf(force: float = FRF_FORCE, ball: Ball | None = None, quick: bool = Fa
     return rows
 
 
-def run_sweeps(force: float, ball: Ball, label: str, quick: bool = False):
+ZOOM = (0.72, 0.77, 0.0025)  # the lower split peak, finer steps (F0 = 2 N)
+
+
+def run_sweeps(force: float, ball: Ball, label: str, quick: bool = False, grid=None):
     """Up and down stepped sweeps; rows for sweeps.csv."""
     c = case(force, ball, seed_y=1e-6)  # a micrometre out of plane lets a whirl show
-    grid = sweep_grid(quick)
+    grid = sweep_grid(quick) if grid is None else grid
     rows = []
     for direction, seq in (("up", grid), ("down", grid[::-1])):
         prog = Progress(f"{label} {force:g} N {direction}", len(seq))
@@ -161,6 +168,40 @@ def tuning_map(n: int = 25):
             b = Ball(r=R_BALL, R=lin.cavity_radius(f * F_S, R_BALL), m=M_BALL)
             peak[i, j] = lin.peak_of(ax, b.with_(drag=lin.drag_for_damping_ratio(z, b)), F_LO, F_HI)
     return fr, zs, peak
+
+
+def rolling_design(force: float = 1.0):
+    """The optimum design with its drag replaced by the rolling resistance delta that
+    dissipates as much (harmonic balance) at the ball amplitude the optimum ball has at
+    its highest peak under ``force``: (ball, delta, peak frequency, ball amplitude U)."""
+    opt = designs()[-1][1]
+    L = lin.LinearAbsorber(structure().x, opt)
+    fp = max(L.peaks(F_LO, F_HI), key=lambda p: p[1])[0]
+    U = float(abs(L.ball_frf(fp)[0])) * force
+    delta = opt.drag * math.pi * opt.r * 2 * math.pi * fp * U / (4 * opt.m * opt.g)
+    return opt.with_(drag=0.0, rolling_resistance=delta), delta, fp, U
+
+
+def rolling_rows(forces=(0.2, 1.0)):
+    """FRFs of the rolling-resistance ball (`rolling_design` at 1 N) at several forces,
+    with the harmonic-balance prediction (the linear model with c_eq(U) iterated to the
+    ball amplitude U) beside each simulated point."""
+    ball, delta, fp, U = rolling_design(1.0)
+    ax = structure().x
+    rows = []
+    for F in forces:
+        # a coarse start (refined at the peaks): with the rolling resistance's stiff
+        # reversals a period costs about 20 times what it costs without
+        for r in run_frf(force=F, ball=ball, grid=np.round(np.arange(0.6, 1.0 + 1e-9, 0.025), 6)):
+            f = r["frequency_Hz"]
+            Ul = max(r["ball_amplitude_m"], 1e-6)
+            for _ in range(60):  # fixed point U -> c_eq(U) -> U
+                c = lin.drag_equivalent_of_rolling_resistance(ball, f, Ul)
+                Lm = lin.LinearAbsorber(ax, ball.with_(rolling_resistance=0.0, drag=c))
+                Ul = max(float(abs(Lm.ball_frf(f)[0])) * F, 1e-9)
+            rows.append({"force_N": F, "delta_m": delta, **r,
+                         "amplitude_harmonic_balance_m": float(abs(Lm.frf(f)[0])) * F})
+    return rows
 
 
 def run_ground(ball: Ball, t_end: float = 60.0):
@@ -214,18 +255,19 @@ def figure_frf(rows, file):
     plt.close(fig)
 
 
-def figure_sweeps(rows, file, design="tuned, undamped"):
+def figure_sweeps(rows, file, design="tuned, undamped", xlim=(F_LO, F_HI), ball: Ball | None = None,
+                  title: str | None = None):
     """Amplitude / F0 of the up and down sweeps of one design, a panel per force; filled
     markers settled, hollow did not (quasi-periodic or still drifting: the last window's
     amplitude), squares the structure's y amplitude where the ball whirls."""
     plt = _plt()
     forces = sorted({r["force_N"] for r in rows if r["design"] == design})
     fig, axes = plt.subplots(1, len(forces), figsize=(7.5 * len(forces), 5), squeeze=False)
-    c = case()
+    c = case(ball=ball)
     f = np.linspace(F_LO, F_HI, 3001)
     for ax, F in zip(axes[0], forces):
         ax.plot(f, bare_amplitude(c, f) / FRF_FORCE * 1e3, color="0.6", lw=1.0, label="bare structure")
-        ax.plot(f, np.abs(c.linear().frf(f)) * 1e3, "k--", lw=0.9, label="linear theory with ball")
+        ax.plot(f, np.abs(c.linear().frf(f)) * 1e3, "k--", lw=0.9, label="linear theory, this ball")
         for direction, color, mk in (("up", "tab:blue", "^"), ("down", "tab:orange", "v")):
             rs = [r for r in rows if r["design"] == design and r["force_N"] == F and r["direction"] == direction]
             rs.sort(key=lambda r: r["frequency_Hz"])
@@ -252,9 +294,9 @@ def figure_sweeps(rows, file, design="tuned, undamped"):
                 ax.plot(fr[~valid], np.full((~valid).sum(), 0.2), "x", ms=7, color="tab:red",
                         label=f"ball leaves the wall, {direction}")
         ax.set(xlabel="excitation frequency [Hz]", ylabel="amplitude / F0 [mm/N]",
-               title=f"{design} ball, F0 = {F:g} N", xlim=(F_LO, F_HI))
+               title=f"{title or design + ' ball'}, F0 = {F:g} N", xlim=xlim)
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
+        ax.legend(fontsize=7, loc="upper right")
     fig.tight_layout()
     fig.savefig(file, dpi=110)
     plt.close(fig)
@@ -273,7 +315,7 @@ def figure_tuning(fr, zs, peak, trows, opt_rows, file):
            title="Linear theory: the highest peak over (tuning, damping)")
     ax.legend(fontsize=8)
     ax = axes[1]
-    f = np.linspace(0.6, 1.0, 2001)
+    f = np.linspace(F_LO, F_HI, 3001)
     st = structure()
     ax.plot(f, np.abs(lin.LinearAbsorber(st.x).frf(f)) * 1e3, color="0.55", label="bare structure")
     for (name, b), style in zip(designs(), ("k:", "C1--", "C0-")):
@@ -283,6 +325,42 @@ def figure_tuning(fr, zs, peak, trows, opt_rows, file):
                 "o", ms=3.5, color="C0", label="optimum, simulated at 0.05 N")
     ax.set(xlabel="excitation frequency [Hz]", ylabel="|x / F| [mm/N]", title="Designs compared",
            ylim=(0, 25))
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(file, dpi=110)
+    plt.close(fig)
+
+
+def figures_of_sweeps(sweep_rows, docs: Path):
+    """The three sweep figures (undamped ball; optimum ball; the zoom at 2 N)."""
+    figure_sweeps(sweep_rows, docs / "figures" / "absorber_sweeps.png")
+    figure_sweeps(sweep_rows, docs / "figures" / "absorber_sweeps_optimum.png", design="optimum",
+                  ball=designs()[-1][1])
+    if any(r["design"] == "tuned, undamped, zoom" for r in sweep_rows):
+        figure_sweeps(sweep_rows, docs / "figures" / "absorber_sweeps_zoom.png",
+                      design="tuned, undamped, zoom", xlim=(ZOOM[0], ZOOM[1]),
+                      title="tuned, undamped ball (zoom)")
+
+
+def figure_rolling(rows, file):
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(9, 5))
+    f = np.linspace(F_LO, F_HI, 3001)
+    st = structure()
+    ax.plot(f, np.abs(lin.LinearAbsorber(st.x).frf(f)) * 1e3, color="0.6", lw=1.0, label="bare structure")
+    opt = designs()[-1][1]
+    ax.plot(f, np.abs(lin.LinearAbsorber(st.x, opt).frf(f)) * 1e3, "k--", lw=1.0,
+            label="optimum drag ball (linear)")
+    for F, color in zip(sorted({r["force_N"] for r in rows}), ("C0", "C1", "C3")):
+        rs = sorted((r for r in rows if r["force_N"] == F), key=lambda r: r["frequency_Hz"])
+        fr = [r["frequency_Hz"] for r in rs]
+        ax.plot(fr, [r["amplitude_m"] / F * 1e3 for r in rs], "o-", ms=3, lw=0.8, color=color,
+                label=f"rolling resistance only, F0 = {F:g} N (simulated)")
+        ax.plot(fr, [r["amplitude_harmonic_balance_m"] / F * 1e3 for r in rs], ":", lw=1.2, color=color,
+                label=f"harmonic balance, F0 = {F:g} N")
+    ax.set(xlabel="excitation frequency [Hz]", ylabel="amplitude / F0 [mm/N]", xlim=(0.6, 1.0),
+           title=f"A ball damped by rolling resistance alone (delta = {rows[0]['delta_m'] * 1e3:.3f} mm)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
@@ -311,25 +389,56 @@ def figure_ground(res, bare, file):
 
 
 # ---------------------------------------------------------------------------
-def _jumps(rows, design, force):
-    """Frequencies between which each sweep's amplitude changes by more than a factor 1.8."""
+def _ranges(freqs, gap: float = 0.0051) -> str:
+    """'0.745-0.770, 0.785 Hz' from a sorted list of frequencies (runs closer than gap)."""
+    if not freqs:
+        return "no point"
+    out, start, prev = [], freqs[0], freqs[0]
+    for f in list(freqs[1:]) + [None]:
+        if f is not None and f - prev <= gap:
+            prev = f
+            continue
+        out.append(f"{start:.3f}" if start == prev else f"{start:.3f}-{prev:.3f}")
+        if f is not None:
+            start = prev = f
+    return ", ".join(out) + " Hz"
+
+
+def hysteresis(rows, design, force, threshold: float = 0.1):
+    """Frequencies where the up and down sweeps both settled, validly, on amplitudes that
+    differ by more than ``threshold`` (relative): two stable branches, bounded by the jumps.
+    Returns [(f, A_up, A_down)]."""
+    by = {}
+    for r in rows:
+        if r["design"] == design and r["force_N"] == force and r["contact"] and r["converged"]:
+            by.setdefault(r["frequency_Hz"], {})[r["direction"]] = r["amplitude_m"]
     out = []
-    for direction in ("up", "down"):
-        rs = [r for r in rows if r["design"] == design and r["force_N"] == force
-              and r["direction"] == direction and r["contact"]]
-        for a, b in zip(rs, rs[1:]):
-            hi, lo = max(a["amplitude_m"], b["amplitude_m"]), min(a["amplitude_m"], b["amplitude_m"])
-            if lo > 0 and hi / lo > 1.8 and abs(a["frequency_Hz"] - b["frequency_Hz"]) < 0.011:
-                out.append((direction, a["frequency_Hz"], b["frequency_Hz"], a["amplitude_m"], b["amplitude_m"]))
+    for f in sorted(by):
+        d = by[f]
+        if "up" in d and "down" in d and abs(d["up"] - d["down"]) > threshold * min(d["up"], d["down"]):
+            out.append((f, d["up"], d["down"]))
     return out
 
 
-def report(file, frf_rows, sweep_rows, trows, ground_summary, opt_rows, timings, quick):
+def report(file, frf_rows, sweep_rows, trows, ground_summary, opt_rows, timings, quick, rr_rows=()):
+    one = [r for r in sweep_rows if r["design"] == "tuned, undamped" and r["force_N"] == 1.0]
+    calm_1n = bool(one) and not hysteresis(sweep_rows, "tuned, undamped", 1.0) and not any(
+        r["amplitude_y_m"] > 0.1 * r["amplitude_m"] for r in one if r["contact"])
     c = case()
     L = c.linear()
     tmd = lin.equivalent_tmd(structure().x, tuned_ball())
     peaks_lin = L.peaks(F_LO, F_HI)
     bare_peak = trows[0]["peak_m_per_N"]
+    widths, misread = [], 0.0
+    for fp, hp in peaks_lin:
+        ff = np.linspace(fp - 0.02, fp + 0.02, 40001)
+        above = ff[np.abs(L.frf(ff)) > hp / math.sqrt(2)]
+        widths.append(above.max() - above.min())
+    for off in np.linspace(0.0, 0.005, 21):  # uniform 0.005 Hz grids, every offset
+        fu = np.arange(F_LO + off, F_HI, 0.005)
+        au = np.abs(L.frf(fu))
+        for fp, hp in peaks_lin:
+            misread = max(misread, 1.0 - au[np.abs(fu - fp) < 0.01].max() / hp)
     f = np.array([r["frequency_Hz"] for r in frf_rows])
     a = np.array([r["amplitude_m"] for r in frf_rows])
     al = np.array([r["amplitude_linear_m"] for r in frf_rows])
@@ -375,8 +484,9 @@ def report(file, frf_rows, sweep_rows, trows, ground_summary, opt_rows, timings,
         f"* **With little structural damping the worse of them can exceed the bare structure's peak**: "
         f"{max(p for _, p in peaks_lin) * 1e3:.2f} mm/N against {bare_peak * 1e3:.2f} mm/N here "
         f"(+{(max(p for _, p in peaks_lin) / bare_peak - 1) * 100:.1f} %). The peaks are narrow "
-        "(about 0.008 Hz at half power): a uniform 0.005 Hz grid misreads them by 10 %, so the grid is "
-        "refined where the curve peaks.",
+        f"(half-power widths {' and '.join(f'{w * 1e3:.1f}' for w in widths)} mHz): a uniform 0.005 Hz "
+        f"grid misreads their height by up to {misread * 100:.0f} % depending on where its points fall, "
+        "so the grid is refined where the curve peaks.",
         "* **Damping is what makes an absorber**: with the ball damped as Den Hartog prescribes the "
         f"highest peak falls to {trows[2]['peak_vs_bare'] * 100:.1f} % of the bare structure's "
         "(table below).",
@@ -413,28 +523,57 @@ def report(file, frf_rows, sweep_rows, trows, ground_summary, opt_rows, timings,
         "Stepped sweeps up and down (0.005 Hz steps between 0.7 and 0.9 Hz, 0.02 Hz outside), each point "
         "continuing from the previous one's final state with the force's phase continued, at most 240 "
         "periods a point; amplitudes divided by F0 so that the linear theory is one curve. The ball "
-        "starts a micrometre off the forcing plane so that an out-of-plane instability can show. The "
-        "pendulum softens with amplitude (its frequency falls), so both peaks lean to lower frequencies, "
-        "and the branches end in jumps at different frequencies up and down.",
+        "starts a micrometre off the forcing plane so that an out-of-plane instability can show. Filled "
+        "markers settled (1e-3), hollow ones did not (the last window's amplitude is shown), squares are "
+        "the structure's amplitude in y where the ball whirls.",
+        "",
+        "What the nonlinear model shows: the pendulum softens with amplitude (its frequency falls), so the "
+        "peaks lean to lower frequencies" + ("; at 1 N that is all this grid sees" if calm_1n else "")
+        + ". With more force (2 N in the "
+        "zoom below, 5 N) the ball's planar swing loses stability near the split peaks and it whirls, "
+        "circling in the cavity and moving the symmetric structure in y as much as in x; whirling and "
+        "planar branches coexist, so up and down sweeps end on different branches (the jumps); many "
+        "responses there do not settle (quasi-periodic), and at 5 N the ball leaves the wall near the "
+        "lower peak. An undamped ball is no absorber at these forces.",
         "",
     ]
     forces = sorted({r["force_N"] for r in sweep_rows if r["design"] == "tuned, undamped"})
     for F in forces:
         rs = [r for r in sweep_rows if r["design"] == "tuned, undamped" and r["force_N"] == F]
-        j = _jumps(sweep_rows, "tuned, undamped", F)
+        hy = hysteresis(sweep_rows, "tuned, undamped", F)
         lost = sorted({r["frequency_Hz"] for r in rs if not r["contact"]})
         slip = sorted({r["frequency_Hz"] for r in rs if r["contact"] and not r["rolling"]})
         whirl = sorted({r["frequency_Hz"] for r in rs if r["contact"] and r["amplitude_y_m"] > 0.1 * r["amplitude_m"]})
-        nc = sum(1 for r in rs if not r["converged"] and r["contact"])
-        lines.append(f"* **F0 = {F:g} N**: jumps " + (", ".join(
-            f"{d} between {f1:.3f} and {f2:.3f} Hz ({a1 * 1e3:.2f} -> {a2 * 1e3:.2f} mm)" for d, f1, f2, a1, a2 in j)
-            if j else "none at this grid") + "; ball leaves the wall at "
-            + (", ".join(f"{v:.3f}" for v in lost) + " Hz" if lost else "no point")
-            + "; slips at " + (", ".join(f"{v:.3f}" for v in slip) + " Hz" if slip else "no point")
-            + "; whirls (structure's y amplitude above 10 % of x) at "
-            + (", ".join(f"{v:.3f}" for v in whirl) + " Hz" if whirl else "no point")
-            + f"; {nc} of {len(rs)} valid points did not settle to 1e-3 within the period limit "
-            "(their `amplitude_err_m` says by how much).")
+        unsettled = sorted({r["frequency_Hz"] for r in rs if r["contact"] and not r["converged"]})
+        top = {}
+        for d in ("up", "down"):
+            ok = [r for r in rs if r["direction"] == d and r["contact"] and r["converged"]]
+            if ok:
+                top[d] = max(ok, key=lambda r: r["amplitude_m"])
+        lines.append(
+            f"* **F0 = {F:g} N**: highest settled points " + ", ".join(
+                f"{d} {top[d]['amplitude_m'] / F * 1e3:.2f} mm/N at {top[d]['frequency_Hz']:.3f} Hz" for d in top)
+            + "; up and down sweeps settle on different branches (more than 10 % apart) at "
+            + (", ".join(f"{f:.4f} Hz ({au / F * 1e3:.2f} up, {ad / F * 1e3:.2f} down mm/N)" for f, au, ad in hy)
+               if hy else "no point of this grid")
+            + "; the ball leaves the wall at " + _ranges(lost) + "; slips at " + _ranges(slip)
+            + "; whirls (the structure's y amplitude above 10 % of its x amplitude) at " + _ranges(whirl)
+            + "; does not settle within the period limit (quasi-periodic or still drifting; "
+            "`amplitude_err_m` says by how much) at " + _ranges(unsettled) + ".")
+    zr = [r for r in sweep_rows if r["design"] == "tuned, undamped, zoom"]
+    if zr:
+        F = zr[0]["force_N"]
+        hy = hysteresis(sweep_rows, "tuned, undamped, zoom", F)
+        whirl = sorted({r["frequency_Hz"] for r in zr if r["contact"] and r["amplitude_y_m"] > 0.1 * r["amplitude_m"]})
+        lines += ["", f"![sweeps, zoom](figures/absorber_sweeps_zoom.png)", "",
+                  f"* **Zoom, F0 = {F:g} N, {ZOOM[2] * 1e3:g} mHz steps over the lower peak**: up and down "
+                  "sweeps settle on different branches at "
+                  + (", ".join(f"{f:.4f} Hz ({au / F * 1e3:.2f} up, {ad / F * 1e3:.2f} down mm/N)" for f, au, ad in hy)
+                     if hy else "no point")
+                  + "; the ball whirls at " + _ranges(whirl, gap=0.0026) + "; does not settle at "
+                  + _ranges(sorted({r["frequency_Hz"] for r in zr if r["contact"] and not r["converged"]}), gap=0.0026)
+                  + "; leaves the wall at " + _ranges(sorted({r["frequency_Hz"] for r in zr if not r["contact"]}),
+                                                      gap=0.0026) + "."]
     lines += [
         "",
         "Where the ball leaves the wall the rolling model ends: such points are marked and not plotted as "
@@ -478,19 +617,36 @@ def report(file, frf_rows, sweep_rows, trows, ground_summary, opt_rows, timings,
                          f"{math.degrees(max(r['ball_angle_max_rad'] for r in rs)):.1f} deg, "
                          f"friction ratio up to {max(r['friction_ratio_max'] for r in rs):.3f}.")
     g = ground_summary
-    b = tuned_ball()
-    U = 0.05  # m
-    c_opt = trows[-1]["drag_N_s_m"]
-    delta = c_opt * math.pi * b.r * 2 * math.pi * F_S * U / (4 * b.m * b.g)
     lines += [
         "",
         "Rolling resistance is not a linear damper: its moment delta N is Coulomb-like, so over a cycle "
-        "of ball amplitude U it dissipates what a drag c_eq = 4 delta m g / (pi r Omega U) would. It damps "
-        f"small motions strongly and large ones weakly: to match the optimum drag ({c_opt:.3f} N s/m) at a "
-        f"ball amplitude of {U * 1e3:.0f} mm at {F_S} Hz it needs delta = {delta * 1e3:.3f} mm, and the same "
-        "delta gives ten times the damping at a tenth of the amplitude. A ball damped only by its rolling "
-        "resistance is therefore optimal for one amplitude; the drag (a viscous layer) is the linear "
-        "absorber's damper. (`drag_equivalent_of_rolling_resistance`.)",
+        "of ball amplitude U it dissipates what a drag c_eq = 4 delta m g / (pi r Omega U) would "
+        "(`drag_equivalent_of_rolling_resistance`): strong damping for small swings, weak for large "
+        "ones, and below a threshold the ball does not roll at all (the regularised model lets it creep "
+        "at micrometres). A ball damped by its rolling resistance alone is therefore tuned for one "
+        "amplitude.",
+    ]
+    if rr_rows:
+        d = rr_rows[0]["delta_m"]
+        lines += [
+            "",
+            "![rolling resistance](figures/absorber_rolling.png)",
+            "",
+            f"Here the optimum design's drag is replaced by delta = {d * 1e3:.3f} mm, the rolling resistance "
+            "that dissipates as much as the optimum drag at the ball amplitude of the optimum design's "
+            "highest peak under 1 N. Simulated (0.025 Hz grid, refined at the peaks) against harmonic balance "
+            "(the linear model with c_eq at the ball's amplitude, iterated):",
+            "",
+            "| F0 [N] | highest point [mm/N] | vs bare peak | harmonic balance there [mm/N] | largest deviation from harmonic balance |",
+            "| ---: | ---: | ---: | ---: | ---: |",
+        ]
+        for F in sorted({r["force_N"] for r in rr_rows}):
+            rs = [r for r in rr_rows if r["force_N"] == F]
+            top = max(rs, key=lambda r: r["amplitude_m"])
+            dev = max(abs(r["amplitude_m"] / r["amplitude_harmonic_balance_m"] - 1) for r in rs)
+            lines.append(f"| {F:g} | {top['amplitude_m'] / F * 1e3:.3f} | {top['amplitude_m'] / F / bare_peak * 100:.1f} % | "
+                         f"{top['amplitude_harmonic_balance_m'] / F * 1e3:.3f} | {dev * 100:.1f} % |")
+    lines += [
         "",
         "## A measured excitation: ground acceleration",
         "",
@@ -535,15 +691,53 @@ def report(file, frf_rows, sweep_rows, trows, ground_summary, opt_rows, timings,
     file.write_text("\n".join(lines) + "\n")
 
 
+def read_csv(path: Path):
+    """Rows of a CSV written by `write_csv`, numbers as floats, flags as bools."""
+    flags = {"rolling", "contact", "converged", "restarted"}
+    text = {"design", "direction"}
+    rows = []
+    with open(path, newline="") as fh:
+        for r in csv.DictReader(fh):
+            rows.append({k: (v if k in text else bool(int(v)) if k in flags else float(v)) for k, v in r.items()})
+    return rows
+
+
+def report_from_data(out: Path, docs: Path, quick: bool = False) -> None:
+    """Figures and page again from the data a full run left in ``out`` (no sweeps rerun;
+    the ground record's 60 s run is repeated for its figure)."""
+    frf_rows = read_csv(out / "frf.csv")
+    sweep_rows = read_csv(out / "sweeps.csv")
+    trows = read_csv(out / "tuning.csv")
+    trows[0]["design"] = "bare structure"
+    opt_rows = read_csv(out / "opt_frf.csv")
+    rr_rows = read_csv(out / "rolling.csv") if (out / "rolling.csv").exists() else []
+    timings = json.loads((out / "timings.json").read_text())
+    figure_frf(frf_rows, docs / "figures" / "absorber_frf.png")
+    figures_of_sweeps(sweep_rows, docs)
+    fr, zs, peak = tuning_map(15 if quick else 25)
+    figure_tuning(fr, zs, peak, trows, opt_rows, docs / "figures" / "absorber_tuning.png")
+    if rr_rows:
+        figure_rolling(rr_rows, docs / "figures" / "absorber_rolling.png")
+    res, bare, summary = run_ground(designs()[-1][1], 30.0 if quick else 60.0)
+    figure_ground(res, bare, docs / "figures" / "absorber_ground.png")
+    report(docs / "absorber.md", frf_rows, sweep_rows, trows, summary, opt_rows, timings, quick, rr_rows)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="coarse grids, 1 N sweeps only")
     ap.add_argument("--out", default=str(ROOT / "out" / "absorber"), help="folder for the CSV/JSON data")
     ap.add_argument("--docs", default=str(ROOT / "docs"), help="folder for absorber.md and figures/")
+    ap.add_argument("--report-only", action="store_true",
+                    help="rebuild the figures and the page from the data of an earlier run in --out")
     args = ap.parse_args(argv)
     out, docs = Path(args.out), Path(args.docs)
     (docs / "figures").mkdir(parents=True, exist_ok=True)
     out.mkdir(parents=True, exist_ok=True)
+    if args.report_only:
+        report_from_data(out, docs, args.quick)
+        print(f"wrote {docs / 'absorber.md'} from the data in {out}", file=sys.stderr)
+        return 0
     timings = {}
 
     t0 = time.perf_counter()
@@ -557,6 +751,7 @@ def main(argv=None) -> int:
     write_csv(out / "tuning.csv", trows)
     opt = designs()[-1][1]
     opt_rows = run_frf(ball=opt, quick=True)
+    write_csv(out / "opt_frf.csv", opt_rows)
     fr, zs, peak = tuning_map(15 if args.quick else 25)
     figure_tuning(fr, zs, peak, trows, opt_rows, docs / "figures" / "absorber_tuning.png")
     timings["tuning"] = time.perf_counter() - t0
@@ -565,14 +760,22 @@ def main(argv=None) -> int:
     sweep_rows = []
     for F in ((1.0,) if args.quick else (1.0, 5.0)):
         sweep_rows += run_sweeps(F, tuned_ball(), "tuned, undamped", quick=args.quick)
+    if not args.quick:
+        zoom = np.round(np.arange(ZOOM[0], ZOOM[1] + 1e-9, ZOOM[2]), 6)
+        sweep_rows += run_sweeps(2.0, tuned_ball(), "tuned, undamped, zoom", grid=zoom)
     timings["sweeps, undamped ball"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     for F in ((1.0,) if args.quick else (1.0, 5.0)):
         sweep_rows += run_sweeps(F, opt, "optimum", quick=args.quick)
     timings["sweeps, optimum ball"] = time.perf_counter() - t0
     write_csv(out / "sweeps.csv", sweep_rows)
-    figure_sweeps(sweep_rows, docs / "figures" / "absorber_sweeps.png")
-    figure_sweeps(sweep_rows, docs / "figures" / "absorber_sweeps_optimum.png", design="optimum")
+    figures_of_sweeps(sweep_rows, docs)
+
+    t0 = time.perf_counter()
+    rr_rows = rolling_rows(forces=(1.0,) if args.quick else (0.2, 1.0))
+    write_csv(out / "rolling.csv", rr_rows)
+    figure_rolling(rr_rows, docs / "figures" / "absorber_rolling.png")
+    timings["rolling resistance"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
     res, bare, summary = run_ground(opt, 30.0 if args.quick else 60.0)
@@ -580,7 +783,9 @@ def main(argv=None) -> int:
     figure_ground(res, bare, docs / "figures" / "absorber_ground.png")
     timings["ground record"] = time.perf_counter() - t0
 
-    report(docs / "absorber.md", frf_rows, sweep_rows, trows, summary, opt_rows, timings, args.quick)
+    (out / "timings.json").write_text(json.dumps(timings, indent=1) + "\n")
+    report(docs / "absorber.md", frf_rows, sweep_rows, trows, summary, opt_rows, timings, args.quick,
+           rr_rows)
     print(f"wrote {out / 'frf.csv'} and {docs / 'absorber.md'}", file=sys.stderr)
     return 0
 
