@@ -144,3 +144,19 @@ def test_two_modes_and_ground_load_match_the_closed_form():
         # and the second mode matters here: a one-mode model misses it by far
         one = LinearAbsorber(StructureAxis((x.modes[0],)), TUNED).frf(freqs, load)
         assert np.abs(np.abs(one) * amp / lin - 1).max() > 0.5
+
+
+def test_tower_absorber_scenario_is_tuned_as_its_comment_says():
+    """scenarios/tower_absorber.toml: the ball's R and c_drag are Den Hartog's for a
+    0.45 Hz tower mode of modal mass 50 m (ball 2 % of it), as its comment says."""
+    import tomllib
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "scenarios" / "tower_absorber.toml").read_text()
+    p = tomllib.loads(text)["instances"]["ball"]["parameters"]
+    ref = den_hartog_ball(StructureAxis.single(p["m"] / 0.02, 0.45), p["r"], p["m"])
+    assert p["R"] == pytest.approx(ref.R, abs=1e-3)
+    assert p["c_drag"] == pytest.approx(ref.drag, rel=0.01)
+    ball = Ball(r=p["r"], R=p["R"], m=p["m"], drag=p["c_drag"])
+    assert ball.omega_small / (2 * math.pi) == pytest.approx(0.4424, abs=5e-4)  # the comment's number
+    assert "no damping is modelled" not in text

@@ -674,6 +674,21 @@ def report(file, frf_rows, sweep_rows, trows, ground_summary, opt_rows, timings,
         + ("rolls and keeps contact throughout." if g["rolling"] and g["contact"] else "leaves its validity (see ground.json).")
         + f" Energy balance of the run closes to {g['energy_residual_J']:.1e} J.",
         "",
+        "## Interfaces for what comes next",
+        "",
+        "* **A Structure FMU** wraps `ballmill.physics.structure.StructureModel`: state and `derivative(t, z, "
+        "Fbx, Fby)` with the ball's horizontal force (BallInShell's `Fx, Fy`) as input, `cavity(...)` for the "
+        "outputs x, v (relative to the ground) and a (absolute). Its acceleration output feeds through from "
+        "the force input, a_O = a_free + G F_b (`free_acceleration`, `flexibility`): that is the algebraic "
+        "loop a Jacobi master has to break, and `simulate_absorber` (structure + ball in one ODE, with the "
+        "loop solved exactly) is the reference to measure its coupling error against.",
+        "* **A sweep layer** calls `ballmill.absorber.response.steady_state(case, frequency)` per point "
+        "(`AbsorberCase` is a frozen, picklable description; `Point.row()` a flat row), asks "
+        "`refine(frequencies, amplitudes)` for the next batch until it returns nothing, runs each "
+        "`sweep(case, frequencies)` (up or down) as one sequential task, and takes the bare column from "
+        "`bare_amplitude`.",
+        "* **A tower summary** is `ballmill.absorber.summary.structure_summary(t, data, bare, mu)`.",
+        "",
         "## Run times (2 shared cores, pure Python)",
         "",
         "The coupled model is pure Python (the compiled kernel covers the ball alone), at tolerance 1e-9. "
