@@ -3,7 +3,7 @@
  * generated InductionMotor_interface.h, the DOP853 tableau from integrators.py through
  * bm_tableaus.h, the integrator from the kernel ballmill/physics/_kernel.c).
  *
- * What drive_models/inductionmotor_fmu.py does with ballmill.physics.motor, in the same
+ * What drive_models/inductionmotor_fmu.py does with ballmill.physics.drives.induction, in the same
  * operation order: a three-phase induction motor from its datasheet (Kloss's torque, or
  * a dq model of four fluxes whose resistances and inductances are fitted to the same
  * datasheet), a starter (direct on line, voltage ramp, V/f ramp), an ideal gear of ratio

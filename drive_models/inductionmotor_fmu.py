@@ -1,6 +1,6 @@
 """InductionMotor FMU: an induction motor that drives the crank and feels the ball.
 
-A thin pythonfmu adapter over ballmill.physics.motor.CrankDrive (DESIGN.md
+A thin pythonfmu adapter over ballmill.physics.drives.induction.CrankDrive (DESIGN.md
 section 4): a three-phase induction motor given by its datasheet (Kloss's
 formula, or a 4-state dq model fitted to the same datasheet), a starter
 (direct on line, voltage ramp, V/f frequency ramp), an ideal gear of ratio
@@ -45,9 +45,9 @@ from ballmill.fmi.interface import CRANK_KINEMATICS, INDUCTION_MOTOR
 from ballmill.fmi.slave import Slave
 from ballmill.physics.errors import ParameterError
 from ballmill.physics.integrators import Integrator
-from ballmill.physics.motor import RPM, CrankDrive
-from ballmill.physics.motor import InductionMotor as MotorData
-from ballmill.physics.motor import platform_state
+from ballmill.physics.drives.induction import RPM, CrankDrive
+from ballmill.physics.drives.induction import InductionMotor as MotorData
+from ballmill.physics.drives.induction import platform_state
 
 MODELS = {1: "kloss", 2: "dq"}
 STARTS = {1: "dol", 2: "voltage_ramp", 3: "frequency_ramp"}

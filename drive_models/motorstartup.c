@@ -2,7 +2,7 @@
  * fmu_src/native/fmi2.c; the variables come from ballmill/fmi/interface.py through the
  * generated MotorStartup_interface.h).
  *
- * The crank start-up laws as ballmill.physics.drives.CrankStartup computes them, in
+ * The crank start-up laws as ballmill.physics.drives.crank.CrankStartup computes them, in
  * the same operation order (same values bit for bit as the pythonfmu flavour,
  * drive_models/motorstartup_fmu.py): the crank speed rises to w0 = 2 pi n0 / 60 in t0
  * along the law the parameter `law` chooses (1 = the paper's quadratic rise, 2 = S-curve,

@@ -1,4 +1,4 @@
-"""Structure + ball in one ODE (ballmill.physics.absorber): the accelerations
+"""Structure + ball in one ODE (ballmill.absorber.model): the accelerations
 against an independent Newton-Euler solve, the energy balance, ground records.
 
 The Newton-Euler check writes every body's equation with the contact force F
@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 
 from ballmill.physics import Ball
-from ballmill.physics.absorber import StructureBall, simulate_absorber
+from ballmill.absorber.model import StructureBall, simulate_absorber
 from ballmill.physics.equations import ROLLING_EPS
 from ballmill.physics.errors import ParameterError
-from ballmill.physics.structure import (GroundRecord, HarmonicForce, HarmonicGround, Mode,
+from ballmill.absorber.structure import (GroundRecord, HarmonicForce, HarmonicGround, Mode,
                                         Structure, StructureAxis)
 
 BALL = Ball(r=0.025, R=0.30, m=2.0)

@@ -1,4 +1,4 @@
-"""Excitations of the structure (ballmill.physics.structure), the bare-structure
+"""Excitations of the structure (ballmill.absorber.structure), the bare-structure
 reference run, the synthetic ground record and its generator, the summary."""
 import csv
 import importlib.util
@@ -10,8 +10,8 @@ import pytest
 
 from ballmill.absorber.linear import LinearAbsorber, den_hartog_ball
 from ballmill.absorber.summary import structure_summary
-from ballmill.physics.absorber import StructureBall, simulate_absorber, simulate_structure
-from ballmill.physics.structure import GroundRecord, HarmonicForce, HarmonicGround, Structure
+from ballmill.absorber.model import StructureBall, simulate_absorber, simulate_structure
+from ballmill.absorber.structure import GroundRecord, HarmonicForce, HarmonicGround, Structure
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "scenarios" / "data"

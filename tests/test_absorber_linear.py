@@ -19,7 +19,7 @@ from ballmill.absorber.linear import (LinearAbsorber, cavity_radius, den_hartog,
                                       drag_for_damping_ratio, equivalent_tmd, optimum, peak_of)
 from ballmill.absorber.response import AbsorberCase, steady_state
 from ballmill.physics import Ball
-from ballmill.physics.structure import Structure, StructureAxis
+from ballmill.absorber.structure import Structure, StructureAxis
 
 M, F_S, ZETA_S = 100.0, 0.8, 0.01
 R_BALL, M_BALL = 0.025, 2.0
@@ -130,7 +130,7 @@ def test_two_modes_and_ground_load_match_the_closed_form():
     nonlinear model at small amplitude: a two-mode axis (ball tuned to the first mode,
     force at another point than the ball) under a force, and under a ground acceleration
     (participations L_j)."""
-    from ballmill.physics.structure import Mode
+    from ballmill.absorber.structure import Mode
 
     x = StructureAxis((Mode(100.0, 0.8, 0.01, shape=1.0, force_shape=0.6, participation=140.0),
                        Mode(40.0, 2.3, 0.02, shape=-0.5, force_shape=0.9, participation=-30.0)))

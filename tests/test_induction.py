@@ -1,6 +1,6 @@
 """The induction motor that feels the ball: InductionMotor FMU and the coupled reference.
 
-- ballmill.physics.coupled: the algebraic loop solved exactly, the energy
+- ballmill.physics.drives.coupled: the algebraic loop solved exactly, the energy
   balance motor work = drive + ball energy + dissipation, a hand computation
   of the direct-on-line start, and the drive part against simulate_runup;
 - the InductionMotor FMU through fmpy: model description, run-up against
@@ -22,8 +22,8 @@ from fmpy.fmi1 import FMICallException
 from fmpy.validation import validate_fmu
 
 from ballmill.physics import Ball, evaluate
-from ballmill.physics.coupled import simulate_coupled
-from ballmill.physics.motor import CrankDrive, InductionMotor, simulate_runup
+from ballmill.physics.drives.coupled import simulate_coupled
+from ballmill.physics.drives.induction import CrankDrive, InductionMotor, simulate_runup
 from fmu_instance import Opened
 
 DISCARD, ERROR = 2, 3

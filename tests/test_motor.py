@@ -1,7 +1,7 @@
 """Induction motor drive: Kloss curve, dq model, run-up, energy, parameters.
 
 Reference values are computed here from the datasheet numbers and textbook
-formulas, independently of ballmill.physics.motor where that is possible.
+formulas, independently of ballmill.physics.drives.induction where that is possible.
 """
 import math
 
@@ -11,7 +11,7 @@ from scipy.integrate import quad, solve_ivp
 from scipy.optimize import brentq
 
 from ballmill.physics.errors import ParameterError
-from ballmill.physics.motor import (CrankDrive, DqParameters, InductionMotor, platform_state,
+from ballmill.physics.drives.induction import (CrankDrive, DqParameters, InductionMotor, platform_state,
                                     simulate_runup)
 
 # datasheet of the default motor (WAT MTF3 0.75 kW 4-pole 80M)

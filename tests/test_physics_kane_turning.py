@@ -1,5 +1,5 @@
 """An independent derivation of the general (turning-chamber) model with Kane's method
-(sympy.physics.mechanics), compared with ballmill.physics.turning at random states.
+(sympy.physics.mechanics), compared with ballmill.physics.turning.model at random states.
 
 Nothing of the library's algebra is used. The model, from scratch:
 
@@ -28,8 +28,8 @@ sp = pytest.importorskip("sympy")
 me = pytest.importorskip("sympy.physics.mechanics")
 
 from ballmill.physics import Ball  # noqa: E402
-from ballmill.physics import turning  # noqa: E402
-from ballmill.physics.chamber import ChamberState  # noqa: E402
+from ballmill.physics.turning import model as turning  # noqa: E402
+from ballmill.physics.turning.motions import ChamberState  # noqa: E402
 
 
 @functools.lru_cache(maxsize=1)

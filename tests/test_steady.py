@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from ballmill.physics import Ball, BallModel, Circle, CrankStartup, simulate
-from ballmill.physics.drives import LAWS
+from ballmill.physics.drives.crank import LAWS
 from ballmill.physics.steady import equilibrium, limits
 
 M_PAPER = 0.5105088062083415

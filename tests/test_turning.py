@@ -1,4 +1,4 @@
-"""The general model (a chamber that moves in 3-D and turns; ballmill.physics.turning,
+"""The general model (a chamber that moves in 3-D and turns; ballmill.physics.turning.model,
 chamber.py) against kinematics, energy balances, first integrals and closed-form
 solutions derived in the docstrings below; and the translation-only path kept as it was."""
 import math
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from ballmill.physics import Ball, BallModel, Circle, CrankStartup, Harmonic, simulate
-from ballmill.physics import turning
-from ballmill.physics.chamber import ChamberState, ConstantSpeed, Fig1Machine, Spin, Translation
+from ballmill.physics.turning import model as turning
+from ballmill.physics.turning.motions import ChamberState, ConstantSpeed, Fig1Machine, Spin, Translation
 from ballmill.physics.errors import ParameterError
 
 BALL = Ball(r=0.025, R=0.25, m=0.5105088062083415, g=9.81)

@@ -1,5 +1,5 @@
 """The general model's compiled functions (bmg_* in _kernel.c, via
-ballmill.physics.fast_turning) against the Python path (turning.py, chamber.py):
+ballmill.physics.turning.kernel) against the Python path (turning.py, chamber.py):
 same trajectories, outputs and work, bit for bit; and the cases that stay in Python."""
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from ballmill.physics import KERNEL_AVAILABLE, KERNEL_REASON, Ball, CrankStartup, Harmonic
-from ballmill.physics import fast_turning, turning
-from ballmill.physics.chamber import ConstantSpeed, Fig1Machine, Spin, Translation
+from ballmill.physics.turning import kernel as fast_turning, model as turning
+from ballmill.physics.turning.motions import ConstantSpeed, Fig1Machine, Spin, Translation
 
 needs_kernel = pytest.mark.skipif(not KERNEL_AVAILABLE, reason=f"compiled kernel unavailable: {KERNEL_REASON}")
 

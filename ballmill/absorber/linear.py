@@ -45,7 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ballmill.physics.params import Ball
-from ballmill.physics.structure import StructureAxis, Structure
+from ballmill.absorber.structure import StructureAxis, Structure
 
 
 def cavity_radius(frequency: float, r: float, g: float = 9.81, inertia_factor: float = 0.4) -> float:

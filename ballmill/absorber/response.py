@@ -1,7 +1,7 @@
 """Response curves of the nonlinear absorber model: one point, a refined FRF, sweeps.
 
 This module owns how a steady-state amplitude is measured on the monolithic
-structure + ball model (`ballmill.physics.absorber`), and the frequency
+structure + ball model (`ballmill.absorber.model`), and the frequency
 response built from such points:
 
 * `steady_state(case, frequency, state=None)`: one point. Starts from the
@@ -39,9 +39,9 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from ballmill.physics.absorber import AbsorberState, StructureBall, simulate_absorber
+from ballmill.absorber.model import AbsorberState, StructureBall, simulate_absorber
 from ballmill.physics.params import Ball
-from ballmill.physics.structure import HarmonicForce, HarmonicGround, Structure
+from ballmill.absorber.structure import HarmonicForce, HarmonicGround, Structure
 
 from .linear import LinearAbsorber
 

@@ -13,8 +13,8 @@ import time
 import numpy as np
 
 from ballmill.physics import Ball, BallModel, CrankStartup, fast, simulate
-from ballmill.physics import turning
-from ballmill.physics.chamber import Fig1Machine, Spin, Translation
+from ballmill.physics.turning import model as turning
+from ballmill.physics.turning.motions import Fig1Machine, Spin, Translation
 
 from .micro import per_call_us
 

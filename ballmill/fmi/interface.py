@@ -17,9 +17,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from ballmill.physics.drives import CrankStartup
-from ballmill.physics.motor import CrankDrive
-from ballmill.physics.motor import InductionMotor as MotorData
+from ballmill.physics.drives.crank import CrankStartup
+from ballmill.physics.drives.induction import CrankDrive
+from ballmill.physics.drives.induction import InductionMotor as MotorData
 from ballmill.physics.params import Ball
 
 # unit name -> SI base-unit exponents (and factor) for <UnitDefinitions>

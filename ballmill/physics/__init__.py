@@ -8,15 +8,27 @@ fmu_src/ and drive_models/ and the scenario runner build on this package.
     traj = simulate(model, CrankStartup(t0=2.5), t_end=10.0, dt=0.01)
     traj["zP"], traj["N"]
 
-A chamber that moves in 3-D and turns (DESIGN.md section 10): the general model in
-turning.py (equations, outputs with the drives' reaction moments, first integrals) with
-the motions of chamber.py (Translation, Spin, Fig1Machine); `simulate_chamber` runs a
-scene, a Translation on the translation-only model above (unchanged), anything else on
-`ChamberModel` (compiled bmg_* functions when built, fast_turning.py).
+What it owns, here: the ball (params.py, the two formulations of equations.py,
+outputs.py, the model and its monolithic driver model.py, the input reconstruction
+of platform.py, the quasi-static calculator steady.py, errors.py) and its numerics
+(integrators.py; the compiled kernel fast.py over _kernel.c). Two subpackages:
+
+* ``drives/``: what moves the platform: the prescribed platform motions
+  (``drives.crank``: CrankStartup and its laws, Circle, Harmonic, Fixed), the
+  induction motor on the crank (``drives.induction``) and the monolithic
+  motor + crank + ball reference (``drives.coupled``).
+* ``turning/``: a chamber that moves in 3-D and turns (DESIGN.md section 10): the
+  motions (``turning.motions``: Translation, Spin, Fig1Machine), the general model
+  (``turning.model``: equations, outputs with the drives' reaction moments, first
+  integrals) and its compiled functions (``turning.kernel``). `simulate_chamber` runs
+  a scene, a Translation on the translation-only model above (unchanged), anything
+  else on `ChamberModel` (compiled bmg_* functions when built).
 
     from ballmill.physics import Ball, Fig1Machine, simulate_chamber
     traj = simulate_chamber(Ball(), Fig1Machine(), t_end=10.0, dt=0.01)
     traj["Pch_x"], traj["N"], traj["M1"], traj["M2"]
+
+The absorber's structure and the structure + ball model are in ``ballmill.absorber``.
 
 Monolithic runs, and `BallModel.advance` driven by InputReconstruction's cubic
 input (the BallInShell FMU's steps), use a compiled kernel (`fast`, built from
@@ -24,8 +36,7 @@ _kernel.c at install time) when it is available and covers the run, with the
 same results bit for bit; ``KERNEL_AVAILABLE`` says whether it is,
 ``KERNEL_REASON`` why not.
 """
-from .chamber import ChamberState, ConstantSpeed, Fig1Machine, Spin, Translation
-from .drives import Circle, CrankStartup, Fixed, Harmonic
+from .drives.crank import Circle, CrankStartup, Fixed, Harmonic
 from .equations import PaperFormulation, VectorFormulation, make_formulation, omega_dot_cramer
 from .errors import FormulationLimitError, InputError, ParameterError, StepFailure
 from .fast import KernelUnavailable
@@ -34,7 +45,8 @@ from .model import BallModel, BallState, Trajectory, simulate
 from .outputs import Outputs, energy, evaluate, spin
 from .params import Ball, steel_ball_mass
 from .platform import MODES as INPUT_MODES, InputReconstruction
-from .turning import ChamberModel, ChamberOutputs, simulate_chamber, simulate_general
+from .turning.model import ChamberModel, ChamberOutputs, simulate_chamber, simulate_general
+from .turning.motions import ChamberState, ConstantSpeed, Fig1Machine, Spin, Translation
 
 __all__ = [
     "Ball", "BallModel", "BallState", "ChamberModel", "ChamberOutputs", "ChamberState", "Circle",

@@ -50,7 +50,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .drives import LAWS, Circle, CrankStartup, Fixed, Harmonic
+from .drives.crank import LAWS, Circle, CrankStartup, Fixed, Harmonic
 from .equations import VectorFormulation, _lossy, loss_constants
 from .integrators import Integrator, TABLEAUS
 from .outputs import Outputs

@@ -3,7 +3,7 @@
 Structure M = 100 kg per axis, 0.8 Hz, damping ratio 0.01 (bare); steel-like
 ball r = 0.025 m, m = 2.0 kg (2 % of M) in a cavity tuned to 0.8 Hz; a
 harmonic force F0 sin(2 pi f t) on the structure in x. Runs the monolithic
-structure + ball model (ballmill.physics.absorber) through the response
+structure + ball model (ballmill.absorber.model) through the response
 layer (ballmill.absorber.response) and the linear theory
 (ballmill.absorber.linear), and writes
 
@@ -38,8 +38,8 @@ from ballmill.absorber import linear as lin
 from ballmill.absorber.response import AbsorberCase, bare_amplitude, frf, sweep
 from ballmill.absorber.summary import structure_summary
 from ballmill.physics import Ball
-from ballmill.physics.absorber import StructureBall, simulate_absorber, simulate_structure
-from ballmill.physics.structure import GroundRecord, Structure
+from ballmill.absorber.model import StructureBall, simulate_absorber, simulate_structure
+from ballmill.absorber.structure import GroundRecord, Structure
 
 ROOT = Path(__file__).resolve().parents[2]
 M, F_S, ZETA_S = 100.0, 0.8, 0.01
@@ -455,7 +455,7 @@ def report(file, frf_rows, sweep_rows, trows, ground_summary, opt_rows, timings,
         "",
         "Written by `python -m ballmill.studies.absorber`" + (" --quick (coarse grids)" if quick else "")
         + "; data in `frf.csv`, `sweeps.csv`, `tuning.csv`, `ground.json` of its `--out` folder. "
-        "The model is the monolithic structure + ball ODE of `ballmill/physics/absorber.py` (the ball's "
+        "The model is the monolithic structure + ball ODE of `ballmill/absorber/model.py` (the ball's "
         "vector equations with the cavity's acceleration solved together with the structure's at every "
         "instant), the response layer `ballmill/absorber/response.py` and the linear theory "
         "`ballmill/absorber/linear.py`.",
@@ -676,7 +676,7 @@ def report(file, frf_rows, sweep_rows, trows, ground_summary, opt_rows, timings,
         "",
         "## Interfaces for what comes next",
         "",
-        "* **A Structure FMU** wraps `ballmill.physics.structure.StructureModel`: state and `derivative(t, z, "
+        "* **A Structure FMU** wraps `ballmill.absorber.structure.StructureModel`: state and `derivative(t, z, "
         "Fbx, Fby)` with the ball's horizontal force (BallInShell's `Fx, Fy`) as input, `cavity(...)` for the "
         "outputs x, v (relative to the ground) and a (absolute). Its acceleration output feeds through from "
         "the force input, a_O = a_free + G F_b (`free_acceleration`, `flexibility`): that is the algebraic "

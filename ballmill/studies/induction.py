@@ -4,10 +4,10 @@
 
 1. Coupling error of the co-simulation InductionMotor <-> BallInShell (the
    scenario runner's Jacobi scheme through fmpy) against the monolithic
-   solution of ballmill.physics.coupled, for communication steps H and both
+   solution of ballmill.physics.drives.coupled, for communication steps H and both
    ways of treating M_reaction over a step inside the motor (held, or
    extrapolated linearly from the last two communication points).
-2. The starts compared, all monolithic (ballmill.physics.coupled, and
+2. The starts compared, all monolithic (ballmill.physics.drives.coupled, and
    ballmill.physics.simulate for the kinematic law): direct on line, voltage
    ramp, frequency ramp, the paper's kinematic law, with and without losses
    to the ground material.
@@ -32,14 +32,14 @@ MU = 0.3
 # monolithic runs
 # ---------------------------------------------------------------------------
 def drive_for(start: str, model: str = "kloss", ramp_time: float = 2.5, **motor):
-    from ballmill.physics.motor import CrankDrive, InductionMotor
+    from ballmill.physics.drives.induction import CrankDrive, InductionMotor
     return CrankDrive(motor=InductionMotor(start=start, ramp_time=ramp_time, **motor), model=model)
 
 
 def coupled(start: str, t_end: float, dt: float, model: str = "kloss", ball=None, rtol: float = 1e-11,
             **motor):
     from ballmill.physics import Ball
-    from ballmill.physics.coupled import simulate_coupled
+    from ballmill.physics.drives.coupled import simulate_coupled
     return simulate_coupled(drive_for(start, model, **motor), ball or Ball(), t_end=t_end, dt=dt, rtol=rtol)
 
 

@@ -25,13 +25,14 @@ leaves the second at zero).
 
 Implementations:
 
-* `Translation`: today's platform motions (drives.py: ``state(t) -> (x, y, vx,
+* `Translation`: today's platform motions (drives/crank.py: ``state(t) -> (x, y, vx,
   vy, ax, ay)``), the chamber's centre at height ``zA`` above O1, no rotation.
   Its drive is the crank (rate psi', twist about the vertical crank axis
   through O1) when the platform law has one (``angle(t)``, CrankStartup), else
   the x and y motions themselves (the "moments" are then forces, in N).
-  Scenes with a `Translation` run on the translation-only model (model.py),
-  unchanged; the general model (turning.py) reproduces it bit for bit.
+  Scenes with a `Translation` run on the translation-only model
+  (ballmill/physics/model.py), unchanged; the general model (turning/model.py)
+  reproduces it bit for bit.
 * `Spin`: A fixed, constant angular velocity Omega about an axis through A
   (the spinning bowl, the tumbling drum). One drive: the spin, rate |Omega|.
 * `Fig1Machine`: the mill of the paper's Fig. 1. The bearing frame turns about
@@ -47,7 +48,7 @@ Implementations:
   the cranks (rate psi', twist (0, Rx(phi) da/dpsi): a translation).
 
 Angle laws (``angle(t) -> (angle, rate, acceleration)`` [rad, rad/s, rad/s2]):
-drives.CrankStartup (the paper's start-up) and `ConstantSpeed`.
+drives.crank.CrankStartup (the paper's start-up) and `ConstantSpeed`.
 
 The arithmetic is written as scalar expressions in a fixed order: the compiled
 kernel (_kernel.c, functions bmg_*) mirrors it operation for operation.
@@ -58,8 +59,8 @@ import math
 from collections import namedtuple
 from dataclasses import dataclass, field
 
-from .drives import CrankStartup
-from .errors import ParameterError
+from ..drives.crank import CrankStartup
+from ..errors import ParameterError
 
 _V = ("x", "y", "z")
 STATE_FIELDS = (tuple(f"A{c}" for c in _V) + tuple(f"vA{c}" for c in _V) + tuple(f"aA{c}" for c in _V)
@@ -121,7 +122,7 @@ class ChamberMotion:
 
 @dataclass(frozen=True)
 class Translation(ChamberMotion):
-    """A horizontal translation: a platform motion of drives.py, chamber centre at height zA."""
+    """A horizontal translation: a platform motion of drives/crank.py, chamber centre at height zA."""
 
     platform: object = field(default_factory=CrankStartup)
     zA: float = 0.25  # height of A above O1 [m] (R: O1 level with the chamber's lowest point)

@@ -37,7 +37,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, least_squares
 
-from .errors import ParameterError
+from ..errors import ParameterError
 
 START_MODES = ("dol", "voltage_ramp", "frequency_ramp")
 DRIVE_MODELS = ("kloss", "dq")

@@ -1,12 +1,12 @@
 """The general (turning-chamber) model in the compiled kernel: what it owns.
 
-The bmg_* functions of _kernel.c mirror turning.py (right-hand side, outputs)
-and chamber.py (Spin, Fig1Machine with CrankStartup / ConstantSpeed laws) in
+The bmg_* functions of _kernel.c mirror model.py (right-hand side, outputs)
+and motions.py (Spin, Fig1Machine with CrankStartup / ConstantSpeed laws) in
 the Python code's operation order, and run the library's integrators with the
-same step-size control; `simulate` here is turning.simulate_general's loop in C
+same step-size control; `simulate` here is model.simulate_general's loop in C
 and gives the Python path's trajectory bit for bit (tests/test_turning_kernel.py).
-The library is the one fast.py loads and checks (same build, same source hash);
-this module only declares the general functions on it. As in fast.py, the
+The library is the one ballmill.physics.fast loads and checks (same build, same source hash);
+this module only declares the general functions on it. As in ballmill.physics.fast, the
 adaptive methods' initial step is Python's, and an interval the kernel cannot
 complete is handed back to Python, which raises with its own message.
 """
@@ -18,16 +18,16 @@ import numbers
 
 import numpy as np
 
-from . import fast
-from .chamber import NSTATE, ConstantSpeed, Fig1Machine, Spin
-from .drives import CrankStartup
-from .fast import KernelUnavailable, _Stats, _dp
-from .integrators import Integrator, TABLEAUS
+from .. import fast
+from ..drives.crank import CrankStartup
+from ..fast import KernelUnavailable, _Stats, _dp
+from ..integrators import Integrator, TABLEAUS
+from .motions import NSTATE, ConstantSpeed, Fig1Machine, Spin
 
 __all__ = ["KernelUnavailable", "applicable", "simulate", "problem", "eval_rhs", "eval_state", "eval_outputs"]
 
 NY = 6
-NOUT = 28  # turning.ChamberOutputs
+NOUT = 28  # model.ChamberOutputs
 
 
 class _GProblem(ctypes.Structure):
@@ -105,7 +105,7 @@ def _motion_reason(motion) -> str:
 
 def applicable(model, motion, state=None) -> str:
     """'' when `simulate` can run this model and motion in the kernel, else why not."""
-    from .turning import ChamberModel, _project
+    from .model import ChamberModel, _project
 
     if _lib() is None:
         return _LIB[1]
@@ -154,7 +154,7 @@ class _IntegratorOnly:
     ball and formulation whose values the general functions do not read."""
 
     def __init__(self, model):
-        from .equations import VectorFormulation
+        from ..equations import VectorFormulation
 
         self.integrator = model.integrator
         self.ball = model.ball
@@ -162,10 +162,10 @@ class _IntegratorOnly:
 
 
 def simulate(model, motion, times: np.ndarray, state, outputs: bool):
-    """turning.simulate_general's loop in the kernel; returns (ys, outs or None, success,
+    """model.simulate_general's loop in the kernel; returns (ys, outs or None, success,
     message, last). Call only when `applicable` says ''."""
-    from .model import BallState
-    from .turning import record_python
+    from ..model import BallState
+    from .model import record_python
 
     lib = _lib()
     n = len(times)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .errors import ParameterError
+from ..errors import ParameterError
 
 
 LAWS = ("quadratic", "linear", "scurve", "quintic")  # CrankStartup.law; the kernel's codes 0..3

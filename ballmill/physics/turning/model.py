@@ -1,6 +1,6 @@
 """The ball rolling without slip in a chamber with any rigid motion (DESIGN.md section 10):
 the general model's equations, outputs, energy and first integrals, its model
-class and its monolithic driver. What it owns; the chamber motions are in chamber.py.
+class and its monolithic driver. What it owns; the chamber motions are in motions.py.
 
 Derivation (state y = (n, omega), n = (C - A)/d, omega the ball's absolute
 angular velocity, all in fixed axes; d = R - r, lambda = r/d). The chamber is a
@@ -59,14 +59,14 @@ the chamber's axes P_ch = Q^T (P - A) + (0, 0, R) (the lowest point at rest is
 the origin, as in section 1); N = -F . n, the friction force F + N n and the
 friction ratio; the ball's force on the chamber F_s = -F in fixed and in
 chamber axes; the reaction moments of the chamber's two drives M_i = w_i . (P x
-F_s) + v_i . F_s (chamber.py defines the drives' twists), and the power the
+F_s) + v_i . F_s (motions.py defines the drives' twists), and the power the
 chamber delivers to the ball, P_ball = F . (v_A + Omega x R n), which equals
 -(M1 q1' + M2 q2') and dE/dt. The model is lossless (no rolling resistance or
 drag here; Ball's loss parameters are refused).
 
-`simulate_chamber` runs a scene: a `chamber.Translation` on the translation-only
-model (model.simulate, unchanged, with its compiled kernel), anything else on
-`ChamberModel` (compiled kernel functions bmg_* when built: fast_turning.py).
+`simulate_chamber` runs a scene: a `motions.Translation` on the translation-only
+model (ballmill.physics.model.simulate, unchanged, with its compiled kernel), anything else on
+`ChamberModel` (compiled kernel functions bmg_* when built: kernel.py).
 """
 from __future__ import annotations
 
@@ -75,11 +75,11 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .chamber import ChamberMotion, Translation
-from .errors import ParameterError
-from .integrators import Integrator
-from .model import KERNELS, BallModel, BallState, StepInfo, Trajectory, _stopped, simulate
-from .params import Ball
+from ..errors import ParameterError
+from ..integrators import Integrator
+from ..model import KERNELS, BallModel, BallState, StepInfo, Trajectory, _stopped, simulate
+from ..params import Ball
+from .motions import ChamberMotion, Translation
 
 
 def constants(ball: Ball):
@@ -142,7 +142,7 @@ def out_constants(ball: Ball):
 
 
 def evaluate(ball: Ball, y, cs) -> ChamberOutputs:
-    """Outputs for the state y = (n, omega) and the chamber state cs (chamber.ChamberState)."""
+    """Outputs for the state y = (n, omega) and the chamber state cs (motions.ChamberState)."""
     return evaluate_c(out_constants(ball), y, cs)
 
 
@@ -329,7 +329,7 @@ def simulate_general(model: ChamberModel, motion: ChamberMotion, t_end: float, d
                      state: BallState | None = None, outputs: bool = True, kernel: str | None = None) -> Trajectory:
     """Monolithic run of the general model, sampled every dt; stops early (success False,
     with the message) when a step fails. ``kernel`` (default: the model's) as ChamberModel."""
-    from . import fast_turning
+    from . import kernel as fast_turning
 
     if not (dt > 0 and math.isfinite(dt)):
         raise ValueError(f"dt must be positive and finite, got {dt!r} s")
@@ -385,7 +385,7 @@ def record_python(model, motion, times, state, i, ys, outs):
 def simulate_chamber(ball: Ball, motion: ChamberMotion, t_end: float, dt: float, xC0: float = 0.0,
                      yC0: float = 0.0, w_rel=(0.0, 0.0, 0.0), method: str = "DOP853", tol: float = 1e-9,
                      h_fixed: float = 1e-3, h_max: float | None = None, kernel: str = "auto") -> Trajectory:
-    """Run a scene and report `ChamberOutputs` columns. A `chamber.Translation` (no rotation,
+    """Run a scene and report `ChamberOutputs` columns. A `motions.Translation` (no rotation,
     no vertical motion) runs on the translation-only model (model.simulate, exactly as
     before: it does not pay for the general model); any other motion on `ChamberModel`.
     The ball starts at (xC0, yC0) in the chamber's axes, at rest relative to the chamber
@@ -415,7 +415,7 @@ def translation_columns(ball: Ball, motion: Translation, traj: Trajectory) -> di
     vc[:, 0] += vx
     vc[:, 1] += vy
     E = 0.5 * m * np.sum(vc * vc, axis=1) + 0.5 * ball.I * np.sum(w * w, axis=1) + m * g * (zA + d * nv[:, 2])
-    if hasattr(platform, "angle"):  # the crank (chamber.Translation's drive 1)
+    if hasattr(platform, "angle"):  # the crank (motions.Translation's drive 1)
         M1, M2 = o["M_reaction"], np.zeros_like(x)
     else:  # the x and y motions: forces [N]
         M1, M2 = o["Fx"], o["Fy"]

@@ -5,7 +5,7 @@ of one horizontal axis (`Mode`, `StructureAxis`), the two axes together
 (`Structure`), and the excitations (`HarmonicForce`, `HarmonicGround`,
 `GroundRecord`, `NoExcitation`). Plain Python, SI units, no FMI, no I/O
 except `GroundRecord.from_csv`. The coupled structure + ball ODE is in
-`ballmill.physics.absorber`; the linear theory in `ballmill.absorber.linear`.
+`ballmill.absorber.model`; the linear theory in `ballmill.absorber.linear`.
 
 Modal model of one axis (x or y), coordinates q_j relative to the ground:
 
@@ -34,7 +34,7 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .errors import ParameterError
+from ballmill.physics.errors import ParameterError
 
 
 def _finite(name, value, unit, positive=False, non_negative=False):
@@ -331,7 +331,7 @@ class GroundRecord:
 
 
 # ---------------------------------------------------------------------------
-# the structure as a model: what the coupled ODE (absorber.py) and a Structure
+# the structure as a model: what the coupled ODE (model.py) and a Structure
 # FMU both need
 
 class StructureModel:

@@ -1,7 +1,7 @@
 """Monolithic model of a ball absorber: the structure and the ball in one ODE.
 
 This module owns DESIGN.md section 11 in one initial-value problem: the
-linear modal structure of `ballmill.physics.structure` carries the spherical
+linear modal structure of `ballmill.absorber.structure` carries the spherical
 cavity, the ball rolls in it by the vector equations of
 `ballmill.physics.equations` (with its rolling resistance delta and drag
 c_drag), and each pushes the other. Integrated by the library's own
@@ -56,11 +56,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import outputs as _out
-from .equations import ROLLING_EPS, VectorFormulation, omega_dot, omega_dot_lossy
-from .errors import ParameterError
-from .integrators import Integrator
-from .params import Ball
+from ballmill.physics import outputs as _out
+from ballmill.physics.equations import ROLLING_EPS, VectorFormulation, omega_dot, omega_dot_lossy
+from ballmill.physics.errors import ParameterError
+from ballmill.physics.integrators import Integrator
+from ballmill.physics.params import Ball
+
 from .structure import NoExcitation, Structure, StructureModel
 
 
@@ -81,7 +82,7 @@ class StructureBall:
 
     structure: `Structure`; ball: `Ball` (its rolling_resistance and drag are the
     absorber's damping); excitation: anything with ``loads(t) -> (F_x, F_y,
-    a_gx, a_gy)`` (`ballmill.physics.structure`).
+    a_gx, a_gy)`` (`ballmill.absorber.structure`).
     """
 
     def __init__(self, structure: Structure, ball: Ball, excitation=None):

@@ -7,7 +7,7 @@ that the coupling error of the co-simulation can be measured against it.
 
 State z = (drive state, ball state, quadratures):
     drive: (psi, psi') for Kloss, plus the 4 fluxes for the dq model
-           (ballmill.physics.motor.CrankDrive);
+           (ballmill.physics.drives.induction.CrankDrive);
     ball:  the formulation's coordinates (vector: n, omega);
     quadratures: W_motor = int T_motor w_motor dt (motor's mechanical work),
            W_diss = int P_diss dt (rolling resistance and drag), and for dq
@@ -42,11 +42,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from . import outputs as _out
-from .errors import ParameterError
-from .model import BallModel, BallState
-from .motor import RPM, CrankDrive, platform_state
-from .params import Ball
+from .. import outputs as _out
+from ..errors import ParameterError
+from ..model import BallModel, BallState
+from ..params import Ball
+from .induction import RPM, CrankDrive, platform_state
 
 
 @dataclass
