@@ -252,6 +252,10 @@ class BallInShell(Slave):
                       f"communication step is too long for how fast the platform motion changes; outputs "
                       f"between communication points carry errors of that size (warned once)")
         if problem:
+            if not self._inconsistency_warned:
+                self._inconsistency_warned = True
+                self.warn(f"{self.who}: at t = {t:.9g} s {problem}; flagged (valid = false) and the "
+                          f"reconstruction restarts at this sample (warned once)")
             self.invalidate(t, problem)
         dropped = self._inputs.dropped
         if dropped and not self._resolution_warned:
@@ -273,6 +277,7 @@ class BallInShell(Slave):
     _t_prev = None
     _coupling_warned = False
     _resolution_warned = False
+    _inconsistency_warned = False
     _fields = None
 
     def _corrected_history(self, t_now, accel):
@@ -347,7 +352,7 @@ class BallInShell(Slave):
         return {"state": self._state.to_dict(), "inputs": self._inputs.get_state(),
                 "t_prev": self._t_prev, "confirmed": list(self._confirmed),
                 "history": [st.to_dict() for st in self._history], "warned": self._coupling_warned,
-                "resolution_warned": self._resolution_warned}
+                "resolution_warned": self._resolution_warned, "inconsistency_warned": self._inconsistency_warned}
 
     def restore_internal_state(self, s):
         ndim = self._model.form.ndim
@@ -367,6 +372,7 @@ class BallInShell(Slave):
         self._confirmed = tuple(confirmed)
         self._coupling_warned = bool(s["warned"])
         self._resolution_warned = bool(s.get("resolution_warned", False))
+        self._inconsistency_warned = bool(s.get("inconsistency_warned", False))
 
     def _checked_state(self, d, ndim):
         """A BallState from saved data, or ValueError saying what does not fit this model."""

@@ -38,7 +38,9 @@ The step-size policy of the fit (docs/conformance.md, "reconstruction"):
 * consistency (mode "derivatives"): each new sample k is checked against the
   previous one with the Euler-Maclaurin residual
   r = x_k - x_{k-1} - H (v_{k-1} + v_k)/2 + H^2 (a_k - a_{k-1})/12 per axis
-  (H = t_k - t_{k-1}); |r| > a_tol H^2 / 6 + 8 ulp(X) is an inconsistency:
+  (H = t_k - t_{k-1}); |r| > (a_tol + 0.01 |a|) H^2 / 6 + 8 ulp(X)
+  is an inconsistency (|a|: the largest magnitude of (ax, ay) of the two samples;
+  6 r / H^2 is the acceleration error the quintic would take from it):
   `push` returns its description and the history restarts at sample k.
 
 Until enough samples exist the fit uses what it has (lower degree).
@@ -54,6 +56,7 @@ from .errors import InputError
 MODES = ("derivatives", "positions", "hold", "accelerations")
 
 DEFAULT_POINTS = {"derivatives": 2, "positions": 6, "hold": 1, "accelerations": 2}
+A_REL = 0.01  # consistency: relative part of the accepted acceleration error
 A_RES = 1e-6  # m/s2: acceleration error input round-off may cause before the fit changes its data
 ULP = 2.0 ** -52  # relative spacing of doubles
 GAIN_POSITIONS = 187.0  # max over the coming step of sum |l_i''| of the 6-node quintic (unit spacing)
@@ -126,10 +129,12 @@ class InputReconstruction:
         """None if x, v and a of samples p and q agree (see the module docstring), else
         what disagrees, with the values and the threshold."""
         H = q[0] - p[0]
+        a_mag = max(math.hypot(p[5], p[6]), math.hypot(q[5], q[6]))
         worst = None
         for axis, (i, j, k) in (("x", (1, 3, 5)), ("y", (2, 4, 6))):
             r = q[i] - p[i] - 0.5 * H * (p[j] + q[j]) + H * H * (q[k] - p[k]) / 12.0
-            limit = self.a_tol * H * H / 6.0 + 8.0 * ulp(max(abs(p[i]), abs(q[i])))
+            a_scale = self.a_tol + A_REL * a_mag
+            limit = a_scale * H * H / 6.0 + 8.0 * ulp(max(abs(p[i]), abs(q[i])))
             if abs(r) > limit and (worst is None or abs(r) / limit > worst[0]):
                 worst = (abs(r) / limit, axis, r, limit, i, j, k)
         if worst is None:
@@ -139,7 +144,7 @@ class InputReconstruction:
                 f"({axis}1O = {p[i]!r} m, v{axis}1O = {p[j]!r} m/s, a{axis}1O = {p[k]!r} m/s2) and "
                 f"t = {q[0]!r} s ({axis}1O = {q[i]!r} m, v{axis}1O = {q[j]!r} m/s, a{axis}1O = {q[k]!r} m/s2): "
                 f"position residual {r:.3g} m, accepted |r| <= {limit:.3g} m "
-                f"(input_tol = {self.a_tol:g} m/s2 of acceleration)")
+                f"(input_tol = {self.a_tol:g} m/s2 + {A_REL:g} |a| of acceleration)")
 
     def get_state(self):
         return {"mode": self.mode, "points": self.points, "samples": [list(s) for s in self.samples]}
