@@ -271,7 +271,7 @@ class Slave(Fmi2Slave):
             self.build()
             self.start()
         except (ValueError, ArithmeticError) as e:
-            raise Refused(f"{self.who}: initialisation refused: {self.rename(str(e))}") from None
+            raise Refused(f"{self.who}: initialisation failed: {self.rename(str(e))}") from None
 
     def setup_experiment(self, start_time, stop_time, tolerance):
         if self._phase != "instantiated":
