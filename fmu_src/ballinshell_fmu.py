@@ -254,8 +254,7 @@ class BallInShell(Slave):
         if problem:
             if not self._inconsistency_warned:
                 self._inconsistency_warned = True
-                self.warn(f"{self.who}: at t = {t:.9g} s {problem}; flagged (valid = false) and the "
-                          f"reconstruction restarts at this sample (warned once)")
+                self.warn(f"{self.who}: at t = {t:.9g} s {problem}; flagged: valid = false (warned once)")
             self.invalidate(t, problem)
         dropped = self._inputs.dropped
         if dropped and not self._resolution_warned:

@@ -41,7 +41,9 @@ The step-size policy of the fit (docs/conformance.md, "reconstruction"):
   (H = t_k - t_{k-1}); |r| > (a_tol + 0.01 |a|) H^2 / 6 + 8 ulp(X)
   is an inconsistency (|a|: the largest magnitude of (ax, ay) of the two samples;
   6 r / H^2 is the acceleration error the quintic would take from it):
-  `push` returns its description and the history restarts at sample k.
+  `push` returns its description; when 6 |r| / H^2 > a_tol + |a| (a jump: the
+  error would exceed the acceleration itself) the history also restarts at
+  sample k, so the jump never enters a fit.
 
 Until enough samples exist the fit uses what it has (lower degree).
 """
@@ -121,7 +123,8 @@ class InputReconstruction:
         if self.mode == "derivatives" and prev is not None and len(self.samples) > 1:
             problem = self.inconsistency(prev, self.samples[-1])
             if problem:
-                self.samples[:] = [self.samples[-1]]
+                if self._jump:  # the implied acceleration error exceeds the acceleration itself
+                    self.samples[:] = [self.samples[-1]]
                 return problem
         return None
 
@@ -137,14 +140,17 @@ class InputReconstruction:
             limit = a_scale * H * H / 6.0 + 8.0 * ulp(max(abs(p[i]), abs(q[i])))
             if abs(r) > limit and (worst is None or abs(r) / limit > worst[0]):
                 worst = (abs(r) / limit, axis, r, limit, i, j, k)
+        self._jump = False
         if worst is None:
             return None
         _, axis, r, limit, i, j, k = worst
+        self._jump = 6.0 * abs(r) / (H * H) > self.a_tol + a_mag
+        restart = "; the reconstruction restarts at the newer sample" if self._jump else ""
         return (f"inputs {axis}1O, v{axis}1O, a{axis}1O disagree between t = {p[0]!r} s "
                 f"({axis}1O = {p[i]!r} m, v{axis}1O = {p[j]!r} m/s, a{axis}1O = {p[k]!r} m/s2) and "
                 f"t = {q[0]!r} s ({axis}1O = {q[i]!r} m, v{axis}1O = {q[j]!r} m/s, a{axis}1O = {q[k]!r} m/s2): "
                 f"position residual {r:.3g} m, accepted |r| <= {limit:.3g} m "
-                f"(input_tol = {self.a_tol:g} m/s2 + {A_REL:g} |a| of acceleration)")
+                f"(input_tol = {self.a_tol:g} m/s2 + {A_REL:g} |a| of acceleration){restart}")
 
     def get_state(self):
         return {"mode": self.mode, "points": self.points, "samples": [list(s) for s in self.samples]}

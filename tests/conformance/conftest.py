@@ -20,6 +20,9 @@ from pathlib import Path
 from typing import Callable
 
 import pytest
+# the host's pythonfmu (with its binaries) before any FMU puts its resources folder, which
+# bundles pythonfmu's runtime without binaries, on sys.path: later builds need the former
+import pythonfmu.builder  # noqa: F401
 
 ROOT = Path(__file__).resolve().parents[2]
 OK, WARNING, DISCARD, ERROR, FATAL = 0, 1, 2, 3, 4
