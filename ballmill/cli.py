@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -109,5 +110,20 @@ def main(argv=None) -> int:
     return {"build": _build, "run": _run, "export-ssp": _export_ssp}[args.command](args)
 
 
+def entry() -> None:
+    """The console script: `main`, then leave the process without running C-level exit
+    handlers. pythonfmu 0.7.0's FMU libraries (InductionMotor.so, ...) corrupt the heap
+    at process exit in a few % of runs: the library's destructor function
+    (finalizePythonInterpreter, run by _dl_fini) assigns to a static std::shared_ptr
+    that the C++ static destructors (run earlier by exit()) have already destroyed,
+    reading its freed control block ("corrupted double-linked list";
+    docs/OTHER_TOOLS.md). Every FMU instance has been freed by then, files are
+    closed; os._exit skips exactly those handlers."""
+    code = main()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code or 0)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    entry()
