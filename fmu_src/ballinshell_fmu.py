@@ -146,9 +146,10 @@ class BallInShell(Slave):
           "material the chamber carries", "N.s/m", vmin=0.0)
         p("P_diss", "output", 0.0, "Power dissipated by rolling resistance and drag (0 without them)",
           "W", depends=INPUTS)
-        p("coupling_error", "output", 0.0, "Estimated error of the communication step: distance "
-          "between the contact point predicted at the last communication point and the one the "
-          "corrector computed there with the true inputs (0 without the corrector)", "m", vmin=0.0,
+        p("coupling_error", "output", 0.0, "Estimated error of the contact point from the input "
+          "reconstruction: the last step's predicted vs corrected contact point, combined in "
+          "quadrature with the drift accumulated from the changes of the fitted acceleration that the "
+          "corrector cannot repair (input noise); 0 without the corrector", "m", vmin=0.0,
           depends=INPUTS)
         p("coupling_warn", "parameter", 1e-4, "coupling_error above which a warning is logged (once): "
           "the communication step is too long for how fast the inputs change (tunable)", "m", vmin=0.0,
@@ -199,6 +200,7 @@ class BallInShell(Slave):
         self.valid, self.t_invalid = True, 1e300
         self._confirmed = (True, True)
         self._t_prev = None
+        self._noise_sum, self._a_mid = 0.0, None
         out = self._outputs_at(self._state, self._time)
         try:
             self._publish(out)
@@ -237,10 +239,32 @@ class BallInShell(Slave):
             return self.discard(f"{self.who}: step from t = {t:.9g} s refused, last good state kept: "
                                 f"{self.rename(str(e))}")
         coupling_error = self.coupling_error
+        noise_sum = self._noise_sum
         if self._correct and history[-1] is not self._state:
             # a-posteriori estimate of the step's error: predicted vs corrected state at t_k
             (px, py, pz), (qx, qy, qz) = self._model.nw(self._state)[0], self._model.nw(history[-1])[0]
-            coupling_error = self.R * math.sqrt((px - qx) ** 2 + (py - qy) ** 2 + (pz - qz) ** 2)
+            step_error = self.R * math.sqrt((px - qx) ** 2 + (py - qy) ** 2 + (pz - qz) ** 2)
+            # what the corrector cannot repair: the fit itself moves when a new sample arrives
+            # (input noise). Each step's change of the fitted acceleration, da (the previous and
+            # this fit mid-way through the previous interval), kicks the ball's swing by
+            # (5/7) da H / (R - r); uncorrelated
+            # kicks add in quadrature and the swing's amplitude is the kick / omega0, so the
+            # contact point's accumulated error is R (5/7) sqrt(sum (da H)^2) / ((R - r) omega0)
+            # (modes 2 and 4, the measured-motion paths; in mode 1 a noisy input is flagged by the
+            # consistency check instead). Only once the fits' degree is settled.
+            measured = self._inputs.mode in ("positions", "accelerations")
+            full = len(self._inputs.nodes()) == self._inputs.points
+            if measured and full and self._a_mid is not None and self._t_prev is not None:
+                tm, ox, oy = self._a_mid
+                nx, ny = accel(tm)
+                noise_sum += ((ox - nx) ** 2 + (oy - ny) ** 2) * (t - self._t_prev) ** 2
+            ball = self._model.ball
+            drift = self.R * (5.0 / 7.0) * math.sqrt(noise_sum) / (ball.d * ball.omega_small)
+            coupling_error = math.sqrt(step_error * step_error + drift * drift)
+        self._noise_sum = noise_sum
+        if self._t_prev is not None:  # this fit's a mid-way through the interval it has just closed
+            tm = 0.5 * (self._t_prev + t)
+            self._a_mid = (tm,) + tuple(accel(tm))
         self._history = history
         self._state = predicted
         self._set_outputs(values, out)
@@ -277,6 +301,8 @@ class BallInShell(Slave):
     _coupling_warned = False
     _resolution_warned = False
     _inconsistency_warned = False
+    _noise_sum = 0.0
+    _a_mid = None
     _fields = None
 
     def _corrected_history(self, t_now, accel):
@@ -351,7 +377,8 @@ class BallInShell(Slave):
         return {"state": self._state.to_dict(), "inputs": self._inputs.get_state(),
                 "t_prev": self._t_prev, "confirmed": list(self._confirmed),
                 "history": [st.to_dict() for st in self._history], "warned": self._coupling_warned,
-                "resolution_warned": self._resolution_warned, "inconsistency_warned": self._inconsistency_warned}
+                "resolution_warned": self._resolution_warned, "inconsistency_warned": self._inconsistency_warned,
+                "noise_sum": self._noise_sum, "a_mid": None if self._a_mid is None else list(self._a_mid)}
 
     def restore_internal_state(self, s):
         ndim = self._model.form.ndim
@@ -372,6 +399,15 @@ class BallInShell(Slave):
         self._coupling_warned = bool(s["warned"])
         self._resolution_warned = bool(s.get("resolution_warned", False))
         self._inconsistency_warned = bool(s.get("inconsistency_warned", False))
+        noise_sum = s.get("noise_sum", 0.0)
+        if not (isinstance(noise_sum, (int, float)) and math.isfinite(noise_sum) and noise_sum >= 0.0):
+            raise ValueError(f"noise_sum = {noise_sum!r}: expected a finite number >= 0")
+        a_mid = s.get("a_mid")
+        if a_mid is not None and not (isinstance(a_mid, list) and len(a_mid) == 3
+                                      and all(isinstance(v, (int, float)) and math.isfinite(v) for v in a_mid)):
+            raise ValueError(f"a_mid = {a_mid!r}: expected null or three finite numbers")
+        self._noise_sum = float(noise_sum)
+        self._a_mid = None if a_mid is None else tuple(float(v) for v in a_mid)
 
     def _checked_state(self, d, ndim):
         """A BallState from saved data, or ValueError saying what does not fit this model."""

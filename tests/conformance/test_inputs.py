@@ -81,34 +81,19 @@ def test_velocity_inconsistent_with_positions_is_flagged(open_fmu):
     assert not fmu.get("valid")
 
 
-@pytest.mark.parametrize("sigma", [0.0, 1e-3, 1e-2])
-def test_measured_accelerations_with_noise_stay_within_the_noise_bound(open_fmu, base, sigma):
-    """input_mode = 4 integrates measured accelerations: white noise of sigma m/s2 on a
-    moves the ball by at most about sigma T^2 (T: the run's length), never amplified."""
+def _contact_error(out, base):
+    return math.sqrt(sum((out[c] - base[c]) ** 2 for c in ("xP", "yP", "zP")))
+
+
+@pytest.mark.parametrize("sigma", [0.0, 1e-2, 1e-1])
+def test_measured_accelerations_with_noise_stay_bounded_and_are_reported(open_fmu, base, sigma):
+    """input_mode = 4 integrates measured accelerations: white noise of sigma m/s2 moves the
+    contact point by about sigma H sqrt(n) / omega0 (a random walk of the swing), never
+    amplified by a derivative; coupling_error reports an error of that size (docs/coupling.md:
+    about twice the measured one)."""
     rnd = random.Random(7)
     fmu = open_fmu("BallInShell", input_mode=4)
     noise = lambda t: {"ax1O": rnd.gauss(0.0, sigma), "ay1O": rnd.gauss(0.0, sigma)}  # noqa: E731
-    feed(fmu, 0.0, noise=noise)
-    assert fmu.init() == OK
-    t = 0.0
-    for _ in range(100):
-        assert fmu.step(H, t) == OK
-        t += H
-        feed(fmu, t, noise=noise)
-    T = 100 * H
-    assert abs(fmu.get("xC") - base["xC"]) < 1e-6 + 2 * sigma * T * T  # 1e-6: a(t) linear between samples
-    assert fmu.get("valid")
-    # the corrector's estimate sees the noise: it grows with sigma
-    if sigma:
-        assert fmu.get("coupling_error") > 0.0
-
-
-def test_positions_only_with_noise_report_their_error(open_fmu, base):
-    """input_mode = 2 differentiates positions twice: 1 um of noise gives m/s2 of acceleration
-    error. coupling_error must show an error of the size the noise causes."""
-    rnd = random.Random(3)
-    fmu = open_fmu("BallInShell", input_mode=2)
-    noise = lambda t: {"x1O": rnd.gauss(0.0, 1e-6), "y1O": rnd.gauss(0.0, 1e-6)}  # noqa: E731
     feed(fmu, 0.0, noise=noise)
     assert fmu.init() == OK
     t = 0.0
@@ -118,5 +103,32 @@ def test_positions_only_with_noise_report_their_error(open_fmu, base):
         t += H
         feed(fmu, t, noise=noise)
         worst = max(worst, fmu.get("coupling_error"))
-    err = abs(fmu.get("xC") - base["xC"])
-    assert worst > 0.1 * err
+    err = _contact_error(fmu.outputs(), base)
+    # bound: 1e-6 m without noise (a(t) linear between samples), plus 5 sigma H sqrt(n) / omega0 (R/d)
+    assert err < 1e-6 + 5 * sigma * H * 10.0 / 5.58 * 0.25 / 0.225
+    assert fmu.get("valid")
+    if sigma:
+        assert worst >= 0.5 * err  # not an under-estimate
+        assert worst < 50 * err + 1e-5  # the end error against the run's largest estimate
+
+
+@pytest.mark.parametrize("sigma", [1e-7, 1e-6])
+def test_positions_only_with_noise_report_at_least_their_error(open_fmu, base, sigma):
+    """input_mode = 2 differentiates positions twice: 1 um of noise gives m/s2 of acceleration
+    error. coupling_error must not under-report what the noise does (it is an upper bound
+    here, about 30 times the measured error: docs/coupling.md)."""
+    rnd = random.Random(3)
+    fmu = open_fmu("BallInShell", input_mode=2)
+    noise = lambda t: {"x1O": rnd.gauss(0.0, sigma), "y1O": rnd.gauss(0.0, sigma)}  # noqa: E731
+    feed(fmu, 0.0, noise=noise)
+    assert fmu.init() == OK
+    t = 0.0
+    worst = err = 0.0
+    for _ in range(100):
+        assert fmu.step(H, t) == OK
+        t += H
+        feed(fmu, t, noise=noise)
+        worst = max(worst, fmu.get("coupling_error"))
+    err = _contact_error(fmu.outputs(), base)
+    assert err > 10 * sigma  # the noise really shows (amplified)
+    assert worst >= err
