@@ -215,11 +215,13 @@ accelerations (input_mode 4)** take ax1O, ay1O (an accelerometer) and
 integrate: a(t) is the line between the samples (extrapolated over the step,
 interpolated by the corrector), so noise sigma_a enters the ball's dynamics
 once, never amplified; x1O, y1O serve only as the moment arm of M_reaction.
-The table's "max coupling_error" is what the FMU reports during the run
-(predicted against corrected contact point at each communication point):
-with noise it grows with the noise, as it should, and stays within an order
-of magnitude of the real error; with mode 2 it is the warning sign that the
-inputs are too noisy to differentiate.
+The table's "max coupling_error" is what the FMU reports during the run (the
+last step's predicted against corrected contact point, plus the drift the
+changes of the fitted acceleration leave, docs/conformance.md): it grows with
+the noise and never under-reports it. With measured accelerations it is
+about twice the largest measured error; with positions only it is a loose
+upper bound (about 50 times), the warning sign that the inputs are too noisy
+to differentiate: there 1 um of noise already costs 43 N of normal force.
 """
 
 
