@@ -38,8 +38,8 @@ import math
 
 import numpy as np
 
-from ballmill.fmi.slave import BIG, Slave
-from ballmill.physics import Ball, BallModel, BallState, InputReconstruction, ParameterError
+from ballmill.fmi.slave import NEVER, Slave
+from ballmill.physics import Ball, BallModel, BallState, InputReconstruction
 
 FORMULATIONS = {1: "vector", 2: "paper"}
 METHODS = {1: "DOP853", 2: "RK45", 3: "RK4"}
@@ -197,7 +197,7 @@ class BallInShell(Slave):
         # corrected states at the times of the samples in the reconstruction window
         self._history = [self._state]
         self._coupling_warned, self.coupling_error = False, 0.0
-        self.valid, self.t_invalid = True, 1e300
+        self.valid, self.t_invalid = True, NEVER
         self._confirmed = (True, True)
         self._t_prev = None
         self._noise_sum, self._a_mid = 0.0, None

@@ -9,7 +9,7 @@ import random
 import pytest
 
 from .conftest import OK
-from .inputs import INPUTS, crank, feed, run_ball
+from .inputs import feed, run_ball
 
 H = 2e-3
 
