@@ -69,6 +69,31 @@ def test_irregular_step_sequences_agree_with_uniform(open_fmu, uniform, pattern)
     assert abs(fmu.get("xC") - xC) < 1e-6
 
 
+def test_long_and_short_steps_mixed_agree_with_uniform(open_fmu, uniform):
+    """Steps of 20 ms (the contact point's published error there is 1e-6 m, N's 2e-3 N:
+    docs/coupling.md) then 2 ms steps."""
+    fmu, st = run_ball(open_fmu, [0.02] * 5 + [H] * (N_STEPS - 50), input_mode=1)
+    assert st == OK, fmu.messages()
+    N, xC, t = uniform[1]
+    assert fmu.time == pytest.approx(t, abs=1e-12)
+    assert abs(fmu.get("N") - N) < 5e-3
+    assert abs(fmu.get("xC") - xC) < 1e-5
+
+
+@pytest.mark.parametrize("h", [1e-5, 1e-7])
+def test_many_tiny_steps_agree_with_one_step(open_fmu, h):
+    """Uniform steps too short for the positions' resolution (6 ulp(x) / h^2 > 1e-6 m/s2): the
+    fit takes velocities and accelerations; the result agrees with one 2 ms step."""
+    n = int(round(2e-4 / h))
+    fine, st = run_ball(open_fmu, [h] * n)
+    assert st == OK, fine.messages()
+    coarse, st = run_ball(open_fmu, [2e-4])
+    assert st == OK
+    assert abs(fine.get("xC") - coarse.get("xC")) < 1e-12
+    assert abs(fine.get("N") - coarse.get("N")) < 1e-6
+    assert "the reconstruction uses the velocity and acceleration inputs" in fine.messages()
+
+
 def _started(open_fmu, model):
     if model == "BallInShell":
         fmu, st = run_ball(open_fmu, [H] * 5)
