@@ -59,7 +59,7 @@ def _native_paths() -> dict:
 def flavours() -> list[Flavour]:
     return [
         Flavour("pythonfmu", _pythonfmu_paths, refusal=FATAL, step_refusal=DISCARD, usable_after_refusal=False),
-        # Flavour("native", _native_paths, refusal=ERROR, step_refusal=ERROR, usable_after_refusal=True),
+        Flavour("native", _native_paths, refusal=ERROR, step_refusal=ERROR, usable_after_refusal=True),
     ]
 
 
