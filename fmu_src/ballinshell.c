@@ -209,26 +209,40 @@ static int recon_nodes(const ball_in_shell *b, int idx[MAX_POINTS])
 }
 
 /* the inverse of M (n <= 6), correctly rounded to doubles as the Python path computes it
- * exactly in rationals: Gauss-Jordan with partial pivoting in extended precision (long
- * double: 64-bit mantissas on x86-64), rounded at the end. 0 when M is singular. */
+ * exactly in rationals: Gauss-Jordan with partial pivoting in quadruple precision
+ * (__float128: 113-bit mantissas; its errors, ~1e-34 times the matrix's condition number,
+ * stay far below half an ulp of a double even for the 6-node quintic on unequal steps,
+ * where long double's 64 bits were not enough), rounded at the end. Compilers without
+ * __float128 use long double. 0 when M is singular. */
+#if defined(__SIZEOF_FLOAT128__)
+typedef __float128 wide;
+#else
+typedef long double wide;
+#endif
+
+static wide wide_abs(wide x)
+{
+    return x < 0 ? -x : x;
+}
+
 static int invert(int n, const double M[6][6], double inv[6][6])
 {
-    long double A[6][12];
+    wide A[6][12];
     for (int i = 0; i < n; i++)
-        for (int j = 0; j < 2 * n; j++) A[i][j] = j < n ? (long double)M[i][j] : (long double)(j - n == i);
+        for (int j = 0; j < 2 * n; j++) A[i][j] = j < n ? (wide)M[i][j] : (wide)(j - n == i);
     for (int col = 0; col < n; col++) {
         int piv = col;
         for (int i = col + 1; i < n; i++)
-            if (fabsl(A[i][col]) > fabsl(A[piv][col])) piv = i;
-        if (A[piv][col] == 0.0L) return 0;
+            if (wide_abs(A[i][col]) > wide_abs(A[piv][col])) piv = i;
+        if (A[piv][col] == 0) return 0;
         for (int j = 0; j < 2 * n; j++) {
-            long double tmp = A[col][j]; A[col][j] = A[piv][j]; A[piv][j] = tmp;
+            wide tmp = A[col][j]; A[col][j] = A[piv][j]; A[piv][j] = tmp;
         }
-        long double p = A[col][col];
+        wide p = A[col][col];
         for (int j = 0; j < 2 * n; j++) A[col][j] /= p;
         for (int i = 0; i < n; i++) {
-            long double f = A[i][col];
-            if (i == col || f == 0.0L) continue;
+            wide f = A[i][col];
+            if (i == col || f == 0) continue;
             for (int j = 0; j < 2 * n; j++) A[i][j] -= f * A[col][j];
         }
     }
