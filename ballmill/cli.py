@@ -3,6 +3,9 @@
     ballmill build [--force]                 build and validate every FMU, both flavours: native
                                              (C) in build/, pythonfmu in build/pythonfmu/
     ballmill run SCENARIO [--out DIR] [--set inst.param=value ...] [--flavour pythonfmu]
+                                             exit status: 0 ran and stayed valid, 1 an FMU stopped
+                                             the run, 2 bad scenario, 3 ran but the ball model's
+                                             validity ended (statistics over the valid span only)
     ballmill bench [...]                      speed/accuracy map -> BENCHMARKS.md
     ballmill export-ssp SCENARIO OUT.ssp [--set inst.param=value ...]
                                              the scenario as an SSP package for other FMI tools
@@ -16,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -45,12 +49,19 @@ def _run(args) -> int:
     print(f"running {sc.name}: {sc.description}", file=sys.stderr)
     res = runner.run(sc, models, paths, progress=not args.quiet)
     summary = report.write_all(res, models, out)
-    brief = {k: summary.get(k) for k in ("success", "message", "wall_time_s", "N", "ring", "zP_max_m",
-                                         "M_reaction_peak_abs_Nm", "validity") if k in summary}
+    brief = {k: summary.get(k) for k in ("success", "message", "wall_time_s", "statistics_over", "N", "ring",
+                                         "zP_max_m", "M_reaction_peak_abs_Nm", "validity", "t_invalid_s")
+             if k in summary}
     print(json.dumps(brief, indent=2))
     print(f"results: {out / 'results.csv'}, {out / 'summary.json'}, plots: "
           f"{', '.join(str(out / p) for p in summary.get('plots', []))}", file=sys.stderr)
-    return 0 if res.success else 1
+    if not res.success:
+        return 1
+    if summary.get("left_validity"):
+        print(f"ballmill run: the model's validity ended at t = {summary['t_invalid_s']:.6g} s; the "
+              f"statistics cover the valid span only (exit status 3)", file=sys.stderr)
+        return 3
+    return 0
 
 
 def _export_ssp(args) -> int:
@@ -207,5 +218,20 @@ def main(argv=None) -> int:
             "steady": _steady}[args.command](args)
 
 
+def entry() -> None:
+    """The console script: `main`, then leave the process without running C-level exit
+    handlers. pythonfmu 0.7.0's FMU libraries (InductionMotor.so, ...) corrupt the heap
+    at process exit in a few % of runs: the library's destructor function
+    (finalizePythonInterpreter, run by _dl_fini) assigns to a static std::shared_ptr
+    that the C++ static destructors (run earlier by exit()) have already destroyed,
+    reading its freed control block ("corrupted double-linked list";
+    docs/OTHER_TOOLS.md). Every FMU instance has been freed by then, files are
+    closed; os._exit skips exactly those handlers."""
+    code = main()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code or 0)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    entry()

@@ -28,6 +28,7 @@
 #include "_kernel.c"
 
 #define NZ_MAX 7 /* psi, psi', four fluxes (dq), W_motor */
+#define MAX_INTERNAL_STEPS 20000 /* work bound: internal DOP853 steps of one doStep */
 #define RPM (2.0 * M_PI / 60.0)
 
 typedef struct {
@@ -43,7 +44,7 @@ typedef struct {
     double z[NZ_MAX];
     double h; /* next DOP853 step; NAN: choose one */
     int n_samples;
-    double st[2], sm[2]; /* the last communication points' times and M_reaction */
+    double st[4], sm[4]; /* the last communication points' times and M_reaction, oldest first */
 } induction_motor;
 
 typedef struct {
@@ -135,12 +136,12 @@ static void drive_rhs(const bm_problem *P, const void *ctx, double t, const doub
     dz[6] = T * w_m;
 }
 
-/* the load M_reaction(t) over the coming step from the samples (FMU._load) */
-static load_ctx make_load(const induction_motor *m)
+/* the load M_reaction(t) over the coming step from the samples (FMU._load): the newest
+ * sample (tk, mk) and, when has_prev, the one the slope comes from */
+static load_ctx make_load(const induction_motor *m, int has_prev, double tp, double mp, double tk, double mk)
 {
-    load_ctx L = {m, m->st[m->n_samples - 1], m->sm[m->n_samples - 1], 0.0};
-    if (m->linear_load && m->n_samples > 1 && m->st[1] > m->st[0])
-        L.slope = (m->sm[1] - m->sm[0]) / (m->st[1] - m->st[0]);
+    load_ctx L = {m, tk, mk, 0.0};
+    if (m->linear_load && has_prev && tk > tp) L.slope = (mk - mp) / (tk - tp);
     return L;
 }
 
@@ -410,7 +411,7 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
     memcpy(P->C, tab->C, sizeof P->C);
     memcpy(P->E, tab->E, sizeof P->E);
     memcpy(P->E3, tab->E3, sizeof P->E3);
-    P->tol = tol; P->h_fixed = 1e-3; P->h_max = INFINITY; P->max_steps = 1000000;
+    P->tol = tol; P->h_fixed = 1e-3; P->h_max = INFINITY; P->max_steps = MAX_INTERNAL_STEPS;
     double w_scale = m->w_sync / m->i, flux = m->v_peak / (2.0 * M_PI * fn);
     P->scale[0] = 1.0;
     P->scale[1] = w_scale;
@@ -427,7 +428,7 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
     m->n_samples = 1;
     m->st[0] = t;
     m->sm[0] = v[VR_M_reaction];
-    load_ctx L = make_load(m);
+    load_ctx L = make_load(m, 0, NAN, NAN, t, v[VR_M_reaction]);
     publish(m, &L, t, v);
     return fmi2OK;
 }
@@ -462,35 +463,54 @@ static double initial_step(const bm_problem *P, const load_ctx *L, double t, con
     return bm_pymin(bm_pymin(100 * h0, h1), P->h_max);
 }
 
-static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double h)
+static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double t_end)
 {
     induction_motor *m = data;
     char a[32], b[32];
-    double m_r = v[VR_M_reaction], t_end = t + h;
+    double m_r = v[VR_M_reaction];
     if (!isfinite(m_r)) {
         fmu_log(fi, fmi2Discard, "InductionMotor '%s': input M_reaction must be finite, got %s at t = %.9g s; step "
                 "refused, last good state kept", fmu_instance_name(fi), fmu_repr(m_r, a), t);
         return fmi2Discard;
     }
-    /* the samples: the last one before t, and (t, M_reaction) */
-    double st0 = NAN, sm0 = NAN;
-    int have = 0;
+    /* the slope of M_reaction from the latest sample at least half a step back (a very
+     * short previous step would otherwise amplify the input's noise into the slope), else
+     * from the latest one before t */
+    double back = t - 0.5 * (t_end - t), tp = NAN, mp = NAN;
+    int has_prev = 0;
+    for (int k = 0; k < m->n_samples; k++)
+        if (m->st[k] <= back) {
+            tp = m->st[k];
+            mp = m->sm[k];
+            has_prev = 1;
+        }
+    for (int k = 0; !has_prev && k < m->n_samples; k++)
+        if (m->st[k] < t) { /* the latest before t: keep scanning */
+            tp = m->st[k];
+            mp = m->sm[k];
+        }
+    if (!has_prev && tp == tp) has_prev = 1;
+    load_ctx L = make_load(m, has_prev, tp, mp, t, m_r);
+    /* keep the last three samples before t and (t, M_reaction) */
+    double kt[4], km[4];
+    int nk = 0;
     for (int k = 0; k < m->n_samples; k++)
         if (m->st[k] < t) {
-            st0 = m->st[k];
-            sm0 = m->sm[k];
-            have = 1;
+            if (nk == 3) {
+                memmove(kt, kt + 1, 2 * sizeof(double));
+                memmove(km, km + 1, 2 * sizeof(double));
+                nk = 2;
+            }
+            kt[nk] = m->st[k];
+            km[nk] = m->sm[k];
+            nk++;
         }
-    m->n_samples = 0;
-    if (have) {
-        m->st[0] = st0;
-        m->sm[0] = sm0;
-        m->n_samples = 1;
-    }
-    m->st[m->n_samples] = t;
-    m->sm[m->n_samples] = m_r;
-    m->n_samples++;
-    load_ctx L = make_load(m);
+    kt[nk] = t;
+    km[nk] = m_r;
+    nk++;
+    memcpy(m->st, kt, (size_t)nk * sizeof(double));
+    memcpy(m->sm, km, (size_t)nk * sizeof(double));
+    m->n_samples = nk;
     double hh = m->h;
     if (!(hh > 0.0 && isfinite(hh))) {
         double f0[BM_NYMAX];
@@ -505,7 +525,7 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
     return fmi2OK;
 failed:
     fmu_log(fi, fmi2Discard, "InductionMotor '%s': step from t = %.9g s refused, last good state kept: DOP853 could not "
-            "reach t = %s s (non-finite values, step size underflow or more than 1000000 internal steps)",
+            "reach t = %s s (non-finite values, step size underflow or more than 20000 internal steps)",
             fmu_instance_name(fi), t, fmu_repr(t_end, b));
     return fmi2Discard;
 }
@@ -515,7 +535,7 @@ static fmi2Status check(fmu_instance *fi, const void *data, const double *v)
 {
     const induction_motor *m = data;
     (void)v;
-    int ok = m->n_samples >= 1 && m->n_samples <= 2 && bm_all_finite(m->z, m->nz);
+    int ok = m->n_samples >= 1 && m->n_samples <= 4 && bm_all_finite(m->z, m->nz);
     for (int k = 0; ok && k < m->n_samples; k++) ok = isfinite(m->st[k]) && isfinite(m->sm[k]);
     if (ok) return fmi2OK;
     fmu_log(fi, fmi2Error, "InductionMotor '%s': FMU state refused: its drive state or load samples are not valid",

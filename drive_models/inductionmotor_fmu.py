@@ -37,7 +37,6 @@ if not os.path.exists(getattr(sys.modules.get("ballmill"), "__file__", None) or 
         del sys.modules[_name]
 
 import math
-import re
 
 import numpy as np
 
@@ -60,8 +59,13 @@ NAMES = {"rated_power": "P_rated", "rated_speed": "n_rated", "rated_voltage": "U
 KINEMATICS = CRANK_KINEMATICS
 
 
+MAX_INTERNAL_STEPS = 20000  # work bound: internal DOP853 steps of one doStep
+
+
 class InductionMotor(Slave):
     """Induction motor (Kloss or dq) + starter + gear + crank + platform, loaded by M_reaction."""
+
+    NAMES = NAMES
 
     description = INDUCTION_MOTOR.description
 
@@ -70,42 +74,39 @@ class InductionMotor(Slave):
         self.declare(INDUCTION_MOTOR)
         self._drive = None
         self._integrator = None
-        self._t = 0.0
         self._z = None  # drive state + W_motor
         self._h = None
         self._samples = []  # last (t, M_reaction) at communication points
 
     # -- life cycle --------------------------------------------------------
-    def setup_experiment(self, start_time, stop_time, tolerance):
-        self._t = float(start_time)
+    def build(self):
+        motor = MotorData(
+            rated_power=self.P_rated, rated_speed=self.n_rated, rated_voltage=self.U_rated,
+            rated_frequency=self.f_rated, pole_pairs=self.pole_pairs, rated_current=self.I_rated,
+            power_factor=self.cos_phi, efficiency=self.eta, breakdown_ratio=self.Tb_ratio,
+            J_rotor=self.J_rotor, start=self.choice("start_mode", STARTS), ramp_time=self.ramp_time,
+            u_start=self.u_start, f_start=self.f_start, stator_copper_share=self.Rs_share)
+        self._drive = CrankDrive(motor=motor, i=self.i, J_crank=self.J_crank, m_platform=self.m_platform,
+                                 l=self.l, model=self.choice("model", MODELS))
+        self.choice("M_input", M_INPUTS)
+        w_scale = motor.synchronous_speed / self._drive.i
+        flux = motor.phase_voltage_peak / (2.0 * math.pi * motor.rated_frequency)
+        self._scale = [1.0, w_scale] + ([flux] * 4 if self._drive.model == "dq" else []) \
+            + [max(1.0, 0.5 * self._drive.J_total * w_scale ** 2)]
+        if not all(math.isfinite(v) for v in self._scale):
+            raise ParameterError(f"the drive's scales are not finite ({self._scale!r}): check P_rated, "
+                                 f"n_rated, U_rated, f_rated, i, J_crank, m_platform, l")
+        self._integrator = Integrator("DOP853", tol=self.tolerance, scale=self._scale,
+                                      max_steps=MAX_INTERNAL_STEPS)
 
-    def initialise(self):
-        try:
-            motor = MotorData(
-                rated_power=self.P_rated, rated_speed=self.n_rated, rated_voltage=self.U_rated,
-                rated_frequency=self.f_rated, pole_pairs=self.pole_pairs, rated_current=self.I_rated,
-                power_factor=self.cos_phi, efficiency=self.eta, breakdown_ratio=self.Tb_ratio,
-                J_rotor=self.J_rotor, start=self.choice("start_mode", STARTS), ramp_time=self.ramp_time,
-                u_start=self.u_start, f_start=self.f_start, stator_copper_share=self.Rs_share)
-            self._drive = CrankDrive(motor=motor, i=self.i, J_crank=self.J_crank, m_platform=self.m_platform,
-                                     l=self.l, model=self.choice("model", MODELS))
-            self.choice("M_input", M_INPUTS)
-            y0 = self._drive.initial_state()
-            self._z = np.concatenate([y0, [0.0]])
-            w_scale = motor.synchronous_speed / self._drive.i
-            flux = motor.phase_voltage_peak / (2.0 * math.pi * motor.rated_frequency)
-            scale = [1.0, w_scale] + ([flux] * 4 if self._drive.model == "dq" else []) \
-                + [max(1.0, 0.5 * self._drive.J_total * w_scale ** 2)]
-            self._integrator = Integrator("DOP853", tol=self.tolerance, scale=scale)
-            if not math.isfinite(self.M_reaction):
-                raise ParameterError(f"input M_reaction must be finite, got {self.M_reaction!r} N.m")
-        except (ValueError, ArithmeticError) as e:
-            msg = re.sub(r"\b(" + "|".join(NAMES) + r")\b", lambda mo: NAMES[mo.group(1)], str(e))
-            self.error(f"InductionMotor '{self.instance_name}': initialisation failed: {msg}")
-            raise
+    def start(self):
+        if not math.isfinite(self.M_reaction):
+            raise ParameterError(f"input M_reaction must be finite, got {self.M_reaction!r} N.m")
+        y0 = self._drive.initial_state()
+        self._z = np.concatenate([y0, [0.0]])
         self._h = None
-        self._samples = [(self._t, float(self.M_reaction))]
-        self._publish(self._t, self._z, self._load(self._samples))
+        self._samples = [(self._time, float(self.M_reaction))]
+        self._publish(self._time, self._z, self._load(self._samples))
 
     # -- the load over a step ------------------------------------------------
     def _load(self, samples):
@@ -137,26 +138,31 @@ class InductionMotor(Slave):
                 return (z[1], (i * T + load(t)) / J) + tuple(dq_rhs(t, x, w_m)) + (T * w_m,)
         return f
 
-    def do_step(self, current_time, step_size):
+    def step(self, t, t_end):
         m_r = self.M_reaction
         if not math.isfinite(m_r):
-            return self.discard(f"InductionMotor '{self.instance_name}': input M_reaction must be finite, "
-                                f"got {m_r!r} at t = {current_time:.9g} s; step refused, last good state "
-                                f"kept")
-        samples = [s for s in self._samples if s[0] < current_time][-1:] + [(current_time, float(m_r))]
+            return self.discard(f"{self.who}: input M_reaction must be finite, got {m_r!r} N.m at "
+                                f"t = {t:.9g} s; step refused, last good state kept")
+        # the slope of M_reaction from the last sample at least half a step back (a very short
+        # previous step would otherwise amplify the input's noise into the slope)
+        older = [s for s in self._samples if s[0] <= t - 0.5 * (t_end - t)] or \
+            [s for s in self._samples if s[0] < t]
+        samples = older[-1:] + [(t, float(m_r))]
         load = self._load(samples)
-        t_end = current_time + step_size
+        keep = [s for s in self._samples if s[0] < t][-3:] + [(t, float(m_r))]
         try:
-            z, h, _ = self._integrator.advance(self._rhs(load), current_time, self._z, t_end, self._h)
+            z, h, _ = self._integrator.advance(self._rhs(load), t, self._z, t_end, self._h)
+            outputs = self._outputs(t_end, z, load)
         except ArithmeticError as e:
-            return self.discard(f"InductionMotor '{self.instance_name}': step from t = {current_time:.9g} s "
-                                f"refused, last good state kept: {e}")
-        self._z, self._h, self._t, self._samples = z, h, t_end, samples
-        self._publish(t_end, z, load)
+            return self.discard(f"{self.who}: step from t = {t:.9g} s refused, last good state kept: {e}")
+        self._z, self._h, self._samples = z, h, keep
+        self._set(outputs)
         return True
 
     # -- outputs -------------------------------------------------------------
-    def _publish(self, t, z, load):
+    def _outputs(self, t, z, load):
+        """The outputs of state z at time t, as (name, value) pairs (ArithmeticError naming
+        an output that would not be finite)."""
         drive = self._drive
         y = z[:drive.n_states]
         m_r = load(t)
@@ -167,23 +173,37 @@ class InductionMotor(Slave):
             T, I, P = drive.motor.dq_outputs(t, y[2:6])
         psi_ddot = (drive.i * T + m_r) / drive.J_total
         values = (y[0], y[1], psi_ddot) + platform_state(drive.l, y[0], y[1], psi_ddot)
-        for (name, _, _), v in zip(KINEMATICS, values):
-            setattr(self, name, float(v))
+        out = [(name, float(v)) for (name, _, _), v in zip(KINEMATICS, values)]
         ws = drive.motor.synchronous_speed_at(t)
-        self.w_motor, self.n_motor = float(w_m), float(w_m / RPM)
-        self.slip = float((ws - w_m) / ws) if ws > 0.0 else 0.0
-        self.T_motor, self.I_motor, self.P_el = float(T), float(I), float(P)
-        self.P_motor = float(T * w_m)
-        self.W_motor = float(z[-1])
-        self.E_drive = float(drive.kinetic_energy(y))
+        out += [("w_motor", float(w_m)), ("n_motor", float(w_m / RPM)),
+                ("slip", float((ws - w_m) / ws) if ws > 0.0 else 0.0),
+                ("T_motor", float(T)), ("I_motor", float(I)), ("P_el", float(P)),
+                ("P_motor", float(T * w_m)), ("W_motor", float(z[-1])),
+                ("E_drive", float(drive.kinetic_energy(y)))]
+        return [(name, self.finite(name, v)) for name, v in out]
+
+    def _set(self, outputs):
+        for name, v in outputs:
+            setattr(self, name, v)
+
+    def _publish(self, t, z, load):
+        self._set(self._outputs(t, z, load))
 
     # -- state save/restore ------------------------------------------------
     def internal_state(self):
-        return {"t": self._t, "z": [float(v) for v in self._z] if self._z is not None else None,
-                "h": self._h, "samples": [list(s) for s in self._samples]}
+        return {"z": [float(v) for v in self._z], "h": self._h, "samples": [list(s) for s in self._samples]}
 
     def restore_internal_state(self, s):
-        self._t = s["t"]
-        self._z = None if s["z"] is None else np.array(s["z"], dtype=float)
-        self._h = s["h"]
-        self._samples = [tuple(v) for v in s["samples"]]
+        z = s["z"]
+        n = self._drive.n_states + 1
+        if not (isinstance(z, list) and len(z) == n and all(isinstance(v, (int, float)) and math.isfinite(v)
+                                                              for v in z)):
+            raise ValueError(f"drive state {z!r}: expected {n} finite numbers for model "
+                             f"{self._drive.model!r}")
+        h = s["h"]
+        if h is not None and not (isinstance(h, (int, float)) and h > 0 and math.isfinite(h)):
+            raise ValueError(f"internal step h = {h!r}: expected a positive finite number or null")
+        samples = [tuple(float(v) for v in smp) for smp in s["samples"]]
+        if not samples or any(len(smp) != 2 or not all(map(math.isfinite, smp)) for smp in samples):
+            raise ValueError(f"M_reaction samples {s['samples']!r}: expected (t, M) pairs of finite numbers")
+        self._z, self._h, self._samples = np.array(z, dtype=float), h, samples

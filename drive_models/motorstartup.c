@@ -132,7 +132,7 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
     return fmi2OK;
 }
 
-static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double h)
+static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double t_end)
 {
     if (!isfinite(v[VR_M_reaction])) {
         char a[32], b[32];
@@ -140,7 +140,7 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
                 "step refused", fmu_instance_name(fi), fmu_repr(v[VR_M_reaction], a), fmu_repr(t, b));
         return fmi2Discard;
     }
-    publish(data, v, t + h);
+    publish(data, v, t_end);
     return fmi2OK;
 }
 

@@ -39,28 +39,17 @@ class MotorStartup(Slave):
         self.declare(MOTOR_STARTUP)
         self._law = None
 
-    def initialise(self):
-        try:
-            self._law = CrankStartup(l=self.l, n0=self.n0, t0=self.t0, law=self.choice("law", LAWS))
-            for name, unit in (("m_platform", "kg"), ("J_crank", "kg.m2")):
-                v = getattr(self, name)
-                if not (v >= 0.0 and v < float("inf")):
-                    raise ValueError(f"{name} must be non-negative and finite, got {name} = {v!r} {unit}")
-        except ValueError as e:
-            self.error(f"MotorStartup '{self.instance_name}': initialisation failed: {e}")
-            raise
-        self._publish(self._t)
+    def build(self):
+        self._law = CrankStartup(l=self.l, n0=self.n0, t0=self.t0, law=self.choice("law", LAWS))
 
-    _t = 0.0
-
-    def setup_experiment(self, start_time, stop_time, tolerance):
-        self._t = float(start_time)
+    def start(self):
+        self._publish(self._time)
 
     def _publish(self, t):
         psi, wd, wdd = self._law.angle(t)
         values = (psi, wd, wdd) + self._law.state(t)
         for (name, _, _), v in zip(KINEMATICS, values):
-            setattr(self, name, v)
+            setattr(self, name, self.finite(name, v))
         self._update_torque()
 
     def _update_torque(self):
@@ -68,20 +57,19 @@ class MotorStartup(Slave):
         if m_r != m_r or m_r in (float("inf"), float("-inf")):
             return False
         j_total = self.J_crank + self.m_platform * self.l ** 2
-        self.T_drive = j_total * self.psi_ddot - m_r
-        self.P_drive = self.T_drive * self.psi_dot
+        self.T_drive = self.finite("T_drive", j_total * self.psi_ddot - m_r)
+        self.P_drive = self.finite("P_drive", self.T_drive * self.psi_dot)
         return True
 
-    def do_step(self, current_time, step_size):
+    def step(self, t, t_end):
         if not self._update_torque():
-            return self.discard(f"MotorStartup '{self.instance_name}': input M_reaction must be finite, "
-                                f"got {self.M_reaction!r} at t = {current_time:.9g} s; step refused")
-        self._t = current_time + step_size
-        self._publish(self._t)
+            return self.discard(f"{self.who}: input M_reaction must be finite, "
+                                f"got {self.M_reaction!r} N.m at t = {t:.9g} s; step refused, last good state kept")
+        backup = {name: getattr(self, name) for name, _, _ in KINEMATICS}
+        try:
+            self._publish(t_end)
+        except ArithmeticError as e:
+            for name, v in backup.items():
+                setattr(self, name, v)
+            return self.discard(f"{self.who}: step to t = {t_end:.9g} s refused, last good state kept: {e}")
         return True
-
-    def internal_state(self):
-        return {"t": self._t}
-
-    def restore_internal_state(self, s):
-        self._t = s["t"]

@@ -14,6 +14,16 @@
  *
  * Both formulations: the vector one (state n, omega) and the paper's (xC, yC, omega;
  * lower hemisphere, stops within 0.02 (R - r) of the equator), both in the kernel.
+ *
+ * The call semantics of docs/conformance.md (issue 9), as ballinshell_fmu.py and
+ * platform.py have them: an input history of `points` + 6 samples; the fit's nodes chosen
+ * at least h/2 apart, newest first (one node: the newest sample's Taylor polynomial);
+ * positions fitted relative to the newest node; mode 1 leaves out position (and velocity)
+ * rows that round-off would spoil; mode 2 thins samples closer than s_res; mode 4 fits
+ * measured accelerations; mode 1's consistency check flags (and on a jump restarts the
+ * history); the corrector runs over all samples in the node window; coupling_error adds
+ * the drift of input noise (modes 2, 4); the validity latch (valid, t_invalid); the work
+ * bounds (delta <= r, c_drag <= 1e4 m omega0, 20000 internal steps, RK4's h_fixed).
  */
 #include <math.h>
 #include <stdio.h>
@@ -25,7 +35,15 @@
 #include "bm_tableaus.h"
 #include "_kernel.c"
 
-#define MAX_SAMPLES 6 /* the largest input window (positions only) */
+#define MAX_POINTS 6        /* the most nodes of a fit (positions only) */
+#define HISTORY_EXTRA 6     /* samples kept beyond `points`, for the node choice after short steps */
+#define MAX_SAMPLES (MAX_POINTS + HISTORY_EXTRA)
+#define MAX_INTERNAL_STEPS 20000 /* work bound: internal steps of one integration in a doStep */
+#define DRAG_LIMIT 1e4      /* c_drag <= DRAG_LIMIT m omega0 */
+#define A_REL 0.01          /* consistency: relative part of the accepted acceleration error */
+#define A_RES 1e-6          /* m/s2: acceleration error input round-off may cause */
+#define GAIN_POSITIONS 187.0 /* max sum |l_i''| of the 6-node quintic (unit spacing) */
+#define NEVER 1e300         /* t_invalid while the model is valid */
 
 typedef struct {
     double t, x, y, vx, vy, ax, ay;
@@ -42,6 +60,8 @@ typedef struct {
     double t0, hs;
     int n;                       /* coefficients of x(tau), y(tau) */
     double cx[3 * 2], cy[3 * 2]; /* in tau = (t - t0) / hs */
+    int dropped;                 /* mode 1: the positions were left out (X, w below) */
+    double X, w;
     double mp[BM_NMP];           /* a(t) as the kernel's BM_POLY cubic: t0, x0..x3, y0..y3 */
 } fit;
 
@@ -50,17 +70,21 @@ typedef struct {
     bm_problem P;
     bm_tab T;
     int mode, points, correct;
-    double max_step, R, d, mu, coupling_warn;
+    double max_step, R, d, mu, omega_small, a_tol;
     /* dynamic state: what FMU states carry */
     ball_state state; /* the predicted state at the instance's time */
     int n_samples;
     sample samples[MAX_SAMPLES];
+    double h_next; /* the coming step the fit's nodes are chosen for */
     int n_hist;
-    ball_state hist[MAX_SAMPLES]; /* corrected states at the sample times */
+    ball_state hist[MAX_SAMPLES + 1]; /* corrected states at the sample times */
     int has_t_prev;
     double t_prev;
     int confirmed_contact, confirmed_rolling;
-    int warned;
+    int warned, resolution_warned, inconsistency_warned;
+    double noise_sum; /* coupling_error's drift: sum of (da H)^2 */
+    int has_a_mid;
+    double a_mid[3]; /* (t, ax, ay) of the previous fit mid-way through its interval */
 } ball_in_shell;
 
 static const char *const INPUT_NAMES[6] = {"x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O"};
@@ -69,9 +93,52 @@ static const char *const INPUT_NAMES[6] = {"x1O", "y1O", "vx1O", "vy1O", "ax1O",
  * platform.InputReconstruction: the samples of the window, the polynomial fit through
  * them (a confluent Vandermonde system in tau), a(t) and the motion's state at t. */
 
+static double ulp(double x)
+{
+    return ldexp(1.0, -52) * fmax(fabs(x), 1e-300);
+}
+
+/* the consistency of samples p and q (mode 1, platform.InputReconstruction.inconsistency):
+ * 0, or 1 with the description in why and *jump set when the history must restart */
+static int recon_inconsistency(const ball_in_shell *b, const sample *p, const sample *q, int *jump, char *why,
+                               size_t size)
+{
+    double H = q->t - p->t;
+    double a_mag = fmax(hypot(p->ax, p->ay), hypot(q->ax, q->ay));
+    const double pv[2][3] = {{p->x, p->vx, p->ax}, {p->y, p->vy, p->ay}};
+    const double qv[2][3] = {{q->x, q->vx, q->ax}, {q->y, q->vy, q->ay}};
+    int worst = -1;
+    double worst_ratio = 0.0, rw = 0.0, lw = 0.0;
+    for (int k = 0; k < 2; k++) {
+        double r = qv[k][0] - pv[k][0] - 0.5 * H * (pv[k][1] + qv[k][1]) + H * H * (qv[k][2] - pv[k][2]) / 12.0;
+        double a_scale = b->a_tol + A_REL * a_mag;
+        double limit = a_scale * H * H / 6.0 + 8.0 * ulp(fmax(fabs(pv[k][0]), fabs(qv[k][0])));
+        if (fabs(r) > limit && (worst < 0 || fabs(r) / limit > worst_ratio)) {
+            worst = k;
+            worst_ratio = fabs(r) / limit;
+            rw = r;
+            lw = limit;
+        }
+    }
+    *jump = 0;
+    if (worst < 0) return 0;
+    *jump = 6.0 * fabs(rw) / (H * H) > b->a_tol + a_mag;
+    char c[6][32], tp[32], tq[32];
+    const char ax = worst ? 'y' : 'x';
+    snprintf(why, size, "inputs %c1O, v%c1O, a%c1O disagree between t = %s s (%c1O = %s m, v%c1O = %s m/s, "
+             "a%c1O = %s m/s2) and t = %s s (%c1O = %s m, v%c1O = %s m/s, a%c1O = %s m/s2): position residual "
+             "%.3g m, accepted |r| <= %.3g m (input_tol = %g m/s2 + %g |a| of acceleration)%s",
+             ax, ax, ax, fmu_repr(p->t, tp), ax, fmu_repr(pv[worst][0], c[0]), ax, fmu_repr(pv[worst][1], c[1]),
+             ax, fmu_repr(pv[worst][2], c[2]), fmu_repr(q->t, tq), ax, fmu_repr(qv[worst][0], c[3]), ax,
+             fmu_repr(qv[worst][1], c[4]), ax, fmu_repr(qv[worst][2], c[5]), rw, lw, b->a_tol, A_REL,
+             *jump ? "; the reconstruction restarts at the newer sample" : "");
+    return 1;
+}
+
 /* push the inputs seen at t; a second sample at the same t replaces the first.
- * NULL, or why the sample is refused (state unchanged) */
-static const char *recon_push(ball_in_shell *b, const double *v, double t, char *why, size_t size)
+ * -1 and why when the sample is refused (state unchanged); 1 and why when it is
+ * inconsistent with the one before (mode 1; the history then restarts on a jump); 0 */
+static int recon_push(ball_in_shell *b, const double *v, double t, char *why, size_t size)
 {
     sample s = {t, v[VR_x1O], v[VR_y1O], v[VR_vx1O], v[VR_vy1O], v[VR_ax1O], v[VR_ay1O]};
     const double *vals = &s.x;
@@ -80,46 +147,102 @@ static const char *recon_push(ball_in_shell *b, const double *v, double t, char 
         if (!isfinite(vals[i])) {
             snprintf(why, size, "input %s must be finite, got %s at t = %s s", INPUT_NAMES[i],
                      fmu_repr(vals[i], a), fmu_repr(t, c));
-            return why;
+            return -1;
         }
     if (b->n_samples && t < b->samples[b->n_samples - 1].t) {
         snprintf(why, size, "inputs must come in time order: got t = %s s after t = %s s", fmu_repr(t, a),
                  fmu_repr(b->samples[b->n_samples - 1].t, c));
-        return why;
+        return -1;
     }
+    sample prev = {0, 0, 0, 0, 0, 0, 0};
+    int has_prev = 0;
     if (b->n_samples && t == b->samples[b->n_samples - 1].t) {
         b->samples[b->n_samples - 1] = s;
+        if (b->n_samples > 1) {
+            prev = b->samples[b->n_samples - 2];
+            has_prev = 1;
+        }
     } else {
-        if (b->n_samples == b->points) {
+        if (b->n_samples) {
+            prev = b->samples[b->n_samples - 1];
+            has_prev = 1;
+        }
+        if (b->mode == 2 && b->n_samples > 1) { /* too close to its predecessor to resolve an acceleration */
+            const sample *l = &b->samples[b->n_samples - 1], *l2 = &b->samples[b->n_samples - 2];
+            double X = fmax(fmax(fmax(fabs(l2->x), fabs(l2->y)), fmax(fabs(l->x), fabs(l->y))),
+                            fmax(fabs(s.x), fabs(s.y)));
+            double s_res = sqrt(GAIN_POSITIONS * ulp(X) / A_RES);
+            if (l->t - l2->t < s_res) b->n_samples--;
+        }
+        if (b->n_samples == b->points + HISTORY_EXTRA) { /* the oldest leaves (before the append: the array holds no more) */
             memmove(b->samples, b->samples + 1, (size_t)(b->n_samples - 1) * sizeof(sample));
             b->n_samples--;
         }
         b->samples[b->n_samples++] = s;
     }
-    return NULL;
+    if (b->mode == 1 && has_prev && b->n_samples > 1) {
+        int jump;
+        if (recon_inconsistency(b, &prev, &b->samples[b->n_samples - 1], &jump, why, size)) {
+            if (jump) {
+                b->samples[0] = b->samples[b->n_samples - 1];
+                b->n_samples = 1;
+            }
+            return 1;
+        }
+    }
+    return 0;
+}
+
+/* the samples the fit uses: the newest and, walking back, each one at least h/2 before the
+ * node chosen last, up to `points` (InputReconstruction.nodes); indices oldest first */
+static int recon_nodes(const ball_in_shell *b, int idx[MAX_POINTS])
+{
+    double spacing = 0.5 * b->h_next;
+    int rev[MAX_POINTS], n = 0;
+    rev[n++] = b->n_samples - 1;
+    for (int i = b->n_samples - 2; i >= 0; i--) {
+        if (n == b->points) break;
+        if (b->samples[rev[n - 1]].t - b->samples[i].t >= spacing) rev[n++] = i;
+    }
+    for (int i = 0; i < n; i++) idx[i] = rev[n - 1 - i];
+    return n;
 }
 
 /* the inverse of M (n <= 6), correctly rounded to doubles as the Python path computes it
- * exactly in rationals: Gauss-Jordan with partial pivoting in extended precision (long
- * double: 64-bit mantissas on x86-64), rounded at the end. 0 when M is singular. */
+ * exactly in rationals: Gauss-Jordan with partial pivoting in quadruple precision
+ * (__float128: 113-bit mantissas; its errors, ~1e-34 times the matrix's condition number,
+ * stay far below half an ulp of a double even for the 6-node quintic on unequal steps,
+ * where long double's 64 bits were not enough), rounded at the end. Compilers without
+ * __float128 use long double. 0 when M is singular. */
+#if defined(__SIZEOF_FLOAT128__)
+typedef __float128 wide;
+#else
+typedef long double wide;
+#endif
+
+static wide wide_abs(wide x)
+{
+    return x < 0 ? -x : x;
+}
+
 static int invert(int n, const double M[6][6], double inv[6][6])
 {
-    long double A[6][12];
+    wide A[6][12];
     for (int i = 0; i < n; i++)
-        for (int j = 0; j < 2 * n; j++) A[i][j] = j < n ? (long double)M[i][j] : (long double)(j - n == i);
+        for (int j = 0; j < 2 * n; j++) A[i][j] = j < n ? (wide)M[i][j] : (wide)(j - n == i);
     for (int col = 0; col < n; col++) {
         int piv = col;
         for (int i = col + 1; i < n; i++)
-            if (fabsl(A[i][col]) > fabsl(A[piv][col])) piv = i;
-        if (A[piv][col] == 0.0L) return 0;
+            if (wide_abs(A[i][col]) > wide_abs(A[piv][col])) piv = i;
+        if (A[piv][col] == 0) return 0;
         for (int j = 0; j < 2 * n; j++) {
-            long double tmp = A[col][j]; A[col][j] = A[piv][j]; A[piv][j] = tmp;
+            wide tmp = A[col][j]; A[col][j] = A[piv][j]; A[piv][j] = tmp;
         }
-        long double p = A[col][col];
+        wide p = A[col][col];
         for (int j = 0; j < 2 * n; j++) A[col][j] /= p;
         for (int i = 0; i < n; i++) {
-            long double f = A[i][col];
-            if (i == col || f == 0.0L) continue;
+            wide f = A[i][col];
+            if (i == col || f == 0) continue;
             for (int j = 0; j < 2 * n; j++) A[i][j] -= f * A[col][j];
         }
     }
@@ -174,40 +297,70 @@ static double horner(const double *c, int n, double tau)
 
 static int recon_fit(const ball_in_shell *b, fit *f)
 {
-    const sample *s = b->samples;
-    int ns = b->n_samples;
-    double tk = s[ns - 1].t;
+    int idx[MAX_POINTS], nn = recon_nodes(b, idx);
+    const sample *newest = &b->samples[idx[nn - 1]];
+    double tk = newest->t, x_ref = newest->x, y_ref = newest->y;
     f->t0 = tk;
-    f->hs = ns > 1 ? tk - s[ns - 2].t : 1.0;
-    if (b->mode == 3) { /* hold: x + v tau + a/2 tau^2 */
+    f->hs = nn > 1 ? tk - b->samples[idx[nn - 2]].t : 1.0;
+    f->dropped = 0;
+    if (b->mode == 3 || (nn == 1 && b->mode != 2)) { /* the newest sample's Taylor polynomial */
         f->hs = 1.0;
         f->n = 3;
-        f->cx[0] = s[ns - 1].x; f->cx[1] = s[ns - 1].vx; f->cx[2] = 0.5 * s[ns - 1].ax;
-        f->cy[0] = s[ns - 1].y; f->cy[1] = s[ns - 1].vy; f->cy[2] = 0.5 * s[ns - 1].ay;
+        f->cx[0] = newest->x; f->cx[1] = newest->vx; f->cx[2] = 0.5 * newest->ax;
+        f->cy[0] = newest->y; f->cy[1] = newest->vy; f->cy[2] = 0.5 * newest->ay;
     } else {
+        /* kind: 'x' positions; 'f' x, v, a at every node; 'v' v, a at every node and x at the
+         * newest; 'a' a at every node and x, v at the newest */
         double M[6][6] = {{0}}, inv[6][6], bx[6], by[6], hs = f->hs;
-        int deriv_inputs = b->mode == 1, n = 0;
-        for (int i = 0; i < ns; i++) {
-            double tau = round12((s[i].t - tk) / hs);
-            int orders = deriv_inputs ? 3 : 1;
-            for (int der = 0; der < orders; der++, n++) {
-                for (int j = der; j < (deriv_inputs ? 3 * ns : ns); j++)
-                    M[n][j] = perm(j, der) * pow(tau, (double)(j - der));
+        char kind;
+        if (b->mode == 2) {
+            kind = 'x';
+        } else if (b->mode == 4) {
+            kind = 'a';
+        } else {
+            double X = 0.0, V = 0.0, w = tk - b->samples[idx[0]].t;
+            for (int i = 0; i < nn; i++) {
+                const sample *q = &b->samples[idx[i]];
+                X = fmax(X, fmax(fabs(q->x), fabs(q->y)));
+                V = fmax(V, fmax(fabs(q->vx), fabs(q->vy)));
             }
-            if (deriv_inputs) {
-                bx[n - 3] = s[i].x; bx[n - 2] = s[i].vx * hs; bx[n - 1] = s[i].ax * hs * hs;
-                by[n - 3] = s[i].y; by[n - 2] = s[i].vy * hs; by[n - 1] = s[i].ay * hs * hs;
+            if (6.0 * ulp(X) / (w * w) <= A_RES) {
+                kind = 'f';
             } else {
-                bx[n - 1] = s[i].x;
-                by[n - 1] = s[i].y;
+                f->dropped = 1;
+                f->X = X;
+                f->w = w;
+                kind = 4.0 * ulp(V) / w <= A_RES ? 'v' : 'a';
             }
         }
+        int ders[6], n = 0;
+        double taus[6];
+        for (int i = 0; i < nn; i++) {
+            const sample *q = &b->samples[idx[i]];
+            int last = i == nn - 1;
+            double tau = round12((q->t - tk) / hs);
+            if (kind == 'x' || kind == 'f' || last) {
+                if (n >= 6) return 0;
+                ders[n] = 0; taus[n] = tau; bx[n] = q->x - x_ref; by[n] = q->y - y_ref; n++;
+            }
+            if (kind == 'x') continue;
+            if (kind == 'f' || kind == 'v' || last) {
+                if (n >= 6) return 0;
+                ders[n] = 1; taus[n] = tau; bx[n] = q->vx * hs; by[n] = q->vy * hs; n++;
+            }
+            if (n >= 6) return 0;
+            ders[n] = 2; taus[n] = tau; bx[n] = q->ax * hs * hs; by[n] = q->ay * hs * hs; n++;
+        }
+        for (int i = 0; i < n; i++)
+            for (int j = ders[i]; j < n; j++) M[i][j] = perm(j, ders[i]) * pow(taus[i], (double)(j - ders[i]));
         if (!invert(n, M, inv)) return 0;
         f->n = n;
         for (int i = 0; i < n; i++) {
             f->cx[i] = dot_lr(inv[i], bx, n);
             f->cy[i] = dot_lr(inv[i], by, n);
         }
+        f->cx[0] += x_ref;
+        f->cy[0] += y_ref;
     }
     /* a(t) in physical time: the second derivative's coefficients over hs^(j+2) */
     double dx[6], dy[6], ddx[6], ddy[6];
@@ -235,6 +388,15 @@ static void recon_state(const fit *f, double t, double o[6])
     o[3] = horner(dy, n1, tau) / hs;
     o[4] = horner(ddx, n2, tau) / (hs * hs);
     o[5] = horner(ddy, n2, tau) / (hs * hs);
+}
+
+/* a(t) of the fit (the closure of InputReconstruction._compile_accel) */
+static void recon_accel(const fit *f, double t, double *ax, double *ay)
+{
+    const double *p = f->mp;
+    double s = t - p[0];
+    *ax = p[1] + s * (p[2] + s * (p[3] + s * p[4]));
+    *ay = p[5] + s * (p[6] + s * (p[7] + s * p[8]));
 }
 
 /* ===================================================================== the ball */
@@ -327,18 +489,29 @@ static void publish(double *v, const double o[BM_NOUT])
 {
     static const int vr[] = {VR_xP, VR_yP, VR_zP, VR_xC, VR_yC, VR_zC, VR_wx, VR_wy, VR_wz, VR_N, VR_Fx,
                              VR_Fy, VR_Fz, VR_M_reaction, VR_MAx, VR_MAy, VR_MAz, VR_Ft, VR_friction_ratio};
-    for (int i = 0; i < (int)(sizeof vr / sizeof vr[0]); i++) v[vr[i]] = isfinite(o[i]) ? o[i] : FMU_BIG;
+    for (int i = 0; i < (int)(sizeof vr / sizeof vr[0]); i++) v[vr[i]] = vr[i] == VR_friction_ratio && isinf(o[i]) ? copysign(FMU_BIG, o[i]) : o[i];
     v[VR_contact] = o[O_CONTACT] != 0.0;
     v[VR_rolling] = o[O_ROLLING] != 0.0;
     v[VR_P_diss] = o[O_PDISS];
 }
 
 /* ===================================================================== validity signals
- * loss of contact and onset of slip, judged at communication point t with the true
- * inputs there (the published flags use extrapolated inputs) */
-static void report(fmu_instance *fi, ball_in_shell *b, double t, const double o[BM_NOUT])
+ * the latch (Slave.invalidate): valid = false from the first loss of contact, onset of
+ * slip or flagged input inconsistency, until reset; t_invalid says when */
+static void invalidate(fmu_instance *fi, double *v, double t, const char *reason)
 {
-    char when[96];
+    if (v[VR_valid] == 0.0) return;
+    v[VR_valid] = 0.0;
+    v[VR_t_invalid] = t;
+    fmu_log(fi, fmi2Warning, "BallInShell '%s': valid = false from t = %.9g s (latched until reset): %s",
+            fmu_instance_name(fi), t, reason);
+}
+
+/* loss of contact and onset of slip, judged at communication point t with the true
+ * inputs there (the published flags use extrapolated inputs) */
+static void report(fmu_instance *fi, ball_in_shell *b, double *v, double t, const double o[BM_NOUT])
+{
+    char when[96], why[160];
     int was_contact = b->confirmed_contact, was_rolling = b->confirmed_rolling;
     int contact = o[O_CONTACT] != 0.0, rolling = o[O_ROLLING] != 0.0;
     b->confirmed_contact = contact;
@@ -353,34 +526,55 @@ static void report(fmu_instance *fi, ball_in_shell *b, double t, const double o[
     else if (was_rolling && contact && !rolling)
         fmu_log(fi, fmi2Warning, "BallInShell '%s': slip %s: |F_t|/N = %.4g > mu = %g; the ball would slide",
                 fmu_instance_name(fi), when, o[O_RATIO], b->mu);
+    if (!contact) {
+        snprintf(why, sizeof why, "contact lost (N = %.6g N)", o[O_N]);
+        invalidate(fi, v, t, why);
+    } else if (!rolling) {
+        snprintf(why, sizeof why, "slip: |F_t|/N = %.4g > mu = %g", o[O_RATIO], b->mu);
+        invalidate(fi, v, t, why);
+    }
 }
 
 /* ===================================================================== corrected history
- * Integrate the current fit from the corrected state at the oldest sample of the window
- * up to t_now, through every sample time (the fit interpolates there). 1 and the states
- * in out[0..*n-1] when it corrected; 0 when there is nothing to correct (corrector off,
- * the oldest state unknown: out[0] is then the predicted state); -1 when the integrator
- * failed. */
+ * Integrate the current fit from the corrected state at the oldest node of the window up
+ * to t_now, through every sample time in it (the fit interpolates there); the states at
+ * the history's sample times before the window stay (older nodes of later windows).
+ * 1 when it corrected, 0 when not (corrector off, the window's oldest state unknown: the
+ * predicted state ends out), -1 when the integrator failed. */
+static int has_sample_at(const ball_in_shell *b, double t)
+{
+    for (int i = 0; i < b->n_samples; i++)
+        if (b->samples[i].t == t) return 1;
+    return 0;
+}
+
 static int corrected_history(ball_in_shell *b, const fit *f, double t_now, ball_state *out, int *n)
 {
+    int idx[MAX_POINTS];
+    recon_nodes(b, idx);
+    int first_sample = idx[0], n_window = b->n_samples - first_sample;
+    double t_first = b->samples[first_sample].t;
     const ball_state *first = NULL;
-    *n = 1;
-    out[0] = b->state;
-    if (!b->correct) return 0;
     for (int i = 0; i < b->n_hist; i++)
-        if (b->hist[i].t == b->samples[0].t) first = &b->hist[i];
-    if (!first) return 0;
-    out[0] = *first;
-    for (int i = 1; i < b->n_samples; i++) {
-        if (!advance(b, &out[i - 1], b->samples[i].t, f, &out[i])) return -1;
-        (*n)++;
+        if (b->hist[i].t == t_first) first = &b->hist[i];
+    int corrected = b->correct && n_window >= 2 && first;
+    ball_state window[MAX_SAMPLES];
+    if (corrected) {
+        window[0] = *first;
+        for (int i = 1; i < n_window; i++)
+            if (!advance(b, &window[i - 1], b->samples[first_sample + i].t, f, &window[i])) return -1;
+        if (fabs(window[n_window - 1].t - t_now) > 1e-9 * fmax(1.0, fabs(t_now))) corrected = 0;
     }
-    if (fabs(out[*n - 1].t - t_now) > 1e-9 * fmax(1.0, fabs(t_now))) { /* the window ends at t_now */
-        *n = 1;
-        out[0] = b->state;
-        return 0;
+    *n = 0;
+    double before = corrected ? t_first : b->state.t;
+    for (int i = 0; i < b->n_hist; i++)
+        if (has_sample_at(b, b->hist[i].t) && b->hist[i].t < before) out[(*n)++] = b->hist[i];
+    if (corrected) {
+        for (int i = 0; i < n_window; i++) out[(*n)++] = window[i];
+        return 1;
     }
-    return *n > 1;
+    out[(*n)++] = b->state;
+    return 0;
 }
 
 /* ===================================================================== setup */
@@ -461,8 +655,22 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
     memcpy(P->C, tab->C, sizeof P->C);
     memcpy(P->E, tab->E, sizeof P->E);
     memcpy(P->E3, tab->E3, sizeof P->E3);
-    P->tol = tol; P->h_fixed = h_fixed; P->h_max = INFINITY; P->max_steps = 1000000;
+    P->tol = tol; P->h_fixed = h_fixed; P->h_max = INFINITY; P->max_steps = MAX_INTERNAL_STEPS;
     double omega_small = sqrt(g / (1.0 + inertia) / d), w_ref = d * omega_small / r;
+    /* the work bounds (docs/conformance.md): delta <= r, c_drag <= 1e4 m omega0, and RK4
+     * within MAX_INTERNAL_STEPS over max_step */
+    if (delta > r) {
+        snprintf(msg, sizeof msg, "parameter delta = %s m is outside its accepted range [0, r = %g] m (a "
+                 "rolling-resistance length beyond the ball's radius)", fmu_repr(delta, a), r);
+        return init_error(fi, msg, "");
+    }
+    double c_max = DRAG_LIMIT * m * omega_small;
+    if (cdrag > c_max) {
+        snprintf(msg, sizeof msg, "parameter c_drag = %s N.s/m is outside its accepted range [0, %.6g] N.s/m "
+                 "(1e4 m omega0: a drag time m/c_drag below 1e-4/omega0 makes the equations too stiff for the "
+                 "explicit integrators)", fmu_repr(cdrag, a), c_max);
+        return init_error(fi, msg, "");
+    }
     P->form = formulation == 2 ? BM_PAPER : BM_VECTOR;
     P->ny = formulation == 2 ? 5 : 6;
     P->pap_d = d;
@@ -495,19 +703,26 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
                  fmu_repr(max_step, a));
         return init_error(fi, msg, "");
     }
-    if (mode < 1 || mode > 3) {
-        snprintf(msg, sizeof msg, "input_mode must be one of [1, 2, 3] (1 = derivatives, 2 = positions, "
-                 "3 = hold), got %d", mode);
+    if (mode < 1 || mode > 4) {
+        snprintf(msg, sizeof msg, "input_mode must be one of [1, 2, 3, 4] (1 = derivatives, 2 = positions, "
+                 "3 = hold, 4 = accelerations), got %d", mode);
         return init_error(fi, msg, "");
     }
     b->max_step = max_step != 0.0 ? max_step : 0.05 * 2.0 * M_PI / omega_small;
+    if (integrator == 3 && b->max_step / h_fixed > MAX_INTERNAL_STEPS) {
+        snprintf(msg, sizeof msg, "parameter h_fixed = %s s is outside its accepted range [%.6g, inf) s "
+                 "(max_step / %d internal steps, max_step = %.6g s)", fmu_repr(h_fixed, a),
+                 b->max_step / MAX_INTERNAL_STEPS, MAX_INTERNAL_STEPS, b->max_step);
+        return init_error(fi, msg, "");
+    }
     b->mode = mode;
-    b->points = mode == 1 ? 2 : mode == 2 ? 6 : 1;
+    b->points = mode == 1 || mode == 4 ? 2 : mode == 2 ? 6 : 1;
+    b->a_tol = v[VR_input_tol];
+    b->omega_small = omega_small;
     b->correct = v[VR_corrector] != 0.0 && mode != 3;
     b->R = R;
     b->d = d;
     b->mu = mu;
-    b->coupling_warn = v[VR_coupling_warn];
     double n[3] = {x0 / d, y0 / d, -sqrt(fmax(0.0, 1.0 - rho2 / (d * d)))};
     memset(&b->state, 0, sizeof b->state);
     b->state.t = t;
@@ -526,19 +741,33 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
     }
     b->state.h = NAN;
     b->n_samples = 0;
-    if (recon_push(b, v, t, msg, sizeof msg)) return init_error(fi, msg, "");
+    b->h_next = 0.0;
+    if (recon_push(b, v, t, msg, sizeof msg) < 0) return init_error(fi, msg, "");
     b->n_hist = 1;
     b->hist[0] = b->state;
     b->has_t_prev = 0;
     b->confirmed_contact = b->confirmed_rolling = 1;
-    b->warned = 0;
+    b->warned = b->resolution_warned = b->inconsistency_warned = 0;
+    b->noise_sum = 0.0;
+    b->has_a_mid = 0;
     v[VR_coupling_error] = 0.0;
+    v[VR_valid] = 1.0;
+    v[VR_t_invalid] = NEVER;
     fit f;
     double o[BM_NOUT];
     recon_fit(b, &f); /* one sample: never singular */
     outputs_at(b, &b->state, &f, t, o);
     publish(v, o);
-    report(fi, b, t, o);
+    for (int i = 0; i < FMU_N_VARS; i++)
+        if (FMU_VARIABLES[i].causality == FMU_OUTPUT && !isfinite(v[i])) {
+            char e[6][32];
+            snprintf(msg, sizeof msg, "the initial state (xC0 = %s m, yC0 = %s m, wx0 = %s, wy0 = %s, wz0 = %s "
+                     "rad/s) gives non-finite outputs: output %s would be %s", fmu_repr(x0, e[0]),
+                     fmu_repr(y0, e[1]), fmu_repr(w0[0], e[2]), fmu_repr(w0[1], e[3]), fmu_repr(w0[2], e[4]),
+                     FMU_VARIABLES[i].name, fmu_repr(v[i], e[5]));
+            return init_error(fi, msg, "");
+        }
+    report(fi, b, v, t, o);
     return fmi2OK;
 }
 
@@ -550,23 +779,26 @@ static fmi2Status refuse_step(fmu_instance *fi, double t, const char *why)
     return fmi2Discard;
 }
 
-static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double h)
+static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double t_end)
 {
     ball_in_shell *b = data;
-    char why[512];
-    double t_end = t + h;
-    if (h > b->max_step * (1.0 + 1e-12)) {
-        fmu_log(fi, fmi2Discard, "BallInShell '%s': communication step %g s refused: it exceeds max_step = %.4g s "
-                "(1/20 of the ball's natural period unless set), over which the platform motion cannot be "
-                "extrapolated accurately; use a smaller step, or set max_step if you accept the error",
-                fmu_instance_name(fi), h, b->max_step);
+    char why[1024], problem[1024];
+    char call[160], tc[32];
+    if (fmu_step_call(fi, call) > b->max_step * (1.0 + 1e-12)) { /* slave.Slave.do_step's limit */
+        fmu_log(fi, fmi2Discard, "BallInShell '%s': %s refused: communicationStepSize exceeds max_step = %.6g s, "
+                "accepted range (0, %.6g] s; state kept at t = %s s (1/20 of the ball's natural period unless "
+                "set, over which the platform motion cannot be extrapolated accurately; use a smaller step, or "
+                "set max_step if you accept the error)", fmu_instance_name(fi), call, b->max_step, b->max_step,
+                fmu_repr(t, tc));
         return fmi2Discard;
     }
-    if (recon_push(b, v, t, why, sizeof why)) return refuse_step(fi, t, why);
+    b->h_next = t_end - t; /* what the Python flavour computes (set_horizon(t_end - t)) */
+    int pushed = recon_push(b, v, t, problem, sizeof problem);
+    if (pushed < 0) return refuse_step(fi, t, problem);
     fit f;
     if (!recon_fit(b, &f))
         return refuse_step(fi, t, "the input samples do not determine the reconstruction (two samples at the same time?)");
-    ball_state hist[MAX_SAMPLES], predicted;
+    ball_state hist[MAX_SAMPLES + 1], predicted;
     int n_hist;
     int corrected = corrected_history(b, &f, t, hist, &n_hist);
     if (corrected < 0) return refuse_step(fi, t, "the integrator failed on the corrector's interval");
@@ -581,29 +813,74 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
                      t_end, b->P.pap_margin);
         else
             snprintf(why, sizeof why, "the integrator could not reach t = %.9g s (non-finite values, step size "
-                     "underflow or more than 1000000 internal steps)", t_end);
+                     "underflow or more than %d internal steps)", t_end, MAX_INTERNAL_STEPS);
         return refuse_step(fi, t, why);
     }
     outputs_at(b, &predicted, &f, t_end, out);
-    if (corrected > 0) { /* a-posteriori estimate: predicted vs corrected contact point at t */
+    double coupling_error = v[VR_coupling_error], noise_sum = b->noise_sum;
+    if (corrected > 0) {
+        /* a-posteriori estimate: predicted vs corrected contact point at t */
         double p[3], q[3];
         to_n(b, b->state.y, p);
         to_n(b, now->y, q);
         double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
-        v[VR_coupling_error] = b->R * sqrt(py_square(dx) + py_square(dy) + py_square(dz));
-        if (v[VR_coupling_error] > b->coupling_warn && !b->warned) {
-            b->warned = 1;
-            fmu_log(fi, fmi2Warning, "BallInShell '%s': at t = %.9g s the contact point predicted over the last "
-                    "step was off by %.3g m (> coupling_warn = %g m): the communication step is too long for "
-                    "how fast the platform motion changes; outputs between communication points carry errors "
-                    "of that size (warned once)", fmu_instance_name(fi), t, v[VR_coupling_error], b->coupling_warn);
+        double step_error = b->R * sqrt(py_square(dx) + py_square(dy) + py_square(dz));
+        /* what the corrector cannot repair (input noise, modes 2 and 4): each step's change
+         * of the fitted acceleration mid-way through the previous interval kicks the swing;
+         * kicks add in quadrature (ballinshell_fmu.py) */
+        int idx[MAX_POINTS];
+        int measured = b->mode == 2 || b->mode == 4, full = recon_nodes(b, idx) == b->points;
+        if (measured && full && b->has_a_mid && b->has_t_prev) {
+            double nx, ny;
+            recon_accel(&f, b->a_mid[0], &nx, &ny);
+            noise_sum += (py_square(b->a_mid[1] - nx) + py_square(b->a_mid[2] - ny)) * py_square(t - b->t_prev);
         }
+        double drift = b->R * (5.0 / 7.0) * sqrt(noise_sum) / (b->d * b->omega_small);
+        coupling_error = sqrt(step_error * step_error + drift * drift);
+    }
+    /* the commit: nothing below fails */
+    b->noise_sum = noise_sum;
+    if (b->has_t_prev) { /* this fit's a mid-way through the interval it has just closed */
+        double tm = 0.5 * (b->t_prev + t);
+        b->a_mid[0] = tm;
+        recon_accel(&f, tm, &b->a_mid[1], &b->a_mid[2]);
+        b->has_a_mid = 1;
     }
     memcpy(b->hist, hist, (size_t)n_hist * sizeof(ball_state));
     b->n_hist = n_hist;
     b->state = predicted;
     publish(v, out);
-    report(fi, b, t, confirmed);
+    v[VR_coupling_error] = coupling_error;
+    if (coupling_error > v[VR_coupling_warn] && !b->warned) {
+        b->warned = 1;
+        fmu_log(fi, fmi2Warning, "BallInShell '%s': at t = %.9g s the contact point predicted over the last "
+                "step was off by %.3g m (> coupling_warn = %g m): the communication step is too long for "
+                "how fast the platform motion changes; outputs between communication points carry errors "
+                "of that size (warned once)", fmu_instance_name(fi), t, coupling_error, v[VR_coupling_warn]);
+    }
+    if (pushed > 0) {
+        if (!b->inconsistency_warned) {
+            b->inconsistency_warned = 1;
+            fmu_log(fi, fmi2Warning, "BallInShell '%s': at t = %.9g s %s; flagged: valid = false (warned once)",
+                    fmu_instance_name(fi), t, problem);
+        }
+        invalidate(fi, v, t, problem);
+    }
+    if (f.dropped && !b->resolution_warned) {
+        b->resolution_warned = 1;
+        fmu_log(fi, fmi2Warning, "BallInShell '%s': at t = %.9g s the positions (|x1O|, |y1O| up to %.6g m, "
+                "resolution %.3g m) over a window of %.3g s would give acceleration errors above 1e-6 m/s2: the "
+                "reconstruction uses the velocity and acceleration inputs there (warned once)",
+                fmu_instance_name(fi), t, f.X, f.X * ldexp(1.0, -52), f.w);
+    }
+    report(fi, b, v, t, confirmed);
+    if (out[O_CONTACT] == 0.0) {
+        snprintf(why, sizeof why, "contact lost (N = %.6g N) at the end of the step", out[O_N]);
+        invalidate(fi, v, t_end, why);
+    } else if (out[O_ROLLING] == 0.0) {
+        snprintf(why, sizeof why, "slip: |F_t|/N = %.4g > mu = %g at the end of the step", out[O_RATIO], b->mu);
+        invalidate(fi, v, t_end, why);
+    }
     b->t_prev = t;
     b->has_t_prev = 1;
     return fmi2OK;
@@ -614,9 +891,14 @@ static fmi2Status check(fmu_instance *fi, const void *data, const double *v)
 {
     const ball_in_shell *b = data;
     const char *why = NULL;
-    (void)v;
-    if (!(b->n_samples >= 1 && b->n_samples <= b->points)) why = "its input window has a wrong number of samples";
-    else if (!(b->n_hist >= 1 && b->n_hist <= MAX_SAMPLES)) why = "its corrector history has a wrong length";
+    if (!(b->n_samples >= 1 && b->n_samples <= b->points + HISTORY_EXTRA))
+        why = "its input history has a wrong number of samples";
+    else if (!(b->n_hist >= 1 && b->n_hist <= MAX_SAMPLES + 1)) why = "its corrector history has a wrong length";
+    else if (!(b->noise_sum >= 0.0 && isfinite(b->noise_sum) && isfinite(b->h_next)))
+        why = "its coupling-error sums are not finite";
+    else if (b->has_a_mid && !bm_all_finite(b->a_mid, 3)) why = "its mid-interval acceleration is not finite";
+    else if (!(v[VR_valid] == 0.0 || v[VR_valid] == 1.0) || !isfinite(v[VR_t_invalid]))
+        why = "its validity latch is not a Boolean and a finite time";
     else if (!(isfinite(b->state.t) && bm_all_finite(b->state.y, b->P.ny))) why = "its ball state is not finite";
     for (int i = 0; !why && i < b->n_samples; i++) {
         const double *s = &b->samples[i].t;

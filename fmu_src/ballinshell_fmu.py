@@ -16,8 +16,11 @@ otherwise (or with BALLMILL_NO_KERNEL=1), with the same results bit for bit.
 
 Each do_step computes into a scratch state and keeps it only on success:
 a refused step (non-finite input, the paper formulation at the equator, an
-integrator failure) returns fmi2Discard with the reason in the log and
-leaves the last good state in place.
+integrator failure, more than MAX_INTERNAL_STEPS internal steps) returns
+fmi2Discard with the reason in the log and leaves the last good state in
+place. The call semantics (step-size policy, fixed parameters, FMU state,
+the validity latch ``valid``/``t_invalid``) are ballmill.fmi.slave's and
+docs/conformance.md's.
 """
 from __future__ import annotations
 
@@ -33,13 +36,17 @@ if not os.path.exists(getattr(sys.modules.get("ballmill"), "__file__", None) or 
 
 import math
 
-from ballmill.fmi.interface import BALL_IN_SHELL, BALL_INPUTS, BALL_OUTPUTS, BIG
-from ballmill.fmi.slave import Slave
-from ballmill.physics import Ball, BallModel, BallState, InputReconstruction, ParameterError
+import numpy as np
+
+from ballmill.fmi.interface import BALL_IN_SHELL, BALL_INPUTS, BALL_OUTPUTS
+from ballmill.fmi.slave import NEVER, Slave
+from ballmill.physics import Ball, BallModel, BallState, InputReconstruction
 
 FORMULATIONS = {1: "vector", 2: "paper"}
 METHODS = {1: "DOP853", 2: "RK45", 3: "RK4"}
-INPUT_MODES = {1: "derivatives", 2: "positions", 3: "hold"}
+INPUT_MODES = {1: "derivatives", 2: "positions", 3: "hold", 4: "accelerations"}
+MAX_INTERNAL_STEPS = 20000  # work bound: internal steps of one integration in a doStep
+DRAG_LIMIT = 1e4  # c_drag <= DRAG_LIMIT m omega0 (drag time m/c_drag >= 1e-4 / omega0)
 OUTPUTS = BALL_OUTPUTS
 INPUTS = BALL_INPUTS
 
@@ -49,6 +56,7 @@ class BallInShell(Slave):
     horizontally (shockless ball mill; ball vibration absorber)."""
 
     description = BALL_IN_SHELL.description
+    NAMES = {"rolling_resistance": "delta", "drag": "c_drag"}
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
@@ -57,108 +65,168 @@ class BallInShell(Slave):
         self._max_step = math.inf
         self._state = None
         self._inputs = None
+        self._history = []
 
     # -- life cycle --------------------------------------------------------
-    def initialise(self):
-        try:
-            ball = Ball(r=self.r, R=self.R, m=self.m, g=self.g, mu=self.mu,
-                        rolling_resistance=self.delta, drag=self.c_drag)
-            self._model = BallModel(ball, formulation=self.choice("formulation", FORMULATIONS),
-                                    method=self.choice("integrator", METHODS),
-                                    tol=self.tolerance, h_fixed=self.h_fixed)
-            self._state = self._model.initial(self.xC0, self.yC0, (self.wx0, self.wy0, self.wz0),
-                                              t0=self._start_time)
-            if not (self.max_step >= 0.0 and math.isfinite(self.max_step)):
-                raise ParameterError(f"max_step must be >= 0 and finite (0 = automatic), "
-                                     f"got max_step = {self.max_step!r} s")
-            self._max_step = self.max_step or 0.05 * 2.0 * math.pi / ball.omega_small
-            mode = self.choice("input_mode", INPUT_MODES)
-            self._inputs = InputReconstruction(mode)
-            self._inputs.push(*self._sample(self._start_time))
-            self._correct = bool(self.corrector) and mode != "hold"
-        except (ValueError, ArithmeticError) as e:
-            self.error(f"BallInShell '{self.instance_name}': initialisation failed: {e}")
-            raise
+    def build(self):
+        ball = Ball(r=self.r, R=self.R, m=self.m, g=self.g, mu=self.mu,
+                    rolling_resistance=self.delta, drag=self.c_drag)
+        if self.delta > ball.r:
+            raise ValueError(f"parameter delta = {self.delta!r} m is outside its accepted range "
+                             f"[0, r = {ball.r:g}] m (a rolling-resistance length beyond the ball's radius)")
+        c_max = DRAG_LIMIT * ball.m * ball.omega_small
+        if self.c_drag > c_max:
+            raise ValueError(f"parameter c_drag = {self.c_drag!r} N.s/m is outside its accepted range "
+                             f"[0, {c_max:.6g}] N.s/m (1e4 m omega0: a drag time m/c_drag below 1e-4/omega0 "
+                             f"makes the equations too stiff for the explicit integrators)")
+        self._max_step = self.max_step or 0.05 * 2.0 * math.pi / ball.omega_small
+        method = self.choice("integrator", METHODS)
+        if method == "RK4" and self._max_step / self.h_fixed > MAX_INTERNAL_STEPS:
+            raise ValueError(f"parameter h_fixed = {self.h_fixed!r} s is outside its accepted range "
+                             f"[{self._max_step / MAX_INTERNAL_STEPS:.6g}, inf) s (max_step / "
+                             f"{MAX_INTERNAL_STEPS} internal steps, max_step = {self._max_step:.6g} s)")
+        self._model = BallModel(ball, formulation=self.choice("formulation", FORMULATIONS),
+                                method=method, tol=self.tolerance, h_fixed=self.h_fixed,
+                                max_steps=MAX_INTERNAL_STEPS)
+        mode = self.choice("input_mode", INPUT_MODES)
+        self._inputs = InputReconstruction(mode, a_tol=self.input_tol)
+        self._correct = bool(self.corrector) and mode != "hold"
+
+    def start(self):
+        self._state = self._model.initial(self.xC0, self.yC0, (self.wx0, self.wy0, self.wz0), t0=self._time)
+        problem = self._inputs.push(*self._sample(self._time))
         # corrected states at the times of the samples in the reconstruction window
         self._history = [self._state]
         self._coupling_warned, self.coupling_error = False, 0.0
-        out = self._outputs_at(self._state, self._start_time)
-        self._publish(out)
-        if not self._initialising:  # report once, at the exit of initialisation mode
-            self._report(self._start_time, None, out, (True, True))
+        self.valid, self.t_invalid = True, NEVER
+        self._confirmed = (True, True)
+        self._t_prev = None
+        self._noise_sum, self._a_mid = 0.0, None
+        out = self._outputs_at(self._state, self._time)
+        try:
+            self._publish(out)
+        except ArithmeticError as e:
+            raise ValueError(f"the initial state (xC0 = {self.xC0!r} m, yC0 = {self.yC0!r} m, wx0 = "
+                             f"{self.wx0!r}, wy0 = {self.wy0!r}, wz0 = {self.wz0!r} rad/s) gives non-finite "
+                             f"outputs: {e}") from None
+        if problem:  # cannot happen with one sample
+            raise ValueError(problem)
 
-    _start_time = 0.0
+    def exit_initialization_mode(self):
+        super().exit_initialization_mode()
+        out = self._outputs_at(self._state, self._time)
+        self._report(self._time, None, out, (True, True))  # once, at the exit of initialisation mode
 
-    def setup_experiment(self, start_time, stop_time, tolerance):
-        self._start_time = float(start_time)
+    def step_limit(self):
+        return self._max_step
 
     def _sample(self, t):
         return (t,) + tuple(getattr(self, name) for name in INPUTS)
 
-    def do_step(self, current_time, step_size):
-        t_end = current_time + step_size
-        if step_size > self._max_step * (1.0 + 1e-12):
-            return self.discard(
-                f"BallInShell '{self.instance_name}': communication step {step_size:g} s refused: it "
-                f"exceeds max_step = {self._max_step:.4g} s (1/20 of the ball's natural period unless "
-                f"set), over which the platform motion cannot be extrapolated accurately; use a "
-                f"smaller step, or set max_step if you accept the error")
-        if abs(current_time - self._state.t) > 1e-9 * max(1.0, abs(current_time)):
-            return self.discard(f"BallInShell '{self.instance_name}': doStep at t = {current_time:.9g} s "
-                                f"but the state is at t = {self._state.t:.9g} s; steps must be contiguous "
-                                f"(restore an FMU state to go back)")
+    def step(self, t, t_end):
         try:
-            self._inputs.push(*self._sample(current_time))
+            self._inputs.set_horizon(t_end - t)
+            problem = self._inputs.push(*self._sample(t))
             accel = self._inputs.accel_function()
-            history = self._corrected_history(current_time, accel)
+            history = self._corrected_history(t, accel)
             state = history[-1]
-            confirmed = self._outputs_at(state, current_time)
+            confirmed = self._outputs_at(state, t)
             predicted = self._model.advance(state, t_end, accel)
             out = self._outputs_at(predicted, t_end)
+            values = self._values(out)
         except (ValueError, ArithmeticError) as e:
             # a valid sample recorded before the failure is harmless: a retry at the
             # same time replaces it
-            return self.discard(f"BallInShell '{self.instance_name}': step from t = {current_time:.9g} s "
-                                f"refused, last good state kept: {e}")
+            return self.discard(f"{self.who}: step from t = {t:.9g} s refused, last good state kept: "
+                                f"{self.rename(str(e))}")
+        coupling_error = self.coupling_error
+        noise_sum = self._noise_sum
         if self._correct and history[-1] is not self._state:
             # a-posteriori estimate of the step's error: predicted vs corrected state at t_k
             (px, py, pz), (qx, qy, qz) = self._model.nw(self._state)[0], self._model.nw(history[-1])[0]
-            self.coupling_error = self.R * math.sqrt((px - qx) ** 2 + (py - qy) ** 2 + (pz - qz) ** 2)
-            if self.coupling_error > self.coupling_warn and not self._coupling_warned:
-                self._coupling_warned = True
-                self.warn(f"BallInShell '{self.instance_name}': at t = {current_time:.9g} s the contact "
-                          f"point predicted over the last step was off by {self.coupling_error:.3g} m "
-                          f"(> coupling_warn = {self.coupling_warn:g} m): the communication step is too "
-                          f"long for how fast the platform motion changes; outputs between "
-                          f"communication points carry errors of that size (warned once)")
+            step_error = self.R * math.sqrt((px - qx) ** 2 + (py - qy) ** 2 + (pz - qz) ** 2)
+            # what the corrector cannot repair: the fit itself moves when a new sample arrives
+            # (input noise). Each step's change of the fitted acceleration, da (the previous and
+            # this fit mid-way through the previous interval), kicks the ball's swing by
+            # (5/7) da H / (R - r); uncorrelated
+            # kicks add in quadrature and the swing's amplitude is the kick / omega0, so the
+            # contact point's accumulated error is R (5/7) sqrt(sum (da H)^2) / ((R - r) omega0)
+            # (modes 2 and 4, the measured-motion paths; in mode 1 a noisy input is flagged by the
+            # consistency check instead). Only once the fits' degree is settled.
+            measured = self._inputs.mode in ("positions", "accelerations")
+            full = len(self._inputs.nodes()) == self._inputs.points
+            if measured and full and self._a_mid is not None and self._t_prev is not None:
+                tm, ox, oy = self._a_mid
+                nx, ny = accel(tm)
+                noise_sum += ((ox - nx) ** 2 + (oy - ny) ** 2) * (t - self._t_prev) ** 2
+            ball = self._model.ball
+            drift = self.R * (5.0 / 7.0) * math.sqrt(noise_sum) / (ball.d * ball.omega_small)
+            coupling_error = math.sqrt(step_error * step_error + drift * drift)
+        self._noise_sum = noise_sum
+        if self._t_prev is not None:  # this fit's a mid-way through the interval it has just closed
+            tm = 0.5 * (self._t_prev + t)
+            self._a_mid = (tm,) + tuple(accel(tm))
         self._history = history
         self._state = predicted
-        self._publish(out)
-        self._report(current_time, self._t_prev, confirmed, self._confirmed)
-        self._t_prev = current_time
+        self._set_outputs(values, out)
+        self.coupling_error = coupling_error
+        if self.coupling_error > self.coupling_warn and not self._coupling_warned:
+            self._coupling_warned = True
+            self.warn(f"{self.who}: at t = {t:.9g} s the contact point predicted over the last step was "
+                      f"off by {self.coupling_error:.3g} m (> coupling_warn = {self.coupling_warn:g} m): the "
+                      f"communication step is too long for how fast the platform motion changes; outputs "
+                      f"between communication points carry errors of that size (warned once)")
+        if problem:
+            if not self._inconsistency_warned:
+                self._inconsistency_warned = True
+                self.warn(f"{self.who}: at t = {t:.9g} s {problem}; flagged: valid = false (warned once)")
+            self.invalidate(t, problem)
+        dropped = self._inputs.dropped
+        if dropped and not self._resolution_warned:
+            self._resolution_warned = True
+            X, w = dropped
+            self.warn(f"{self.who}: at t = {t:.9g} s the positions (|x1O|, |y1O| up to {X:.6g} m, resolution "
+                      f"{X * 2.0 ** -52:.3g} m) over a window of {w:.3g} s would give acceleration errors "
+                      f"above 1e-6 m/s2: the reconstruction uses the velocity and acceleration inputs "
+                      f"there (warned once)")
+        self._report(t, self._t_prev, confirmed, self._confirmed)
+        if not out.contact:
+            self.invalidate(t_end, f"contact lost (N = {out.N:.6g} N) at the end of the step")
+        elif not out.rolling:
+            self.invalidate(t_end, f"slip: |F_t|/N = {out.friction_ratio:.4g} > mu = {self.mu:g} at the end "
+                                   f"of the step")
+        self._t_prev = t
         return True
 
     _t_prev = None
     _coupling_warned = False
+    _resolution_warned = False
+    _inconsistency_warned = False
+    _noise_sum = 0.0
+    _a_mid = None
     _fields = None
 
     def _corrected_history(self, t_now, accel):
         """Corrector: integrate the current fit from the corrected state at the oldest
-        sample of the window up to t_now, through every sample time. Over the window the
-        fit interpolates, so each step is redone until its samples leave the window (at
-        the start this also repairs the first steps, taken when few samples existed).
-        Without the corrector, or if the window's oldest state is unknown, the predicted
-        state at t_now is used as it is."""
-        times = [smp[0] for smp in self._inputs.samples]
+        node of the reconstruction window up to t_now, through every sample time in
+        it. Over the window the fit interpolates, so each step is redone until its
+        samples leave the window (at the start this also repairs the first steps,
+        taken when few samples existed). Without the corrector, or if the window's
+        oldest state is unknown, the predicted state at t_now is used as it is."""
+        times = self._inputs.window()
         by_time = {st.t: st for st in self._history}
-        if not self._correct or times[0] not in by_time:
-            return [self._state]
+        # the states at the history's sample times stay (older nodes of later windows)
+        keep = {smp[0] for smp in self._inputs.samples}
+        uncorrected = [st for st in self._history if st.t in keep and st.t < self._state.t] + [self._state]
+        if not self._correct or len(times) < 2 or times[0] not in by_time:
+            return uncorrected
         out = [by_time[times[0]]]
         for t in times[1:]:
             out.append(self._model.advance(out[-1], t, accel))
         if abs(out[-1].t - t_now) > 1e-9 * max(1.0, abs(t_now)):  # the window ends at t_now
-            return [self._state]
-        return out
+            return uncorrected
+        return [st for st in self._history if st.t in keep and st.t < times[0]] + out
+
     _confirmed = (True, True)
 
     # -- outputs -------------------------------------------------------------
@@ -167,41 +235,91 @@ class BallInShell(Slave):
         x, y, _, _, ax, ay = self._inputs.state(t)
         return self._model.outputs(state, ax, ay, x, y)
 
-    def _publish(self, out):
+    def _values(self, out):
+        """The output values to publish (ArithmeticError naming an output that is not finite;
+        friction_ratio is +inf when N <= 0, published as 1e300)."""
         fields = out._fields
         if fields is not self._fields:  # the index of each output in an Outputs tuple, once
             self._fields, self._index = fields, [(name, fields.index(name)) for name, _, _ in OUTPUTS]
-        isfinite = math.isfinite
-        for name, i in self._index:
-            v = out[i]
-            setattr(self, name, v if isfinite(v) else BIG)
+        finite = self.finite
+        values = [(name, finite(name, out[i], allow_infinite=(name == "friction_ratio")))
+                  for name, i in self._index]
+        values.append(("P_diss", finite("P_diss", out.P_diss)))
+        return values
+
+    def _set_outputs(self, values, out):
+        for name, v in values:
+            setattr(self, name, v)
         self.contact, self.rolling = bool(out.contact), bool(out.rolling)
-        self.P_diss = out.P_diss
+
+    def _publish(self, out):
+        self._set_outputs(self._values(out), out)
 
     def _report(self, t, t_prev, out, before):
         """Log loss of contact and onset of slip, judged at communication point t
-        with the true inputs there (the published flags use extrapolated inputs)."""
+        with the true inputs there (the published flags use extrapolated inputs),
+        and latch valid = false."""
         was_contact, was_rolling = before
         self._confirmed = (bool(out.contact), bool(out.rolling))
         when = f"at t = {t:.9g} s" if t_prev is None else f"between t = {t_prev:.9g} s and {t:.9g} s"
         if was_contact and not out.contact:
-            self.warn(f"BallInShell '{self.instance_name}': contact lost {when} (N = {out.N:.6g} N): "
+            self.warn(f"{self.who}: contact lost {when} (N = {out.N:.6g} N): "
                       f"the ball leaves the wall and the rolling model no longer holds")
         elif was_rolling and out.contact and not out.rolling:
-            self.warn(f"BallInShell '{self.instance_name}': slip {when}: |F_t|/N = "
+            self.warn(f"{self.who}: slip {when}: |F_t|/N = "
                       f"{out.friction_ratio:.4g} > mu = {self.mu:g}; the ball would slide")
+        if not out.contact:
+            self.invalidate(t, f"contact lost (N = {out.N:.6g} N)")
+        elif not out.rolling:
+            self.invalidate(t, f"slip: |F_t|/N = {out.friction_ratio:.4g} > mu = {self.mu:g}")
 
     # -- state save/restore ------------------------------------------------
     def internal_state(self):
         return {"state": self._state.to_dict(), "inputs": self._inputs.get_state(),
-                "start": self._start_time, "t_prev": self._t_prev, "confirmed": list(self._confirmed),
-                "history": [st.to_dict() for st in self._history], "warned": self._coupling_warned}
+                "t_prev": self._t_prev, "confirmed": list(self._confirmed),
+                "history": [st.to_dict() for st in self._history], "warned": self._coupling_warned,
+                "resolution_warned": self._resolution_warned, "inconsistency_warned": self._inconsistency_warned,
+                "noise_sum": self._noise_sum, "a_mid": None if self._a_mid is None else list(self._a_mid)}
 
     def restore_internal_state(self, s):
-        self._state = BallState.from_dict(s["state"])
+        ndim = self._model.form.ndim
+        state = self._checked_state(s["state"], ndim)
+        if abs(state.t - self._time) > 1e-9 * max(1.0, abs(self._time)):
+            raise ValueError(f"the ball state is at t = {state.t!r} s but the FMU time is {self._time!r} s")
+        history = [self._checked_state(d, ndim) for d in s["history"]]
         self._inputs.set_state(s["inputs"])
-        self._start_time = s["start"]
-        self._t_prev = s["t_prev"]
-        self._confirmed = tuple(s["confirmed"])
-        self._history = [BallState.from_dict(d) for d in s["history"]]
-        self._coupling_warned = s["warned"]
+        confirmed = s["confirmed"]
+        if not (isinstance(confirmed, list) and len(confirmed) == 2 and all(isinstance(c, bool) for c in confirmed)):
+            raise ValueError(f"confirmed flags {confirmed!r}: expected two Booleans")
+        t_prev = s["t_prev"]
+        if t_prev is not None and not (isinstance(t_prev, (int, float)) and math.isfinite(t_prev)):
+            raise ValueError(f"t_prev = {t_prev!r}: expected a finite time or null")
+        self._state, self._history = state, history
+        self._t_prev = t_prev
+        self._confirmed = tuple(confirmed)
+        self._coupling_warned = bool(s["warned"])
+        self._resolution_warned = bool(s.get("resolution_warned", False))
+        self._inconsistency_warned = bool(s.get("inconsistency_warned", False))
+        noise_sum = s.get("noise_sum", 0.0)
+        if not (isinstance(noise_sum, (int, float)) and math.isfinite(noise_sum) and noise_sum >= 0.0):
+            raise ValueError(f"noise_sum = {noise_sum!r}: expected a finite number >= 0")
+        a_mid = s.get("a_mid")
+        if a_mid is not None and not (isinstance(a_mid, list) and len(a_mid) == 3
+                                      and all(isinstance(v, (int, float)) and math.isfinite(v) for v in a_mid)):
+            raise ValueError(f"a_mid = {a_mid!r}: expected null or three finite numbers")
+        self._noise_sum = float(noise_sum)
+        self._a_mid = None if a_mid is None else tuple(float(v) for v in a_mid)
+
+    def _checked_state(self, d, ndim):
+        """A BallState from saved data, or ValueError saying what does not fit this model."""
+        y = d["y"]
+        if not (isinstance(y, list) and len(y) == ndim and all(isinstance(v, (int, float)) for v in y)):
+            raise ValueError(f"ball state {y!r}: expected {ndim} numbers for formulation {self.formulation}")
+        state = BallState.from_dict(d)
+        if not (math.isfinite(state.t) and np.all(np.isfinite(state.y))) or \
+                (state.h is not None and not (isinstance(state.h, (int, float)) and state.h > 0)):
+            raise ValueError(f"ball state {d!r} is not finite")
+        if self._model.form.name == "vector" and abs(math.sqrt(sum(v * v for v in state.y[:3])) - 1.0) > 1e-6:
+            raise ValueError(f"ball state {d!r}: n = y[0:3] must be a unit vector")
+        self._model.form.check(state.y)
+        return state

@@ -59,20 +59,24 @@ def test_fit_coefficients_are_the_correctly_rounded_inverse_times_the_samples():
             r.push(t, *rng.standard_normal(6).tolist())
             r.prepare()
             assert all(type(v) is float for v in r._cx + r._cy)
-            s = r.samples
+            s = r.nodes()
             tk, hs = s[-1][0], r._hs
+            x_ref, y_ref = s[-1][1], s[-1][2]
             rows, bx, by = [], [], []
             for (t_, x, y, vx, vy, ax, ay) in s:
                 tau = (t_ - tk) / hs
-                rows.append((0, tau)); bx.append(x); by.append(y)
+                rows.append((0, tau)); bx.append(x - x_ref); by.append(y - y_ref)
                 if mode == "derivatives":
                     rows.append((1, tau)); bx.append(vx * hs); by.append(vy * hs)
                     rows.append((2, tau)); bx.append(ax * hs * hs); by.append(ay * hs * hs)
             inv = InputReconstruction._inverse(tuple(rows))
-            # left-to-right dot products (what the native FMU's C does)
-            cx = tuple(sum_lr(row, bx) for row in inv)
-            cy = tuple(sum_lr(row, by) for row in inv)
-            assert r._cx == cx and r._cy == cy
+            # left-to-right dot products (what the native FMU's C does), positions relative
+            # to the newest node's
+            cx = [sum_lr(row, bx) for row in inv]
+            cy = [sum_lr(row, by) for row in inv]
+            cx[0] += x_ref
+            cy[0] += y_ref
+            assert r._cx == tuple(cx) and r._cy == tuple(cy)
             # the inverse: M inv = I to round-off, and each entry the float nearest the exact value
             M = np.array([[math.perm(j, der) * round(tau, 12) ** (j - der) if j >= der else 0.0
                            for j in range(len(rows))] for der, tau in rows])

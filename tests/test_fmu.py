@@ -140,15 +140,16 @@ def test_oscillation_matches_monolithic_run_and_pendulum_period(built_fmus):
 BAD_PARAMETERS = [
     ({"r": 0.3}, ["r = 0.3 m", "R = 0.25 m", "R must be larger than r"]),
     ({"r": 0.25}, ["r = 0.25 m", "R = 0.25 m", "R must be larger than r"]),
-    ({"m": -1.0}, ["m = -1.0 kg", "positive"]),
-    ({"m": float("nan")}, ["m = nan", "finite"]),
+    ({"m": -1.0}, ["m = -1.0 kg", "accepted range [0, 1e+06] kg"]),
+    ({"m": 0.0}, ["m = 0.0 kg", "positive"]),
+    ({"m": float("nan")}, ["m = nan", "accepted range"]),
     ({"xC0": 0.3}, ["xC0 = 0.3 m", "<= 0.225 m"]),
-    ({"formulation": 3}, ["formulation", "got 3", "1 = vector", "2 = paper"]),
+    ({"formulation": 3}, ["formulation = 3", "accepted range [1, 2]"]),
 ]
 
 
 @pytest.mark.parametrize("start_values,expected", BAD_PARAMETERS,
-                         ids=["r>R", "r=R", "m<0", "m=nan", "xC0-out-of-reach", "formulation=3"])
+                         ids=["r>R", "r=R", "m<0", "m=0", "m=nan", "xC0-out-of-reach", "formulation=3"])
 def test_bad_parameters_fail_initialisation_with_a_message(built_fmus, start_values, expected):
     messages = []
 

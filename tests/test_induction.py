@@ -213,7 +213,7 @@ def test_fmu_state_save_restore_is_bitwise(motor_instance):
 @pytest.mark.parametrize("start_values, fragment", [
     ({"n_rated": 1500.0}, "n_rated = 1500.0"),
     ({"P_rated": 0.75}, "P_rated = 0.75"),
-    ({"start_mode": 4}, "start_mode must be one of [1, 2, 3]"),
+    ({"start_mode": 4}, "parameter start_mode = 4 is outside its accepted range [1, 3]"),
     ({"Tb_ratio": 1.0}, "Tb_ratio"),
 ])
 def test_bad_parameters_are_named_with_the_fmu_names(built_fmus, start_values, fragment):

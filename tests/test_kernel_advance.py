@@ -54,9 +54,10 @@ def fmu_steps(model, mode, H, n, motion=FAST_START, corrector=True, points=None)
     record = []
     t = 0.0
     for k in range(n):
+        rec.set_horizon(H)
         rec.push(t, *motion.state(t))
         accel = rec.accel_function()
-        times = [smp[0] for smp in rec.samples]
+        times = rec.window()
         by_time = {st.t: st for st in history}
         if corrector and times[0] in by_time:
             out = [by_time[times[0]]]

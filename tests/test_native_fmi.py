@@ -106,11 +106,12 @@ def test_fixed_parameters_cannot_change_after_initialisation(opened, fmus_of, mo
 @pytest.mark.parametrize("model,parameters,fragments", [
     ("BallInShell", {"r": 0.3}, ["R must be larger than r", "r = 0.3 m"]),
     ("BallInShell", {"tolerance": 1.0}, ["tolerance", "1.0", "[1e-15, 0.1]"]),
-    ("BallInShell", {"coupling_warn": -1.0}, ["coupling_warn = -1.0 m", "coupling_warn >= 0.0"]),
-    ("MotorStartup", {"t0": 0.0}, ["t0 must be positive and finite", "t0 = 0.0 s"]),
-    ("MotorStartup", {"J_crank": math.nan}, ["J_crank must be non-negative and finite", "J_crank = nan kg.m2"]),
-    ("InductionMotor", {"cos_phi": 1.5}, ["cos_phi must lie in (0, 1]", "cos_phi = 1.5"]),
-    ("InductionMotor", {"start_mode": 4}, ["start_mode must be one of [1, 2, 3]", "got 4"]),
+    ("BallInShell", {"coupling_warn": -1.0}, ["parameter coupling_warn = -1.0 m", "range [0, inf] m"]),
+    ("MotorStartup", {"t0": 0.0}, ["parameter t0 = 0.0 s is outside its accepted range [0.001, 1e+06] s"]),
+    ("MotorStartup", {"J_crank": math.nan}, ["parameter J_crank = nan kg.m2 is outside its accepted range"]),
+    ("InductionMotor", {"cos_phi": 1.5}, ["parameter cos_phi = 1.5 is outside its accepted range [0, 1]"]),
+    ("InductionMotor", {"cos_phi": 0.0}, ["cos_phi must lie in (0, 1]", "cos_phi = 0.0"]),
+    ("InductionMotor", {"start_mode": 4}, ["parameter start_mode = 4 is outside its accepted range [1, 3]"]),
 ])
 def test_bad_parameters_are_refused_at_exit_of_initialisation(opened, fmus_of, model, parameters, fragments):
     inst = opened(fmus_of("native")[model], "bad", **parameters)
@@ -160,7 +161,7 @@ def test_a_state_with_impossible_parameters_is_refused_instance_unchanged(opened
     with pytest.raises(FMICallException) as info:
         ball.fmu.setFMUstate(state)
     assert info.value.status == ERROR
-    assert any("r must be positive" in m for m in _errors(ball))
+    assert any("parameter r = -1.0 m is outside its accepted range" in m for m in _errors(ball))
     assert ball.get("xC") == before and ball.get("r") == 0.025
     ball.fmu.doStep(3 * H, H)  # and it carries on
 

@@ -19,12 +19,12 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
     return fmi2OK;
 }
 
-static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double h)
+static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double t_end)
 {
     (void)fi;
     (void)data;
     (void)t;
-    (void)h;
+    (void)t_end;
     v[VR_y] = v[VR_u];
     return fmi2OK;
 }

@@ -161,13 +161,14 @@ MOTOR_STARTUP = _interface(
     "Kinematic crank start-up law (quadratic speed rise to n0 in t0) driving a platform on a circle "
     "of radius l; reports the drive torque and power",
     [
-        ("l", "parameter", _law.l, "Crank length (radius of the platform's circle)", dict(unit="m", min=0.0)),
-        ("n0", "parameter", _law.n0, "Steady crank speed", dict(unit="1/min", min=0.0)),
-        ("t0", "parameter", _law.t0, "Start-up time to reach n0", dict(unit="s", min=0.0)),
+        ("l", "parameter", _law.l, "Crank length (radius of the platform's circle)",
+         dict(unit="m", min=0.0, max=1e3)),
+        ("n0", "parameter", _law.n0, "Steady crank speed", dict(unit="1/min", min=0.0, max=1e5)),
+        ("t0", "parameter", _law.t0, "Start-up time to reach n0", dict(unit="s", min=1e-3, max=1e6)),
         ("m_platform", "parameter", 0.0, "Mass of the platform and chamber (adds m l^2 to the inertia)",
-         dict(unit="kg", min=0.0)),
+         dict(unit="kg", min=0.0, max=1e9)),
         ("J_crank", "parameter", 0.0, "Inertia of cranks and gear about the crank axis",
-         dict(unit="kg.m2", min=0.0)),
+         dict(unit="kg.m2", min=0.0, max=1e9)),
         ("M_reaction", "input", 0.0, "Torque of the ball on the crank shaft (BallInShell.M_reaction)",
          dict(unit="N.m")),
         *[(name, "output", 0.0, desc, dict(unit=unit)) for name, unit, desc in CRANK_KINEMATICS],
@@ -199,23 +200,25 @@ INDUCTION_MOTOR = _interface(
     [
         # motor datasheet
         ("P_rated", "parameter", _motor("rated_power"), "Rated (shaft) power of the motor",
-         dict(unit="W", min=0.0)),
-        ("n_rated", "parameter", _motor("rated_speed"), "Rated speed of the motor", dict(unit="1/min", min=0.0)),
+         dict(unit="W", min=0.0, max=1e8)),
+        ("n_rated", "parameter", _motor("rated_speed"), "Rated speed of the motor",
+         dict(unit="1/min", min=0.0, max=1e6)),
         ("U_rated", "parameter", _motor("rated_voltage"), "Rated line-to-line voltage (rms)",
-         dict(unit="V", min=0.0)),
-        ("f_rated", "parameter", _motor("rated_frequency"), "Rated supply frequency", dict(unit="Hz", min=0.0)),
+         dict(unit="V", min=0.0, max=1e6)),
+        ("f_rated", "parameter", _motor("rated_frequency"), "Rated supply frequency",
+         dict(unit="Hz", min=0.0, max=1e4)),
         ("pole_pairs", "parameter", _motor("pole_pairs"), "Number of pole pairs (2 for a 4-pole motor)",
-         dict(min=1)),
+         dict(min=1, max=100)),
         ("I_rated", "parameter", _motor("rated_current"), "Rated line current (rms) at U_rated",
-         dict(unit="A", min=0.0)),
+         dict(unit="A", min=0.0, max=1e6)),
         ("cos_phi", "parameter", _motor("power_factor"), "Power factor at the rated point (dq fit)",
          dict(unit="1", min=0.0, max=1.0)),
         ("eta", "parameter", _motor("efficiency"), "Efficiency at the rated point (dq fit)",
          dict(unit="1", min=0.0, max=1.0)),
         ("Tb_ratio", "parameter", _motor("breakdown_ratio"), "Breakdown torque / rated torque",
-         dict(unit="1", min=1.0)),
+         dict(unit="1", min=1.0, max=100.0)),
         ("J_rotor", "parameter", _motor("J_rotor"), "Rotor inertia (and anything on the motor shaft)",
-         dict(unit="kg.m2", min=0.0)),
+         dict(unit="kg.m2", min=0.0, max=1e6)),
         ("Rs_share", "parameter", _motor("stator_copper_share"), "Share of the rated losses (other than "
          "rotor copper) attributed to stator copper; sets Rs of the fitted dq model",
          dict(unit="1", min=0.0, max=1.0)),
@@ -224,7 +227,7 @@ INDUCTION_MOTOR = _interface(
          "U/Un from u_start to 1 in ramp_time), 3 = frequency ramp (inverter, V/f, f/fn from f_start "
          "to 1 in ramp_time)", dict(min=1, max=3)),
         ("ramp_time", "parameter", _motor("ramp_time"), "Duration of the voltage or frequency ramp",
-         dict(unit="s", min=0.0)),
+         dict(unit="s", min=0.0, max=1e6)),
         ("u_start", "parameter", _motor("u_start"), "U/Un at t = 0 of a voltage ramp",
          dict(unit="1", min=0.0, max=1.0)),
         ("f_start", "parameter", _motor("f_start"), "f/fn at t = 0 of a frequency ramp",
@@ -232,13 +235,14 @@ INDUCTION_MOTOR = _interface(
         ("model", "parameter", 1, "Motor model: 1 = Kloss (quasi-static torque-speed curve), "
          "2 = dq (4 flux states, electrical transients, current and power)", dict(min=1, max=2)),
         # gear, crank, platform
-        ("i", "parameter", _drive("i"), "Gear ratio: motor speed / crank speed", dict(unit="1", min=0.0)),
+        ("i", "parameter", _drive("i"), "Gear ratio: motor speed / crank speed",
+         dict(unit="1", min=1e-3, max=1e4)),
         ("J_crank", "parameter", _drive("J_crank"), "Inertia of cranks and gear output about the crank "
-         "axis", dict(unit="kg.m2", min=0.0)),
+         "axis", dict(unit="kg.m2", min=0.0, max=1e9)),
         ("m_platform", "parameter", _drive("m_platform"), "Mass of the translating platform with the "
-         "chamber (adds m l^2 to the inertia)", dict(unit="kg", min=0.0)),
+         "chamber (adds m l^2 to the inertia)", dict(unit="kg", min=0.0, max=1e9)),
         ("l", "parameter", _drive("l"), "Crank length (radius of the platform's circle)",
-         dict(unit="m", min=0.0)),
+         dict(unit="m", min=0.0, max=1e3)),
         # numerics
         ("tolerance", "parameter", 1e-9, "Relative tolerance of the internal DOP853 integrator",
          dict(unit="1", min=1e-14, max=0.1)),
@@ -299,23 +303,28 @@ _INPUT_TEXT = {
     "ay1O": ("Platform acceleration y (used with input_mode = 1 or 3)", "m/s2"),
 }
 _ball = Ball()
+W0_MAX = 1e4  # rad/s: bound of the initial angular velocity components
+NEVER = 1e300  # t_invalid while the model is valid
 _out = dict(depends=BALL_INPUTS)
 BALL_IN_SHELL = _interface(
     "BallInShell",
     "Ball rolling without slip inside a translating spherical chamber (Gibbs-Appell model of the "
     "shockless ball mill)",
     [
-        ("r", "parameter", _ball.r, "Ball radius", dict(unit="m", min=0.0)),
-        ("R", "parameter", _ball.R, "Chamber (inner sphere) radius, > r", dict(unit="m", min=0.0)),
-        ("m", "parameter", _ball.m, "Ball mass (default: steel ball of r = 25 mm)", dict(unit="kg", min=0.0)),
-        ("g", "parameter", _ball.g, "Gravitational acceleration", dict(unit="m/s2", min=0.0)),
+        ("r", "parameter", _ball.r, "Ball radius", dict(unit="m", min=0.0, max=1e3)),
+        ("R", "parameter", _ball.R, "Chamber (inner sphere) radius, > r", dict(unit="m", min=0.0, max=1e3)),
+        ("m", "parameter", _ball.m, "Ball mass (default: steel ball of r = 25 mm)", dict(unit="kg", min=0.0, max=1e6)),
+        ("g", "parameter", _ball.g, "Gravitational acceleration", dict(unit="m/s2", min=0.0, max=1e3)),
         ("mu", "parameter", _ball.mu, "Friction coefficient ball/chamber, for the rolling check",
-         dict(unit="1", min=0.0)),
+         dict(unit="1", min=0.0, max=100.0)),
         ("xC0", "parameter", 0.0, "Initial ball centre x (lower half of the chamber)", dict(unit="m")),
         ("yC0", "parameter", 0.0, "Initial ball centre y (lower half of the chamber)", dict(unit="m")),
-        ("wx0", "parameter", 0.0, "Initial angular velocity x", dict(unit="rad/s")),
-        ("wy0", "parameter", 0.0, "Initial angular velocity y", dict(unit="rad/s")),
-        ("wz0", "parameter", 0.0, "Initial angular velocity z", dict(unit="rad/s")),
+        ("wx0", "parameter", 0.0, "Initial angular velocity x",
+         dict(unit="rad/s", min=-W0_MAX, max=W0_MAX)),
+        ("wy0", "parameter", 0.0, "Initial angular velocity y",
+         dict(unit="rad/s", min=-W0_MAX, max=W0_MAX)),
+        ("wz0", "parameter", 0.0, "Initial angular velocity z",
+         dict(unit="rad/s", min=-W0_MAX, max=W0_MAX)),
         ("formulation", "parameter", 1, "Equations: 1 = vector (n, omega; whole sphere), "
          "2 = paper (xC, yC, omega; lower hemisphere only)", dict(min=1, max=2)),
         # default RK45 at 1e-8: with communication steps of a few ms the coupling error dominates
@@ -329,7 +338,8 @@ BALL_IN_SHELL = _interface(
         ("input_mode", "parameter", 1, "How the platform acceleration between communication points "
          "is obtained: 1 = from the derivative inputs vx1O..ay1O (Hermite extrapolation), "
          "2 = from the positions x1O, y1O alone (polynomial through the last 6 samples), "
-         "3 = hold ax1O, ay1O constant (first order)", dict(min=1, max=3)),
+         "3 = hold ax1O, ay1O constant (first order), 4 = measured accelerations ax1O, ay1O, linear "
+         "between samples (x1O, y1O only for the moment arm; for noisy measured motion)", dict(min=1, max=4)),
         ("max_step", "parameter", 0.0, "Largest communication step accepted; longer steps are "
          "refused (fmi2Discard) because the platform motion cannot be extrapolated accurately over "
          "them. 0 = automatic: 1/20 of the ball's natural period 2 pi sqrt(7 (R - r) / (5 g))",
@@ -353,12 +363,23 @@ BALL_IN_SHELL = _interface(
          "material the chamber carries", dict(unit="N.s/m", min=0.0)),
         ("P_diss", "output", 0.0, "Power dissipated by rolling resistance and drag (0 without them)",
          dict(unit="W", **_out)),
-        ("coupling_error", "output", 0.0, "Estimated error of the communication step: distance "
-         "between the contact point predicted at the last communication point and the one the "
-         "corrector computed there with the true inputs (0 without the corrector)",
-         dict(unit="m", min=0.0, **_out)),
+        ("coupling_error", "output", 0.0, "Estimated error of the contact point from the input "
+         "reconstruction: the last step's predicted vs corrected contact point, combined in "
+         "quadrature with the drift accumulated from the changes of the fitted acceleration that the "
+         "corrector cannot repair (input noise); 0 without the corrector", dict(unit="m", min=0.0, **_out)),
         ("coupling_warn", "parameter", 1e-4, "coupling_error above which a warning is logged (once): "
-         "the communication step is too long for how fast the inputs change", dict(unit="m", min=0.0)),
+         "the communication step is too long for how fast the inputs change (tunable)",
+         dict(unit="m", min=0.0, variability="tunable")),
+        # the call semantics of docs/conformance.md (declared last: earlier value references stay)
+        ("input_tol", "parameter", 1e-2, "Input consistency (input_mode = 1): x1O, v1O, a1O of two "
+         "consecutive communication points disagreeing by more than this acceleration are flagged "
+         "(valid = false, warning) and the reconstruction restarts at the newer point",
+         dict(unit="m/s2", min=1e-9, max=1e3)),
+        ("valid", "output", True, "False from the first loss of contact, onset of slip or "
+         "flagged input inconsistency until reset (latched): outputs after t_invalid are "
+         "not those of the model's physics", _out),
+        ("t_invalid", "output", NEVER, "Time at which valid became false (1e300 while valid)",
+         dict(unit="s", **_out)),
     ])
 
 INTERFACES = {i.name: i for i in (BALL_IN_SHELL, MOTOR_STARTUP, INDUCTION_MOTOR)}

@@ -1,4 +1,5 @@
-"""Base class for the project's pythonfmu slaves (bundled into every FMU).
+"""Base class for the project's pythonfmu slaves (bundled into every FMU): the FMI
+call semantics all three FMUs share (docs/conformance.md is their specification).
 
 pythonfmu 0.7.0 writes no units, no min/max and no InitialUnknowns, so its
 FMUs fail `fmpy validate` as built. `Slave` declares each variable with its
@@ -10,11 +11,28 @@ return their internal state from `internal_state()` and take it back in
 `restore_internal_state()`; pythonfmu alone would save registered variables
 only and rollback would silently lose the integrator's state.
 
+It owns, once for every FMU (docs/conformance.md):
+
+* the life cycle (instantiated -> initialisation -> stepping -> terminated) and
+  the step-size policy of fmi2DoStep (`Slave.do_step`): a step that is not
+  positive and finite, not contiguous with the FMU's time, longer than the
+  model's ``max_step``, or comes after fmi2Terminate is refused, state intact;
+* the parameter check at the exit of initialisation (finite, within the
+  declared min/max) and the refusal of fixed parameters set after it (only
+  parameters declared ``tunable`` take a new value then);
+* the one state-restore path: a saved or deserialised FMU state carries the
+  model's name, a format number, every variable and the internal state; it is
+  validated, the model is rebuilt from the restored parameters, and anything
+  wrong restores the instance as it was and refuses the call;
+* the validity latch (outputs ``valid`` and ``t_invalid``, `Slave.invalidate`).
+
 Everything here is FMI plumbing: no physics.
 """
 from __future__ import annotations
 
 import copy
+import math
+import re
 from xml.etree.ElementTree import Element, SubElement
 
 from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
@@ -28,16 +46,38 @@ _CAUSALITY = {"parameter": Fmi2Causality.parameter, "input": Fmi2Causality.input
 _TYPES = {float: Real, int: Integer, bool: Boolean}
 
 
+# the FMU's time t_c and a doStep's currentCommunicationPoint agree when they differ
+# by at most T_REL max(1 s, |t_c|) (a master's own time arithmetic)
+T_REL = 1e-13
+STATE_FORMAT = 2  # version of the FMU-state layout (`Slave._get_fmu_state`)
+BIG = 1e300  # stands for +-infinity in outputs (FMI tools choke on inf); see `Slave.finite`
+NEVER = 1e300  # t_invalid while the model is valid
+
+
+class Refused(ValueError):
+    """A call the FMU refuses (pythonfmu turns the exception into fmi2Fatal; the
+    message names the variable, the value and what is accepted)."""
+
+
 class Slave(Fmi2Slave):
-    """pythonfmu slave with units, bounds, dependencies and full state save."""
+    """pythonfmu slave with units, bounds, dependencies, full state save and the
+    project's call semantics (see the module docstring)."""
 
     log_categories = LOG_CATEGORIES
+    # physics' names in error messages -> this FMU's variable names
+    NAMES: dict = {}
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
         self._meta: dict[str, dict] = {}
         self.author = "ballmill"
         self.license = "MIT"
+        self._phase = "instantiated"  # -> initialisation -> stepping -> terminated
+        self._time = 0.0  # the FMU's current time t_c
+
+    @property
+    def who(self) -> str:
+        return f"{type(self).__name__} '{self.instance_name}'"
 
     # -- declaration -------------------------------------------------------
     def declare(self, interface: Interface):
@@ -49,13 +89,16 @@ class Slave(Fmi2Slave):
         self.set_default_experiment(*interface.default_experiment)
 
     def add(self, name: str, causality: str, start, description: str, unit: str | None = None,
-            vmin: float | None = None, vmax: float | None = None, depends=None, variability=None):
+            vmin: float | None = None, vmax: float | None = None, depends=None, tunable: bool = False,
+            variability=None):
         """Declare a variable and set its start value as an attribute.
 
         The Python type of ``start`` chooses the FMI type (float -> Real,
         int -> Integer, bool -> Boolean). ``depends`` lists the input names an
         output depends on during initialisation (InitialUnknowns); in
-        continuous time the outputs here have no direct feedthrough.
+        continuous time the outputs here have no direct feedthrough. A parameter
+        is fixed unless ``tunable`` (then it may be set between steps and takes
+        effect at the next one).
         """
         kind = _TYPES[type(start)]
         if kind is Real and unit is None:
@@ -63,17 +106,19 @@ class Slave(Fmi2Slave):
         if unit is not None and unit not in UNITS:
             raise ValueError(f"unit {unit!r} of {name!r} is not in UNITS")
         setattr(self, name, start)
+        tunable = tunable or variability == "tunable"
         if variability is not None:
             variability = Fmi2Variability[variability]
         elif causality == "parameter":
-            variability = Fmi2Variability.fixed
+            variability = Fmi2Variability.tunable if tunable else Fmi2Variability.fixed
         elif kind is Real:
             variability = Fmi2Variability.continuous
         else:
             variability = Fmi2Variability.discrete
         self.register_variable(kind(name, causality=_CAUSALITY[causality], description=description,
                                     variability=variability))
-        self._meta[name] = {"unit": unit, "min": vmin, "max": vmax, "depends": depends or ()}
+        self._meta[name] = {"unit": unit, "min": vmin, "max": vmax, "depends": depends or (),
+                            "causality": causality, "tunable": tunable, "type": type(start)}
 
     def choice(self, name: str, table: dict):
         """The meaning of an enumerated Integer parameter, or a ValueError naming
@@ -86,6 +131,32 @@ class Slave(Fmi2Slave):
 
     def set_default_experiment(self, start: float, stop: float, step: float, tolerance: float | None = None):
         self.default_experiment = DefaultExperiment(start, stop, step, tolerance)
+
+    def _range_text(self, name) -> str:
+        meta = self._meta[name]
+        unit = f" {meta['unit']}" if meta["unit"] and meta["unit"] != "1" else ""
+        lo = "-inf" if meta["min"] is None else f"{meta['min']:g}"
+        hi = "inf" if meta["max"] is None else f"{meta['max']:g}"
+        return f"[{lo}, {hi}]{unit}"
+
+    def check_parameters(self):
+        """Every parameter finite and within its declared [min, max] (ParameterError
+        naming the variable, the value and the range otherwise)."""
+        for name, meta in self._meta.items():
+            if meta["causality"] != "parameter" or meta["type"] is bool:
+                continue
+            v = getattr(self, name)
+            unit = f" {meta['unit']}" if meta["unit"] and meta["unit"] != "1" else ""
+            if not math.isfinite(v) or (meta["min"] is not None and v < meta["min"]) \
+                    or (meta["max"] is not None and v > meta["max"]):
+                raise ValueError(f"parameter {name} = {v!r}{unit} is outside its accepted range "
+                                 f"{self._range_text(name)}")
+
+    def rename(self, message: str) -> str:
+        """A physics message with the physics' names replaced by this FMU's."""
+        if not self.NAMES:
+            return message
+        return re.sub(r"\b(" + "|".join(self.NAMES) + r")\b", lambda mo: self.NAMES[mo.group(1)], message)
 
     # -- model description ---------------------------------------------------
     def to_xml(self, model_options=dict()) -> Element:  # noqa: B006 - pythonfmu's signature
@@ -131,32 +202,161 @@ class Slave(Fmi2Slave):
             structure.remove(init)
         return root
 
-    # -- initialisation ----------------------------------------------------
-    _initialising = False
+    # -- life cycle ----------------------------------------------------------
+    # Subclasses implement: build() (the model from the parameters, validated; raises
+    # ValueError/ArithmeticError naming the variable), start() (the state at self._time and
+    # its outputs), step(t, t_end) (True, or self.discard(...)), max_step() [s], and
+    # internal_state()/restore_internal_state() (validating what they take back).
+    def build(self) -> None:
+        """Subclasses: build the model from the parameters (raise on a bad value)."""
+
+    def start(self) -> None:
+        """Subclasses: the initial state at self._time, and its outputs."""
+
+    def step(self, t: float, t_end: float) -> bool:
+        """Subclasses: advance from t (= the FMU's time) to t_end."""
+        return True
+
+    def step_limit(self) -> float:
+        """The longest communication step the model accepts [s] (inf: any)."""
+        return math.inf
 
     def initialise(self) -> None:
-        """Subclasses: build the model from the parameters and publish the
-        outputs at the start time from the current inputs. Called at the exit
-        of initialisation mode and on every read during it, so that a master
-        that iterates over connected FMUs in initialisation mode (libcosim,
-        ballmill's runner) sees outputs consistent with the inputs it set."""
+        """Check the parameters, build the model and publish the outputs at the start
+        time from the current inputs. Called at the exit of initialisation mode and
+        on every read during it, so that a master that iterates over connected FMUs
+        in initialisation mode (libcosim, ballmill's runner) sees outputs consistent
+        with the inputs it set. Raises Refused (the message names the variable, the
+        value and the accepted range)."""
+        try:
+            self.check_parameters()
+            self.build()
+            self.start()
+        except (ValueError, ArithmeticError) as e:
+            raise Refused(f"{self.who}: initialisation failed: {self.rename(str(e))}") from None
+
+    def setup_experiment(self, start_time, stop_time, tolerance):
+        if self._phase != "instantiated":
+            raise Refused(f"{self.who}: fmi2SetupExperiment is allowed only after fmi2Instantiate "
+                          f"(or fmi2Reset), not in the {self._phase} phase")
+        if not math.isfinite(start_time):
+            raise Refused(f"{self.who}: startTime = {start_time!r} s refused: it must be finite")
+        self._time = float(start_time)
 
     def enter_initialization_mode(self):
-        self._initialising = True
+        if self._phase != "instantiated":
+            raise Refused(f"{self.who}: fmi2EnterInitializationMode is allowed only after "
+                          f"fmi2Instantiate (or fmi2Reset), not in the {self._phase} phase")
+        self._phase = "initialisation"
 
     def exit_initialization_mode(self):
-        self._initialising = False
-        self.initialise()
+        if self._phase != "initialisation":
+            raise Refused(f"{self.who}: fmi2ExitInitializationMode outside initialisation mode "
+                          f"({self._phase} phase)")
+        try:
+            self.initialise()
+        except Refused as e:
+            self.error(str(e))
+            raise
+        self._phase = "stepping"
+
+    def terminate(self):
+        self._phase = "terminated"
 
     def get_real(self, vrs):
-        if self._initialising:
-            self.initialise()
+        self._refresh()
         return super().get_real(vrs)
 
     def get_boolean(self, vrs):
-        if self._initialising:
-            self.initialise()
+        self._refresh()
         return super().get_boolean(vrs)
+
+    def _refresh(self):
+        if self._phase == "initialisation":
+            try:
+                self.initialise()
+            except Refused:
+                pass  # reported (and the call refused) at fmi2ExitInitializationMode
+
+    # -- the step-size policy ------------------------------------------------
+    def do_step(self, current_time, step_size):
+        """fmi2DoStep: the policy of docs/conformance.md, then `step`. A refused call
+        returns fmi2Discard (pythonfmu's only non-fatal refusal) with the reason
+        logged; the state is untouched."""
+        call = f"doStep(currentCommunicationPoint = {current_time!r} s, communicationStepSize = {step_size!r} s)"
+        if self._phase != "stepping":
+            when = "after fmi2Terminate" if self._phase == "terminated" else "before fmi2ExitInitializationMode"
+            return self.refuse(f"{self.who}: {call} {when} refused")
+        t_c = self._time
+        if not (math.isfinite(step_size) and step_size > 0.0):
+            return self.refuse(f"{self.who}: {call} refused: communicationStepSize must be positive and "
+                               f"finite, accepted range (0, {self.step_limit():.6g}] s; state kept at t = {t_c!r} s")
+        if not (math.isfinite(current_time)
+                and abs(current_time - t_c) <= T_REL * max(1.0, abs(t_c))):
+            return self.refuse(f"{self.who}: {call} refused: currentCommunicationPoint must equal the "
+                               f"FMU's time t = {t_c!r} s (steps are contiguous; restore an FMU state to go "
+                               f"back); state kept")
+        t_end = current_time + step_size
+        if not t_end > t_c:
+            return self.refuse(f"{self.who}: {call} refused: the step ends at {t_end!r} s, not after the "
+                               f"FMU's time t = {t_c!r} s; state kept")
+        limit = self.step_limit()
+        if step_size > limit * (1.0 + 1e-12):
+            return self.discard(
+                f"{self.who}: {call} refused: communicationStepSize exceeds max_step = {limit:.6g} s, "
+                f"accepted range (0, {limit:.6g}] s; state kept at t = {t_c!r} s")
+        if not self.step(t_c, t_end):
+            return False
+        self._time = t_end
+        return True
+
+    def refuse(self, msg: str) -> bool:
+        """A call with arguments the FMI standard does not allow: logged as an error,
+        fmi2Discard returned (pythonfmu cannot return fmi2Error from doStep)."""
+        self.log(msg, Fmi2Status.error)
+        return False
+
+    # -- setting variables ---------------------------------------------------
+    def _check_set(self, vrs, values):
+        """Refuse (Refused, nothing set) outputs, and fixed parameters after initialisation."""
+        for vr, value in zip(vrs, values):
+            name = self.vars[vr].name
+            meta = self._meta.get(name)
+            if meta is None:
+                continue
+            unit = f" {meta['unit']}" if meta["unit"] and meta["unit"] != "1" else ""
+            if meta["causality"] == "output":
+                raise Refused(f"{self.who}: {name} is an output and cannot be set (got {name} = {value!r}{unit})")
+            if meta["causality"] != "parameter" or self._phase in ("instantiated", "initialisation"):
+                continue
+            if not meta["tunable"]:
+                raise Refused(f"{self.who}: parameter {name} is fixed: it can be set only before "
+                              f"fmi2ExitInitializationMode; {name} = {value!r}{unit} refused, {name} keeps "
+                              f"{getattr(self, name)!r}{unit}")
+            ok = math.isfinite(value) and (meta["min"] is None or value >= meta["min"]) \
+                and (meta["max"] is None or value <= meta["max"])
+            if not ok:
+                raise Refused(f"{self.who}: tunable parameter {name} = {value!r}{unit} refused: accepted "
+                              f"range {self._range_text(name)}; {name} keeps {getattr(self, name)!r}{unit}")
+
+    def set_real(self, vrs, values):
+        self._check_set(vrs, values)
+        super().set_real(vrs, values)
+
+    def set_integer(self, vrs, values):
+        self._check_set(vrs, values)
+        super().set_integer(vrs, values)
+
+    def set_boolean(self, vrs, values):
+        self._check_set(vrs, values)
+        super().set_boolean(vrs, values)
+
+    # -- the validity latch ----------------------------------------------------
+    def invalidate(self, t: float, reason: str) -> None:
+        """Latch valid = False at time t (the first call wins; until reset)."""
+        if self.valid:
+            self.valid, self.t_invalid = False, float(t)
+            self.warn(f"{self.who}: valid = false from t = {t:.9g} s (latched until reset): {reason}")
 
     # -- state save/restore ------------------------------------------------
     def internal_state(self) -> dict:
@@ -164,19 +364,70 @@ class Slave(Fmi2Slave):
         return {}
 
     def restore_internal_state(self, state: dict) -> None:
-        """Subclasses: take back what `internal_state` returned."""
+        """Subclasses: take back what `internal_state` returned (ValueError if it does
+        not fit the model just built from the restored parameters)."""
 
     def _get_fmu_state(self):
         state = super()._get_fmu_state()
-        state["__internal__"] = copy.deepcopy(self.internal_state())
+        built = self._phase in ("stepping", "terminated")
+        state["__format__"] = STATE_FORMAT
+        state["__model__"] = type(self).__name__
+        state["__phase__"] = self._phase
+        state["__time__"] = self._time
+        state["__internal__"] = copy.deepcopy(self.internal_state()) if built else None
         return state
 
-    def _set_fmu_state(self, state):
-        state = dict(state)
-        internal = state.pop("__internal__", None)
-        super()._set_fmu_state(state)
-        if internal is not None:
+    def _check_blob(self, state):
+        if not isinstance(state, dict):
+            raise ValueError(f"an FMU state must be a mapping, got {type(state).__name__}")
+        if state.get("__model__") != type(self).__name__ or state.get("__format__") != STATE_FORMAT:
+            raise ValueError(f"the state belongs to model {state.get('__model__')!r} with format "
+                             f"{state.get('__format__')!r}, expected {type(self).__name__!r} with format "
+                             f"{STATE_FORMAT}")
+        if state.get("__phase__") not in ("instantiated", "initialisation", "stepping", "terminated"):
+            raise ValueError(f"unknown phase {state.get('__phase__')!r}")
+        if not (isinstance(state.get("__time__"), (int, float)) and math.isfinite(state["__time__"])):
+            raise ValueError(f"time must be finite, got {state.get('__time__')!r}")
+        for name, meta in self._meta.items():
+            if name not in state:
+                raise ValueError(f"variable {name} is missing")
+            v = state[name]
+            kind = meta["type"]
+            ok = isinstance(v, bool) if kind is bool else (
+                isinstance(v, int) and not isinstance(v, bool) if kind is int
+                else isinstance(v, (int, float)) and not isinstance(v, bool))
+            if not ok:
+                raise ValueError(f"variable {name} = {v!r} has the wrong type (expected {kind.__name__})")
+            if kind is float and meta["causality"] != "input" and not math.isfinite(v):
+                raise ValueError(f"variable {name} = {v!r} is not finite")
+
+    def _apply_state(self, state):
+        for name, meta in self._meta.items():
+            setattr(self, name, meta["type"](state[name]))
+        self._phase, self._time = state["__phase__"], float(state["__time__"])
+        if self._phase in ("stepping", "terminated"):
+            self.check_parameters()
+            self.build()
+            internal = state.get("__internal__")
+            if not isinstance(internal, dict):
+                raise ValueError("the internal state is missing")
             self.restore_internal_state(copy.deepcopy(internal))
+
+    def _set_fmu_state(self, state):
+        """The one restore path (fmi2SetFMUstate, also after fmi2DeSerializeFMUstate):
+        validate, take over the whole configuration, rebuild the model, restore the
+        internal state; on any problem put the instance back as it was and refuse."""
+        try:
+            self._check_blob(state)
+        except ValueError as e:
+            raise Refused(f"{self.who}: FMU state refused, the instance keeps its state: {e}") from None
+        backup = self._get_fmu_state()
+        try:
+            self._apply_state(state)
+        except (ValueError, ArithmeticError, KeyError, TypeError, IndexError) as e:
+            self._apply_state(backup)
+            raise Refused(f"{self.who}: FMU state refused, the instance keeps its state: "
+                          f"{self.rename(str(e))}") from None
 
     # -- logging helpers ---------------------------------------------------
     def log(self, msg, status=Fmi2Status.ok, category=None, debug=None):
@@ -195,3 +446,14 @@ class Slave(Fmi2Slave):
         self.log(msg, Fmi2Status.discard)
         return False
 
+    # -- outputs -------------------------------------------------------------
+    @staticmethod
+    def finite(name: str, value: float, allow_infinite: bool = False) -> float:
+        """An output value to publish: finite as it is; +-inf as +-1e300 where the
+        output's definition allows infinity; anything else raises ArithmeticError
+        naming the output (the step or initialisation is then refused)."""
+        if math.isfinite(value):
+            return value
+        if allow_infinite and value == value:
+            return math.copysign(BIG, value)
+        raise ArithmeticError(f"output {name} would be {value!r}")

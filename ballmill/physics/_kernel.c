@@ -508,6 +508,7 @@ static int bm_advance(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, const
     int ns = P->ns;
     if (!P->adaptive) {
         double q = ceil(span / P->h_fixed - 1e-9);
+        if (!(q <= (double)P->max_steps)) return 0; /* the work bound (Python raises StepFailure) */
         long long count = q < 1.0 ? 1 : (long long)q;
         double hh = span / (double)count;
         for (long long i = 0; i < count; i++) {

@@ -357,6 +357,9 @@ class Integrator:
                               f"(state or input not finite)")
         if not self.adaptive:
             count = max(1, math.ceil(span / self.h_fixed - 1e-9))
+            if count > self.max_steps:
+                raise StepFailure(f"RK4: {span:.6g} s at h_fixed = {self.h_fixed:g} s needs {count:.6g} "
+                                  f"steps, more than {self.max_steps}")
             hh = span / count
             for i in range(count):
                 ti = t + i * hh

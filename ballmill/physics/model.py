@@ -71,7 +71,8 @@ class BallModel:
 
     def __init__(self, ball: Ball, formulation: str = "vector", method: str = "DOP853",
                  tol: float = 1e-9, h_fixed: float = 1e-3, equator_margin: float = 0.02,
-                 cramer: bool = False, h_max: float | None = None, kernel: str = "auto"):
+                 cramer: bool = False, h_max: float | None = None, kernel: str = "auto",
+                 max_steps: int = 1_000_000):
         if kernel not in KERNELS:
             raise ValueError(f"kernel must be one of {KERNELS}, got {kernel!r}")
         self.kernel = kernel
@@ -80,7 +81,7 @@ class BallModel:
         self.form = make_formulation(formulation, ball, **opts)
         w_ref = ball.d * ball.omega_small / ball.r  # spin of a ball rolling at the pendulum's speed
         scale = ([1.0, 1.0, 1.0] if formulation == "vector" else [ball.d, ball.d]) + [w_ref] * 3
-        self.integrator = Integrator(method, tol=tol, scale=scale, h_fixed=h_fixed, h_max=h_max,
+        self.integrator = Integrator(method, tol=tol, scale=scale, h_fixed=h_fixed, h_max=h_max, max_steps=max_steps,
                                      project=self.form.project, check=self.form.check)
         self.info = StepInfo()
 

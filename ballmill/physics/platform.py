@@ -14,6 +14,36 @@ axis through them, which it then extrapolates over the coming step:
   paper's crank law at t = 0) is smeared over the window and costs O(H) there.
 * mode "hold": a(t) = a_k over the step (zero-order hold): first order, the
   baseline that DESIGN.md warns about; kept for measurements.
+* mode "accelerations": each sample brings a measured a (x only for the
+  outputs' moment arm): a(t) is the line through the last two samples
+  (extrapolated over the coming step, interpolated by the corrector), so
+  measurement noise on a enters the ball's dynamics once, never amplified
+  by a derivative (docs/coupling.md has the noise-to-error map).
+
+The step-size policy of the fit (docs/conformance.md, "reconstruction"):
+
+* node choice: the fit uses the newest sample and, walking back, each older
+  sample at least h/2 before the node chosen last (h: the coming step), up
+  to ``points`` nodes, so a fit is never extrapolated over more than twice
+  its last spacing; with no such older sample the fit is the newest sample's
+  Taylor polynomial (x, v, a; a held) in modes "derivatives"/"accelerations";
+* resolution: positions enter the fit relative to the newest sample
+  (invariance to a constant offset); in mode "derivatives" the position rows
+  of the older nodes are left out when the round-off of the positions,
+  6 ulp(X) / w^2 (X the largest |x| of the nodes, w the window span), would
+  exceed A_RES = 1e-6 m/s2 of acceleration (the fit then takes v and a), and
+  the velocity rows too when 4 ulp(V) / w > A_RES; in mode "positions" a new
+  sample closer than s_res = sqrt(187 ulp(X) / A_RES) to the one before
+  replaces it in the history (187: the 6-node quintic's noise gain);
+* consistency (mode "derivatives"): each new sample k is checked against the
+  previous one with the Euler-Maclaurin residual
+  r = x_k - x_{k-1} - H (v_{k-1} + v_k)/2 + H^2 (a_k - a_{k-1})/12 per axis
+  (H = t_k - t_{k-1}); |r| > (a_tol + 0.01 |a|) H^2 / 6 + 8 ulp(X)
+  is an inconsistency (|a|: the largest magnitude of (ax, ay) of the two samples;
+  6 r / H^2 is the acceleration error the quintic would take from it):
+  `push` returns its description; when 6 |r| / H^2 > a_tol + |a| (a jump: the
+  error would exceed the acceleration itself) the history also restarts at
+  sample k, so the jump never enters a fit.
 
 Until enough samples exist the fit uses what it has (lower degree).
 
@@ -27,36 +57,52 @@ from __future__ import annotations
 import math
 from fractions import Fraction
 
-import numpy as np
 
 from .errors import InputError
 
-MODES = ("derivatives", "positions", "hold")
+MODES = ("derivatives", "positions", "hold", "accelerations")
 
-DEFAULT_POINTS = {"derivatives": 2, "positions": 6, "hold": 1}
+DEFAULT_POINTS = {"derivatives": 2, "positions": 6, "hold": 1, "accelerations": 2}
+A_REL = 0.01  # consistency: relative part of the accepted acceleration error
+A_RES = 1e-6  # m/s2: acceleration error input round-off may cause before the fit changes its data
+ULP = 2.0 ** -52  # relative spacing of doubles
+GAIN_POSITIONS = 187.0  # max over the coming step of sum |l_i''| of the 6-node quintic (unit spacing)
+HISTORY_EXTRA = 6  # samples kept beyond `points`, for the node choice after short steps
+
+
+def ulp(x: float) -> float:
+    return ULP * max(abs(x), 1e-300)
 
 
 class InputReconstruction:
     """Polynomial reconstruction of (x, y) of the platform from its samples."""
 
-    def __init__(self, mode: str = "derivatives", points: int | None = None):
+    def __init__(self, mode: str = "derivatives", points: int | None = None, a_tol: float = 1e-2):
         if mode not in MODES:
             raise ValueError(f"input mode must be one of {MODES}, got {mode!r}")
         self.mode = mode
         self.points = DEFAULT_POINTS[mode] if points is None else int(points)
         if self.points < 1 or self.points > 8:
             raise ValueError(f"points must be between 1 and 8, got {points!r}")
-        self.samples: list[tuple] = []  # (t, x, y, vx, vy, ax, ay)
+        if not (a_tol > 0 and math.isfinite(a_tol)):
+            raise ValueError(f"a_tol must be positive and finite, got {a_tol!r} m/s2")
+        self.a_tol = float(a_tol)
+        self.samples: list[tuple] = []  # the history (t, x, y, vx, vy, ax, ay), oldest first
+        self.h_next = 0.0  # the coming step the fit is made for (node choice)
+        self.dropped: tuple | None = None  # (X, w) when the last fit left positions out
         self._t0 = 0.0
         self._hs = 1.0
         self._cx = self._cy = (0.0,)  # polynomial coefficients in tau = (t - t0)/hs
+        self._nodes: list[tuple] = []
         self._dirty = True
 
     # -- samples ---------------------------------------------------------
     def push(self, t, x, y, vx=0.0, vy=0.0, ax=0.0, ay=0.0):
         """Record the inputs seen at communication point t. A second sample at
         the same t replaces the first. Raises InputError (state unchanged) on
-        a non-finite value or a time earlier than the last sample."""
+        a non-finite value or a time earlier than the last sample. Returns None,
+        or (mode "derivatives") the description of an inconsistency of the new
+        sample with the previous one; the history then restarts at this sample."""
         sample = (float(t), float(x), float(y), float(vx), float(vy), float(ax), float(ay))
         names = ("t", "x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O")
         for name, v in zip(names, sample):
@@ -65,52 +111,147 @@ class InputReconstruction:
         if self.samples and sample[0] < self.samples[-1][0]:
             raise InputError(f"inputs must come in time order: got t = {t!r} s after "
                              f"t = {self.samples[-1][0]!r} s")
+        self._dirty = True
         if self.samples and sample[0] == self.samples[-1][0]:
             self.samples[-1] = sample
+            prev = self.samples[-2] if len(self.samples) > 1 else None
         else:
+            prev = self.samples[-1] if self.samples else None
+            if self.mode == "positions" and len(self.samples) > 1:
+                X = max(abs(v) for smp in self.samples[-2:] + [sample] for v in smp[1:3])
+                s_res = math.sqrt(GAIN_POSITIONS * ulp(X) / A_RES)
+                if self.samples[-1][0] - self.samples[-2][0] < s_res:
+                    del self.samples[-1]  # too close to its predecessor to resolve an acceleration
             self.samples.append(sample)
-            if len(self.samples) > self.points:
+            if len(self.samples) > self.points + HISTORY_EXTRA:
                 del self.samples[0]
-        self._dirty = True
+        if self.mode == "derivatives" and prev is not None and len(self.samples) > 1:
+            problem = self.inconsistency(prev, self.samples[-1])
+            if problem:
+                if self._jump:  # the implied acceleration error exceeds the acceleration itself
+                    self.samples[:] = [self.samples[-1]]
+                return problem
+        return None
+
+    def inconsistency(self, p, q) -> str | None:
+        """None if x, v and a of samples p and q agree (see the module docstring), else
+        what disagrees, with the values and the threshold."""
+        H = q[0] - p[0]
+        a_mag = max(math.hypot(p[5], p[6]), math.hypot(q[5], q[6]))
+        worst = None
+        for axis, (i, j, k) in (("x", (1, 3, 5)), ("y", (2, 4, 6))):
+            r = q[i] - p[i] - 0.5 * H * (p[j] + q[j]) + H * H * (q[k] - p[k]) / 12.0
+            a_scale = self.a_tol + A_REL * a_mag
+            limit = a_scale * H * H / 6.0 + 8.0 * ulp(max(abs(p[i]), abs(q[i])))
+            if abs(r) > limit and (worst is None or abs(r) / limit > worst[0]):
+                worst = (abs(r) / limit, axis, r, limit, i, j, k)
+        self._jump = False
+        if worst is None:
+            return None
+        _, axis, r, limit, i, j, k = worst
+        self._jump = 6.0 * abs(r) / (H * H) > self.a_tol + a_mag
+        restart = "; the reconstruction restarts at the newer sample" if self._jump else ""
+        return (f"inputs {axis}1O, v{axis}1O, a{axis}1O disagree between t = {p[0]!r} s "
+                f"({axis}1O = {p[i]!r} m, v{axis}1O = {p[j]!r} m/s, a{axis}1O = {p[k]!r} m/s2) and "
+                f"t = {q[0]!r} s ({axis}1O = {q[i]!r} m, v{axis}1O = {q[j]!r} m/s, a{axis}1O = {q[k]!r} m/s2): "
+                f"position residual {r:.3g} m, accepted |r| <= {limit:.3g} m "
+                f"(input_tol = {self.a_tol:g} m/s2 + {A_REL:g} |a| of acceleration){restart}")
 
     def get_state(self):
         return {"mode": self.mode, "points": self.points, "samples": [list(s) for s in self.samples]}
 
     def set_state(self, state):
-        self.mode = state["mode"]
-        self.points = state["points"]
-        self.samples = [tuple(s) for s in state["samples"]]
+        """Take back `get_state`'s data (ValueError if it does not fit this reconstruction)."""
+        if state.get("mode") != self.mode or state.get("points") != self.points:
+            raise ValueError(f"input reconstruction state for mode {state.get('mode')!r} with "
+                             f"{state.get('points')!r} points, expected {self.mode!r} with {self.points}")
+        samples = [tuple(float(v) for v in smp) for smp in state["samples"]]
+        if not 1 <= len(samples) <= self.points + HISTORY_EXTRA:
+            raise ValueError(f"input history of {len(samples)} samples, expected 1 to "
+                             f"{self.points + HISTORY_EXTRA}")
+        for smp in samples:
+            if len(smp) != 7 or not all(math.isfinite(v) for v in smp):
+                raise ValueError(f"input sample {smp!r}: expected 7 finite values")
+        if any(b[0] <= a[0] for a, b in zip(samples, samples[1:])):
+            raise ValueError("input samples are not in increasing time order")
+        self.samples = samples
         self._dirty = True
 
-    # -- fit -----------------------------------------------------------
-    def _fit(self):
+    def set_horizon(self, h: float):
+        """The coming step [s]: the fit's nodes are chosen for it."""
+        if h != self.h_next:
+            self.h_next = float(h)
+            self._dirty = True
+
+    def nodes(self) -> list[tuple]:
+        """The samples the fit uses (see the node choice in the module docstring)."""
         s = self.samples
         if not s:
             raise InputError("no platform sample has been set yet")
-        tk = s[-1][0]
+        spacing = 0.5 * self.h_next
+        nodes = [s[-1]]
+        for smp in reversed(s[:-1]):
+            if len(nodes) == self.points:
+                break
+            if nodes[-1][0] - smp[0] >= spacing:
+                nodes.append(smp)
+        return nodes[::-1]
+
+    def window(self) -> list[float]:
+        """Times of the history samples from the fit's oldest node to the newest."""
+        t_first = self.nodes()[0][0]
+        return [smp[0] for smp in self.samples if smp[0] >= t_first]
+
+    # -- fit -----------------------------------------------------------
+    def _fit(self):
+        nodes = self._nodes = self.nodes()
+        newest = nodes[-1]
+        tk = newest[0]
         self._t0 = tk
-        self._hs = (tk - s[-2][0]) if len(s) > 1 else 1.0
-        if self.mode == "hold":
-            _, x, y, vx, vy, ax, ay = s[-1]
+        self._hs = (tk - nodes[-2][0]) if len(nodes) > 1 else 1.0
+        self.dropped = None
+        x_ref, y_ref = newest[1], newest[2]
+        if self.mode == "hold" or (len(nodes) == 1 and self.mode != "positions"):
+            _, x, y, vx, vy, ax, ay = newest
             self._cx, self._cy = (x, vx, 0.5 * ax), (y, vy, 0.5 * ay)
             self._hs = 1.0
         else:
             hs = self._hs
-            deriv = self.mode == "derivatives"
-            taus = tuple([(smp[0] - tk) / hs for smp in s])
-            inv = self._ROWS.get((deriv, taus))
-            if inv is None:
-                inv = self._inverse_rows(deriv, taus)
-            if deriv:
-                bx, by = [], []
-                for (_, x, y, vx, vy, ax, ay) in s:
-                    bx += (x, vx * hs, ax * hs * hs)
-                    by += (y, vy * hs, ay * hs * hs)
+            w = tk - nodes[0][0]
+            taus = tuple([(smp[0] - tk) / hs for smp in nodes])
+            if self.mode == "positions":
+                kind = "x"
+            elif self.mode == "accelerations":
+                kind = "a"
             else:
-                bx = [smp[1] for smp in s]
-                by = [smp[2] for smp in s]
-            self._cx = tuple([_dot(row, bx) for row in inv])
-            self._cy = tuple([_dot(row, by) for row in inv])
+                X = max(abs(v) for smp in nodes for v in smp[1:3])
+                V = max(abs(v) for smp in nodes for v in smp[3:5])
+                if 6.0 * ulp(X) / (w * w) <= A_RES:
+                    kind = "xva"
+                else:
+                    self.dropped = (X, w)
+                    kind = "va" if 4.0 * ulp(V) / w <= A_RES else "a"
+            inv = self._ROWS.get((kind, taus))
+            if inv is None:
+                inv = self._inverse_rows(kind, taus)
+            bx, by = [], []
+            last = len(nodes) - 1
+            for i, (_, x, y, vx, vy, ax, ay) in enumerate(nodes):
+                if kind in ("x", "xva") or i == last:
+                    bx.append(x - x_ref)
+                    by.append(y - y_ref)
+                if kind == "x":
+                    continue
+                if kind == "xva" or i == last or kind == "va":
+                    bx.append(vx * hs)
+                    by.append(vy * hs)
+                bx.append(ax * hs * hs)
+                by.append(ay * hs * hs)
+            cx = [_dot(row, bx) for row in inv]
+            cy = [_dot(row, by) for row in inv]
+            cx[0] += x_ref
+            cy[0] += y_ref
+            self._cx, self._cy = tuple(cx), tuple(cy)
         self._dirty = False
         # derivative coefficient tuples for fast evaluation
         self._dx = self._deriv(self._cx)
@@ -147,15 +288,23 @@ class InputReconstruction:
     _ROWS: dict = {}  # (derivatives?, exact taus) -> the inverse, as _fit uses it
 
     @classmethod
-    def _inverse_rows(cls, deriv, taus):
+    def _inverse_rows(cls, kind, taus):
+        """The inverse for a fit of `kind` ("x": positions; "xva": x, v, a at every node;
+        "va": v, a at every node and x at the newest; "a": a at every node and x, v at
+        the newest) through nodes at taus (the newest at 0, last), rows in `_fit`'s order."""
         rows = []
-        for tau in taus:
-            rows.append((0, tau))
-            if deriv:
-                rows += ((1, tau), (2, tau))
+        last = len(taus) - 1
+        for i, tau in enumerate(taus):
+            if kind in ("x", "xva") or i == last:
+                rows.append((0, tau))
+            if kind == "x":
+                continue
+            if kind in ("xva", "va") or i == last:
+                rows.append((1, tau))
+            rows.append((2, tau))
         inv = cls._inverse(tuple(rows))
         if len(cls._ROWS) < 1024:
-            cls._ROWS[(deriv, taus)] = inv
+            cls._ROWS[(kind, taus)] = inv
         return inv
 
     @classmethod

@@ -54,12 +54,33 @@ def summarise(res: RunResult, models) -> dict:
     ball = _ball_instance(res)
     cols = set(res.columns)
     if ball and f"{ball}.N" in cols and len(res.data):
-        t = res.column("time")
+        t_all = res.column("time")
+        # statistics over the model's valid span only (the rows before BallInShell's
+        # latched valid became false); later rows stay in results.csv
+        keep = np.ones(t_all.size, dtype=bool)
+        if f"{ball}.valid" in cols:
+            bad = np.flatnonzero(res.column(f"{ball}.valid") < 0.5)
+            if bad.size:
+                keep[bad[0]:] = False
+                t_inv = float(res.column(f"{ball}.t_invalid")[bad[0]]) if f"{ball}.t_invalid" in cols \
+                    else float(t_all[bad[0]])
+                out["left_validity"] = True
+                out["t_invalid_s"] = t_inv
+                out["statistics_over"] = (f"the valid span only, t < {t_all[bad[0]]:.6g} s: the model's "
+                                          f"validity ended at t_invalid = {t_inv:.6g} s (loss of contact, "
+                                          f"slip or inconsistent inputs; see log); later rows are in "
+                                          f"results.csv but not in these statistics")
+            else:
+                out["left_validity"] = False
+                out["statistics_over"] = "the whole run (the model stayed valid throughout)"
+        t = t_all[keep]
         after = _after_time(res, models)
         late = t >= after - 1e-12
-        col = lambda v: res.column(f"{ball}.{v}")  # noqa: E731
+        col = lambda v: res.column(f"{ball}.{v}")[keep]  # noqa: E731
         out["after_s"] = after
-        out["N"] = {"all": _stats(col("N")), "after": _stats(col("N")[late])}
+        out["valid_span_s"] = [float(t[0]), float(t[-1])] if t.size else None
+        out["N"] = {"all": _stats(col("N")) if t.size else None,
+                    "after": _stats(col("N")[late]) if late.any() else None}
         if {f"{ball}.xP", f"{ball}.yP"} <= cols:
             rho = np.hypot(col("xP"), col("yP"))
             out["ring"] = {"inner_radius_m": float(rho[late].min()) if late.any() else None,
@@ -67,9 +88,11 @@ def summarise(res: RunResult, models) -> dict:
             out["ring"]["width_m"] = (out["ring"]["outer_radius_m"] - out["ring"]["inner_radius_m"]
                                       if late.any() else None)
         if f"{ball}.zP" in cols:
-            out["zP_max_m"] = float(col("zP").max())
+            out["zP_max_m"] = float(col("zP").max()) if t.size else None
         if f"{ball}.M_reaction" in cols:
-            out["M_reaction_peak_abs_Nm"] = float(np.abs(col("M_reaction")).max())
+            out["M_reaction_peak_abs_Nm"] = float(np.abs(col("M_reaction")).max()) if t.size else None
+        t = t_all
+        col = lambda v: res.column(f"{ball}.{v}")  # noqa: E731
         validity = {}
         for flag in ("contact", "rolling"):
             if f"{ball}.{flag}" in cols:

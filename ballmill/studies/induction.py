@@ -60,22 +60,30 @@ def first(t, mask):
 
 
 def start_metrics(t, d, last: float = 3.0) -> dict:
-    """Start-up figures; the ring and N over the ``last`` seconds of the run."""
+    """Start-up figures. The ball's figures (friction ratio, zP, ring, N, M_reaction) are
+    taken over the model's valid span only: up to the first slip (|F_t| > mu N) or loss of
+    contact (N <= 0), after which the rolling model no longer describes the ball; the ring
+    and N over the ``last`` seconds of the run only if the valid span reaches them."""
     fr = np.where(np.isfinite(d["friction_ratio"]), d["friction_ratio"], np.inf)
-    late = t >= t[-1] - last - 1e-12
+    bad = (fr > MU) | (d["N"] <= 0.0)
+    t_inv = first(t, bad)
+    keep = t < t_inv if t_inv is not None else np.ones(t.size, dtype=bool)
+    why = None if t_inv is None else ("slip" if fr[np.flatnonzero(bad)[0]] > MU and
+                                      d["N"][np.flatnonzero(bad)[0]] > 0.0 else "lift-off")
+    late = (t >= t[-1] - last - 1e-12) & keep
+    full_late = bool(late.any()) and bool(keep[t >= t[-1] - last - 1e-12].all())
     rho = np.hypot(d["xP"], d["yP"])
     w_end = d["psi_dot"][-1]
+    span = lambda x: x[keep] if keep.any() else x[:1]  # noqa: E731 - at least the first sample
     return {
         "t_95": first(t, d["psi_dot"] >= 0.95 * w_end),
         "psi_ddot_max": float(np.max(d["psi_ddot"])),
-        "fr_max": float(np.max(fr)),
-        "first_slip": first(t, fr > MU),
-        "slip_share": float(np.mean(fr > MU)),
-        "first_lift": first(t, d["N"] <= 0.0),
-        "zP_max": float(np.max(d["zP"])),
-        "ring_in": float(rho[late].min()), "ring_out": float(rho[late].max()),
-        "N_after": (float(d["N"][late].min()), float(d["N"][late].max())),
-        "M_peak": float(np.max(np.abs(d["M_reaction"]))),
+        "valid_until": t_inv, "why": why,
+        "fr_max": float(np.max(span(fr))),
+        "zP_max": float(np.max(span(d["zP"]))),
+        "ring": (float(rho[late].min()), float(rho[late].max())) if full_late else None,
+        "N_after": (float(d["N"][late].min()), float(d["N"][late].max())) if full_late else None,
+        "M_peak": float(np.max(np.abs(span(d["M_reaction"])))),
         "w_end": float(w_end),
     }
 
@@ -215,10 +223,10 @@ def main(argv=None) -> int:
     losses = Ball(rolling_resistance=1e-3, drag=0.5)
     for label, ball in (("no losses", Ball()), ("losses delta = 1 mm, c = 0.5 N s/m", losses)):
         print(f"### {label}\n")
-        print("| start | t_95 [s] | max psi'' [rad/s2] | max friction ratio | first slip [s] | time slipping "
-              "| first lift-off [s] | max zP [m] | ring, last 3 s [m] | N, last 3 s [N] | max \\|M_reaction\\| "
-              "[N m] | final psi' [rad/s] |")
-        print("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- | --- | ---: | ---: |")
+        print("| start | t_95 [s] | max psi'' [rad/s2] | model valid until [s] | max friction ratio "
+              "(valid span) | max zP (valid span) [m] | ring, last 3 s [m] | N, last 3 s [N] | "
+              "max \\|M_reaction\\| (valid span) [N m] | final psi' [rad/s] |")
+        print("| --- | ---: | ---: | --- | ---: | ---: | --- | --- | ---: | ---: |")
         cases = {"kinematic law t0 = 2.5 s (MotorStartup)": None, "direct on line": dict(start="dol"),
                  "direct on line, dq": dict(start="dol", model="dq"),
                  "voltage ramp 0.3 -> 1 in 2.5 s": dict(start="voltage_ramp"),
@@ -236,11 +244,12 @@ def main(argv=None) -> int:
                 runs[name] = (t, d)
             m = start_metrics(t, d)
             fmt = lambda v: "never" if v is None else f"{v:.3f}"  # noqa: E731
-            print(f"| {name} | {fmt(m['t_95'])} | {m['psi_ddot_max']:.2f} | "
-                  f"{m['fr_max'] if m['fr_max'] < 1e3 else math.inf:.3f} | {fmt(m['first_slip'])} | "
-                  f"{100 * m['slip_share']:.0f} % | {fmt(m['first_lift'])} | {m['zP_max']:.3f} | "
-                  f"{m['ring_in']:.3f} .. {m['ring_out']:.3f} | {m['N_after'][0]:.2f} .. {m['N_after'][1]:.2f} | "
-                  f"{m['M_peak']:.2f} | {m['w_end']:.3f} |", flush=True)
+            valid = "whole run" if m["valid_until"] is None else f"{m['valid_until']:.3f} ({m['why']})"
+            ring = "invalid" if m["ring"] is None else f"{m['ring'][0]:.3f} .. {m['ring'][1]:.3f}"
+            n_after = "invalid" if m["N_after"] is None else f"{m['N_after'][0]:.2f} .. {m['N_after'][1]:.2f}"
+            print(f"| {name} | {fmt(m['t_95'])} | {m['psi_ddot_max']:.2f} | {valid} | "
+                  f"{m['fr_max'] if m['fr_max'] < 1e3 else math.inf:.3f} | {m['zP_max']:.3f} | "
+                  f"{ring} | {n_after} | {m['M_peak']:.2f} | {m['w_end']:.3f} |", flush=True)
         print()
     figure_starts(runs, figs / "induction_starts.png")
 

@@ -10,11 +10,15 @@
  *   - a call that is not allowed in the instance's state: fmi2Error, "fmi2X is not
  *     allowed in state Y", nothing changed;
  *   - fmi2DoStep with a communicationStepSize that is not positive and finite, or a
- *     currentCommunicationPoint other than the instance's time: fmi2Error, state kept;
- *   - a fixed parameter (or an output) set after initialisation: fmi2Error, value kept;
+ *     currentCommunicationPoint other than the instance's time (within T_REL), or after
+ *     fmi2Terminate: fmi2Error, state kept; the model steps from the instance's time to
+ *     currentCommunicationPoint + communicationStepSize (as slave.Slave.do_step does);
+ *   - a fixed parameter (or an output) set after initialisation, or a tunable one
+ *     outside its declared bounds: fmi2Error, value kept;
  *   - every parameter outside its declared bounds, or not finite: fmi2Error at
- *     fmi2ExitInitializationMode, naming variable, value and accepted range (after the
- *     model's own checks, whose messages say what the physics needs);
+ *     fmi2ExitInitializationMode, naming variable, value and accepted range (before the
+ *     model's own checks, whose messages say what the physics needs); the messages are
+ *     docs/conformance.md's (the pythonfmu flavour's);
  *   - a step whose outputs are not all finite: fmi2Discard, state kept;
  *   - fmi2Discard from a step leaves the instance in stepComplete at the last good
  *     state, so that a master may retry (with other inputs or a shorter step) or
@@ -50,6 +54,7 @@ struct fmu_instance {
     double *v;           /* values by value reference */
     unsigned char *data; /* the model's data */
     double *v_work;      /* scratch copies for steps */
+    double call_t, call_h; /* the arguments of the fmi2DoStep being run */
     unsigned char *data_work;
 };
 
@@ -68,6 +73,14 @@ static const char *state_name(fmu_state s)
 
 /* ------------------------------------------------------------------ logging */
 const char *fmu_instance_name(const fmu_instance *fi) { return fi->name; }
+
+double fmu_step_call(const fmu_instance *fi, char buf[160])
+{
+    char a[32], b[32];
+    snprintf(buf, 160, "doStep(currentCommunicationPoint = %s s, communicationStepSize = %s s)",
+             fmu_repr(fi->call_t, a), fmu_repr(fi->call_h, b));
+    return fi->call_h;
+}
 
 void fmu_log(fmu_instance *fi, fmi2Status status, const char *fmt, ...)
 {
@@ -127,6 +140,10 @@ static int allowed(fmu_instance *fi, const char *function, int states)
     return 0;
 }
 
+/* the FMU's time t_c and a doStep's currentCommunicationPoint agree when they differ by at
+ * most T_REL max(1 s, |t_c|) (a master's own time arithmetic; slave.T_REL) */
+#define T_REL 1e-13
+
 #define ANY_STATE (S_INSTANTIATED | S_INIT | S_STEP_COMPLETE | S_STEP_FAILED | S_TERMINATED | S_ERROR)
 #define READABLE (S_INIT | S_STEP_COMPLETE | S_STEP_FAILED | S_TERMINATED | S_ERROR)
 
@@ -136,28 +153,49 @@ static void start_values(fmu_instance *fi)
     for (int i = 0; i < FMU_MODEL.n_vars; i++) fi->v[i] = FMU_MODEL.vars[i].start;
 }
 
+/* "[lo, hi] unit" (Python's "{:g}" of the bounds, -inf/inf when there is none) */
+static const char *range_text(const fmu_variable *var, char buf[96])
+{
+    char lo[32], hi[32];
+    if (isfinite(var->min)) snprintf(lo, sizeof lo, "%g", var->min); else strcpy(lo, "-inf");
+    if (isfinite(var->max)) snprintf(hi, sizeof hi, "%g", var->max); else strcpy(hi, "inf");
+    int unit = *var->unit && strcmp(var->unit, "1") != 0;
+    snprintf(buf, 96, "[%s, %s]%s%s", lo, hi, unit ? " " : "", unit ? var->unit : "");
+    return buf;
+}
+
+/* x as Python's repr of the variable's value: "3" for Integers, "0.5" for Reals */
+static const char *value_text(const fmu_variable *var, double x, char buf[32])
+{
+    if (var->type == FMU_INTEGER && isfinite(x)) {
+        snprintf(buf, 32, "%.0f", x);
+        return buf;
+    }
+    return fmu_repr(x, buf);
+}
+
+static const char *unit_text(const fmu_variable *var)
+{
+    return *var->unit && strcmp(var->unit, "1") != 0 ? var->unit : "";
+}
+
+static int in_range(const fmu_variable *var, double x)
+{
+    return isfinite(x) && x >= var->min && x <= var->max;
+}
+
 /* every parameter finite and within its declared bounds; fmi2Error naming the first bad one */
 static fmi2Status check_parameters(fmu_instance *fi, const double *v)
 {
     for (int i = 0; i < FMU_MODEL.n_vars; i++) {
         const fmu_variable *var = &FMU_MODEL.vars[i];
         if (var->causality != FMU_PARAMETER || var->type == FMU_BOOLEAN) continue;
-        double x = v[i];
-        if (isfinite(x) && x >= var->min && x <= var->max) continue;
-        char a[32], lo[32], hi[32], range[96];
-        if (isfinite(var->min) && isfinite(var->max))
-            snprintf(range, sizeof range, "%s <= %s <= %s", fmu_repr(var->min, lo), var->name,
-                     fmu_repr(var->max, hi));
-        else if (isfinite(var->min))
-            snprintf(range, sizeof range, "%s >= %s and finite", var->name, fmu_repr(var->min, lo));
-        else if (isfinite(var->max))
-            snprintf(range, sizeof range, "%s <= %s and finite", var->name, fmu_repr(var->max, hi));
-        else
-            snprintf(range, sizeof range, "%s finite", var->name);
-        fmu_log(fi, fmi2Error, "%s '%s': initialisation failed: %s = %s%s%s is out of range: expected %s",
-                FMU_MODEL.identifier, fi->name, var->name,
-                var->type == FMU_INTEGER ? (snprintf(a, sizeof a, "%.0f", x), a) : fmu_repr(x, a),
-                *var->unit ? " " : "", var->unit, range);
+        if (in_range(var, v[i])) continue;
+        char a[32], range[96];
+        const char *unit = unit_text(var);
+        fmu_log(fi, fmi2Error, "%s '%s': initialisation failed: parameter %s = %s%s%s is outside its accepted "
+                "range %s", FMU_MODEL.identifier, fi->name, var->name, value_text(var, v[i], a), *unit ? " " : "",
+                unit, range_text(var, range));
         return fmi2Error;
     }
     return fmi2OK;
@@ -182,11 +220,11 @@ static fmi2Status build(fmu_instance *fi)
     size_t nv = (size_t)FMU_MODEL.n_vars * sizeof(double);
     memcpy(fi->v_work, fi->v, nv);
     memset(fi->data_work, 0, FMU_MODEL.data_size);
-    /* the model's own checks first (its messages say what the physics needs), then the
-     * declared bounds of every parameter */
-    fmi2Status s = FMU_MODEL.setup(fi, fi->data_work, fi->v_work, fi->t_start);
-    if (s > fmi2Warning || check_parameters(fi, fi->v) != fmi2OK ||
-        check_outputs(fi, fi->v_work, fi->t_start) != fmi2OK) {
+    /* the declared bounds of every parameter first (docs/conformance.md), then the
+     * model's own checks (its messages say what the physics needs) */
+    fmi2Status s = check_parameters(fi, fi->v);
+    if (s == fmi2OK) s = FMU_MODEL.setup(fi, fi->data_work, fi->v_work, fi->t_start);
+    if (s > fmi2Warning || check_outputs(fi, fi->v_work, fi->t_start) != fmi2OK) {
         memcpy(fi->data_work, fi->data, FMU_MODEL.data_size); /* keep the copies equal */
         return fmi2Error;
     }
@@ -371,17 +409,27 @@ static fmi2Status get_values(fmu_instance *fi, const char *function, const fmi2V
 
 /* may vr be set now? A fixed parameter only before the end of initialisation, an input
  * from instantiation on, an output never. */
-static fmi2Status settable(fmu_instance *fi, const char *function, fmi2ValueReference vr)
+static fmi2Status settable(fmu_instance *fi, const char *function, fmi2ValueReference vr, double x)
 {
     const fmu_variable *var = &FMU_MODEL.vars[vr];
-    const char *why = NULL;
+    const char *unit = unit_text(var), *sep = *unit ? " " : "";
+    char a[32], b[32], range[96], why[256];
+    int initialised = !(fi->state & (S_INSTANTIATED | S_INIT));
+    why[0] = '\0';
     if (var->causality == FMU_OUTPUT)
-        why = "it is an output";
-    else if (var->causality == FMU_PARAMETER && !var->tunable && !(fi->state & (S_INSTANTIATED | S_INIT)))
-        why = "it is a fixed parameter and the instance is initialised (fmi2Reset, then set it)";
-    if (!why) return fmi2OK;
-    fmu_log(fi, fmi2Error, "%s '%s': %s: %s cannot be set in state %s: %s; value unchanged",
-            FMU_MODEL.identifier, fi->name, function, var->name, state_name(fi->state), why);
+        snprintf(why, sizeof why, "%s is an output and cannot be set (got %s = %s%s%s)", var->name, var->name,
+                 value_text(var, x, a), sep, unit);
+    else if (var->causality == FMU_PARAMETER && !var->tunable && initialised)
+        snprintf(why, sizeof why, "parameter %s is fixed: it can be set only before fmi2ExitInitializationMode "
+                 "(fmi2Reset, then set it); %s = %s%s%s refused, %s keeps %s%s%s", var->name, var->name,
+                 value_text(var, x, a), sep, unit, var->name, value_text(var, fi->v[vr], b), sep, unit);
+    else if (var->causality == FMU_PARAMETER && var->tunable && initialised && !in_range(var, x))
+        snprintf(why, sizeof why, "tunable parameter %s = %s%s%s refused: accepted range %s; %s keeps %s%s%s",
+                 var->name, value_text(var, x, a), sep, unit, range_text(var, range), var->name,
+                 value_text(var, fi->v[vr], b), sep, unit);
+    if (!why[0]) return fmi2OK;
+    fmu_log(fi, fmi2Error, "%s '%s': %s: %s cannot be set in state %s: %s", FMU_MODEL.identifier, fi->name,
+            function, var->name, state_name(fi->state), why);
     return fmi2Error;
 }
 
@@ -391,7 +439,7 @@ static fmi2Status set_values(fmu_instance *fi, const char *function, const fmi2V
     if (!allowed(fi, function, S_INSTANTIATED | S_INIT | S_STEP_COMPLETE)) return fmi2Error;
     if (nvr && (!vr || !in)) return fmi2Error;
     for (size_t i = 0; i < nvr; i++) /* all or nothing */
-        if (check_vr(fi, function, vr[i], type) != fmi2OK || settable(fi, function, vr[i]) != fmi2OK)
+        if (check_vr(fi, function, vr[i], type) != fmi2OK || settable(fi, function, vr[i], in[i]) != fmi2OK)
             return fmi2Error;
     for (size_t i = 0; i < nvr; i++) fi->v[vr[i]] = in[i];
     return fmi2OK;
@@ -488,16 +536,29 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
     char a[32], b[32];
     double t = currentCommunicationPoint, h = communicationStepSize;
     (void)noSetFMUStatePriorToCurrentPoint;
+    if (fi && fi->state == S_TERMINATED) {
+        fmu_log(fi, fmi2Error, "%s '%s': fmi2DoStep(currentCommunicationPoint = %s s, communicationStepSize = "
+                "%s s) after fmi2Terminate refused: fmi2DoStep is not allowed in state terminated",
+                FMU_MODEL.identifier, fi->name, fmu_repr(t, a), fmu_repr(h, b));
+        return fmi2Error;
+    }
     if (!allowed(fi, "fmi2DoStep", S_STEP_COMPLETE)) return fmi2Error;
     if (!(isfinite(h) && h > 0.0)) {
         fmu_log(fi, fmi2Error, "%s '%s': fmi2DoStep: communicationStepSize = %s s refused: it must be positive "
                 "and finite; state unchanged", FMU_MODEL.identifier, fi->name, fmu_repr(h, a));
         return fmi2Error;
     }
-    if (!(fabs(t - fi->t) <= 1e-9 * fmax(1.0, fabs(fi->t)))) {
-        fmu_log(fi, fmi2Error, "%s '%s': fmi2DoStep: currentCommunicationPoint = %s s, but the instance is at "
-                "t = %s s; steps must be contiguous (restore an FMU state to go back); state unchanged",
+    if (!(fabs(t - fi->t) <= T_REL * fmax(1.0, fabs(fi->t)))) {
+        fmu_log(fi, fmi2Error, "%s '%s': fmi2DoStep: currentCommunicationPoint = %s s refused: "
+                "currentCommunicationPoint must equal the FMU's time t = %s s (steps are contiguous; restore an "
+                "FMU state to go back); state unchanged",
                 FMU_MODEL.identifier, fi->name, fmu_repr(t, a), fmu_repr(fi->t, b));
+        return fmi2Error;
+    }
+    double t_end = t + h;
+    if (!(t_end > fi->t)) {
+        fmu_log(fi, fmi2Error, "%s '%s': fmi2DoStep: the step ends at %s s, not after the FMU's time t = %s s; "
+                "state unchanged", FMU_MODEL.identifier, fi->name, fmu_repr(t_end, a), fmu_repr(fi->t, b));
         return fmi2Error;
     }
     /* the step runs on the work copies; the configuration part of the data is the same in
@@ -506,8 +567,11 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
     memcpy(fi->v_work, fi->v, nv);
     memcpy(fi->data_work + FMU_MODEL.dyn_offset, fi->data + FMU_MODEL.dyn_offset,
            FMU_MODEL.data_size - FMU_MODEL.dyn_offset);
-    fmi2Status s = FMU_MODEL.step(fi, fi->data_work, fi->v_work, t, h);
-    if (s <= fmi2Warning && check_outputs(fi, fi->v_work, t + h) != fmi2OK) s = fmi2Discard;
+    fi->call_t = t;
+    fi->call_h = h;
+    /* from the FMU's time to the master's end of the step (slave.Slave.do_step) */
+    fmi2Status s = FMU_MODEL.step(fi, fi->data_work, fi->v_work, fi->t, t_end);
+    if (s <= fmi2Warning && check_outputs(fi, fi->v_work, t_end) != fmi2OK) s = fmi2Discard;
     if (s > fmi2Warning) return s == fmi2Discard ? fmi2Discard : fmi2Error; /* the last good state stays */
     double *tv = fi->v;
     fi->v = fi->v_work;
@@ -515,7 +579,7 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
     unsigned char *td = fi->data;
     fi->data = fi->data_work;
     fi->data_work = td;
-    fi->t = t + h;
+    fi->t = t_end;
     return s;
 }
 
@@ -712,8 +776,8 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state)
          * initialisation), then the dynamic state is taken over and checked */
         memcpy(fi->v_work, v, nv);
         memset(fi->data_work, 0, FMU_MODEL.data_size);
-        if (FMU_MODEL.setup(fi, fi->data_work, fi->v_work, h.t_start) > fmi2Warning) goto refused;
         if (check_parameters(fi, v) != fmi2OK) goto refused;
+        if (FMU_MODEL.setup(fi, fi->data_work, fi->v_work, h.t_start) > fmi2Warning) goto refused;
         memcpy(fi->v_work, v, nv); /* outputs and inputs as they were saved */
         memcpy(fi->data_work + FMU_MODEL.dyn_offset, data + FMU_MODEL.dyn_offset,
                FMU_MODEL.data_size - FMU_MODEL.dyn_offset);

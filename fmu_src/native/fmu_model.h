@@ -47,10 +47,12 @@ typedef struct {
      * start state at time t; publish the outputs at t from the inputs in v.
      * fmi2OK, or fmi2Error after fmu_log said why. */
     fmi2Status (*setup)(fmu_instance *fi, void *data, double *v, double t);
-    /* One communication step t -> t + h (h > 0 and finite, t the instance's time).
+    /* One communication step t -> t_end (t the instance's time, t_end = the master's
+     * currentCommunicationPoint + communicationStepSize > t: what the Python flavour's
+     * Slave.do_step computes, so that both flavours step between the same times).
      * fmi2OK / fmi2Warning: the plumbing keeps data and v; fmi2Discard / fmi2Error:
      * it drops them (the last good state stays). */
-    fmi2Status (*step)(fmu_instance *fi, void *data, double *v, double t, double h);
+    fmi2Status (*step)(fmu_instance *fi, void *data, double *v, double t, double t_end);
     /* A dynamic state restored from an FMU state into a freshly set up configuration:
      * fmi2OK when it is one this configuration can continue from, else fmi2Error after
      * fmu_log said why. */
@@ -67,6 +69,10 @@ void fmu_log(fmu_instance *fi, fmi2Status status, const char *fmt, ...)
 #endif
     ;
 const char *fmu_instance_name(const fmu_instance *fi);
+
+/* during a step: the communicationStepSize the master passed, and the call as
+ * "doStep(currentCommunicationPoint = <tc> s, communicationStepSize = <h> s)" in buf */
+double fmu_step_call(const fmu_instance *fi, char buf[160]);
 
 /* x as Python's repr(float) writes it (1.0, 0.3, 1e-05, nan, inf), for messages */
 const char *fmu_repr(double x, char buf[32]);

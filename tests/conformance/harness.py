@@ -1,0 +1,125 @@
+"""An FMU instance driven through the FMI 2.0 API only (fmpy's FMU2Slave): every call
+returns its status, and the instance's log is collected as (status, message)."""
+from __future__ import annotations
+
+import ctypes
+import math
+import shutil
+
+from fmpy import extract, read_model_description
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import (FMU2Slave, calloc, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, free)
+from fmpy.logging import addLoggerProxy
+
+OK = 0
+
+
+class Fmu:
+    def __init__(self, path, name, **parameters):
+        self.md = read_model_description(str(path))
+        self.unzipdir = extract(str(path))
+        self.vars = {v.name: v for v in self.md.modelVariables}
+        self.log: list[tuple[int, str]] = []
+        self.callbacks = fmi2CallbackFunctions()
+        self._logger = fmi2CallbackLoggerTYPE(self._on_message)
+        self.callbacks.logger = self._logger
+        self.callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        self.callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        addLoggerProxy(ctypes.byref(self.callbacks))
+        self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.unzipdir,
+                             modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
+        self.fmu.instantiate(callbacks=self.callbacks, loggingOn=True)
+        self.time = 0.0
+        for k, v in parameters.items():
+            assert self.set(**{k: v}) == OK, (k, v, self.log)
+
+    def _on_message(self, env, instance, status, category, message):
+        self.log.append((status, message.decode("utf-8", "replace") if message else ""))
+
+    dead = False  # after fmi2Fatal nothing may be called on the instance (FMI 2.0, 2.1.3)
+
+    def _status(self, call, *args):
+        assert not self.dead, "an FMI call after fmi2Fatal"
+        try:
+            return OK, call(*args)
+        except FMICallException as e:
+            self.dead = e.status >= 4
+            return e.status, None
+
+    def messages(self, since=0):
+        return " | ".join(m for _, m in self.log[since:])
+
+    # -- variables ------------------------------------------------------------
+    def set(self, **values) -> int:
+        worst = OK
+        for name, value in values.items():
+            v = self.vars[name]
+            if v.type == "Real":
+                st, _ = self._status(self.fmu.setReal, [v.valueReference], [float(value)])
+            elif v.type == "Integer":
+                st, _ = self._status(self.fmu.setInteger, [v.valueReference], [int(value)])
+            else:
+                st, _ = self._status(self.fmu.setBoolean, [v.valueReference], [bool(value)])
+            worst = max(worst, st)
+        return worst
+
+    def get(self, name):
+        v = self.vars[name]
+        if v.type == "Real":
+            return self.fmu.getReal([v.valueReference])[0]
+        if v.type == "Integer":
+            return self.fmu.getInteger([v.valueReference])[0]
+        return bool(self.fmu.getBoolean([v.valueReference])[0])
+
+    def outputs(self):
+        return {n: self.get(n) for n, v in self.vars.items() if v.causality == "output"}
+
+    # -- life cycle -----------------------------------------------------------
+    def init(self, start=0.0) -> int:
+        self.time = start
+        st, _ = self._status(self.fmu.setupExperiment, None, start)
+        if st:
+            return st
+        st, _ = self._status(self.fmu.enterInitializationMode)
+        if st:
+            return st
+        st, _ = self._status(self.fmu.exitInitializationMode)
+        return st
+
+    def step(self, h, t=None) -> int:
+        t = self.time if t is None else t
+        st, _ = self._status(self.fmu.doStep, t, h)
+        if st == OK:
+            self.time = t + h
+        return st
+
+    def terminate(self) -> int:
+        return self._status(self.fmu.terminate)[0]
+
+    def reset(self) -> int:
+        self.time = 0.0
+        return self._status(self.fmu.reset)[0]
+
+    def get_state(self):
+        return self.fmu.getFMUState()
+
+    def set_state(self, state) -> int:
+        return self._status(self.fmu.setFMUState, state)[0]
+
+    def serialize(self, state) -> bytes:
+        return bytes(self.fmu.serializeFMUState(state))
+
+    def deserialize(self, blob: bytes):
+        return self._status(self.fmu.deserializeFMUState, bytes(blob))
+
+    def free(self):
+        try:
+            if not self.dead:  # after fmi2Fatal the instance is left as it is (leaked)
+                self.fmu.freeInstance()
+        finally:
+            shutil.rmtree(self.unzipdir, ignore_errors=True)
+
+
+def finite(values) -> bool:
+    return all(math.isfinite(v) for v in values if isinstance(v, float))

@@ -1,0 +1,107 @@
+"""Parameters (docs/conformance.md, "parameters"): fixed ones are refused after
+initialisation with the value unchanged, tunable ones take effect; a refused
+initialisation names the FMU variable, the value and the accepted range; nothing
+non-finite is ever published."""
+from __future__ import annotations
+
+import pytest
+
+from .conftest import MODELS, OK
+from .inputs import feed, run_ball
+
+FIXED = {"BallInShell": ("m", 2.0), "MotorStartup": ("l", 0.7), "InductionMotor": ("i", 30.0)}
+
+
+def _initialised(open_fmu, model, **parameters):
+    fmu = open_fmu(model, **parameters)
+    if model == "BallInShell":
+        feed(fmu, 0.0)
+    assert fmu.init() == OK, fmu.messages()
+    return fmu
+
+
+@pytest.mark.parametrize("model", MODELS)
+def test_fixed_parameter_set_after_initialisation_is_refused_value_unchanged(open_fmu, flavour, model):
+    name, value = FIXED[model]
+    fmu = _initialised(open_fmu, model)
+    old = fmu.get(name)
+    n = len(fmu.log)
+    assert fmu.set(**{name: value}) == flavour.refusal
+    msg = fmu.messages(n)
+    assert f"parameter {name} is fixed" in msg and f"{name} = {value!r}" in msg
+    assert f"{name} keeps {old!r}" in msg
+    if flavour.usable_after_refusal:
+        assert fmu.get(name) == old
+
+
+@pytest.mark.parametrize("model", MODELS)
+def test_every_parameter_is_fixed_unless_declared_tunable(fmus, model):
+    from fmpy import read_model_description
+
+    md = read_model_description(str(fmus[model]))
+    tunable = {v.name for v in md.modelVariables if v.causality == "parameter" and v.variability == "tunable"}
+    assert tunable == ({"coupling_warn"} if model == "BallInShell" else set())
+
+
+def test_a_tunable_parameter_takes_effect_at_the_next_step(open_fmu, flavour):
+    fmu, st = run_ball(open_fmu, [2e-3] * 5, coupling_warn=1.0)
+    assert fmu.set(coupling_warn=0.0) == OK
+    assert fmu.get("coupling_warn") == 0.0
+    n = len(fmu.log)
+    feed(fmu, fmu.time)
+    assert fmu.step(2e-3) == OK
+    assert "coupling_warn = 0 m" in fmu.messages(n)  # warns now with the new threshold
+    n = len(fmu.log)
+    assert fmu.set(coupling_warn=-1.0) == flavour.refusal
+    assert "tunable parameter coupling_warn = -1.0 m refused: accepted range [0, inf] m" in fmu.messages(n)
+    if flavour.usable_after_refusal:
+        assert fmu.get("coupling_warn") == 0.0
+
+
+@pytest.mark.parametrize("model, name, value, expected", [
+    ("BallInShell", "delta", -1.0, "parameter delta = -1.0 m is outside its accepted range [0, "),
+    ("BallInShell", "c_drag", 1e300, "parameter c_drag = 1e+300 N.s/m is outside its accepted range [0, "),
+    ("BallInShell", "m", 1e300, "parameter m = 1e+300 kg is outside its accepted range [0, 1e+06] kg"),
+    ("BallInShell", "wx0", 1e300, "parameter wx0 = 1e+300 rad/s is outside its accepted range [-10000, 10000]"),
+    ("BallInShell", "r", 0.3, "R must be larger than r"),
+    ("BallInShell", "R", float("nan"), "parameter R = nan m is outside its accepted range"),
+    ("MotorStartup", "l", 1e300, "parameter l = 1e+300 m is outside its accepted range [0, 1000] m"),
+    ("MotorStartup", "t0", 1e300, "parameter t0 = 1e+300 s is outside its accepted range [0.001, 1e+06] s"),
+    ("MotorStartup", "t0", 1e-300, "parameter t0 = 1e-300 s is outside its accepted range [0.001, 1e+06] s"),
+    ("InductionMotor", "i", 1e300, "parameter i = 1e+300 is outside its accepted range [0.001, 10000]"),
+    ("InductionMotor", "i", 1e-300, "parameter i = 1e-300 is outside its accepted range [0.001, 10000]"),
+    ("InductionMotor", "eta", 2.0, "parameter eta = 2.0 is outside its accepted range [0, 1]"),
+])
+def test_refused_initialisation_names_variable_value_and_range(open_fmu, flavour, model, name, value, expected):
+    fmu = open_fmu(model, **{name: value})
+    if model == "BallInShell":
+        feed(fmu, 0.0)
+    assert fmu.init() == flavour.refusal
+    msg = fmu.messages()
+    assert expected in msg, msg
+    assert "rolling_resistance" not in msg and "drag =" not in msg.replace("c_drag =", "")
+
+
+@pytest.mark.parametrize("model", MODELS)
+def test_reset_after_a_refused_initialisation_works(open_fmu, flavour, model):
+    if not flavour.usable_after_refusal:
+        pytest.skip(f"{flavour}: an instance is gone after a refused initialisation (fmi2Fatal)")
+    bad = {"BallInShell": {"m": -1.0}, "MotorStartup": {"t0": 0.0}, "InductionMotor": {"i": 0.0}}[model]
+    fmu = open_fmu(model, **bad)
+    if model == "BallInShell":
+        feed(fmu, 0.0)
+    assert fmu.init() != OK
+    assert fmu.reset() == OK
+    if model == "BallInShell":
+        feed(fmu, 0.0)
+    assert fmu.init() == OK
+    assert fmu.step(1e-3) == OK
+
+
+def test_outputs_keep_their_sign_and_never_carry_nan(open_fmu):
+    """The one output allowed to be infinite (friction_ratio when N <= 0) is +1e300; every
+    other output is finite or the step is refused."""
+    fmu, st = run_ball(open_fmu, [2e-3] * 300, t0=0.5)
+    for name, v in fmu.outputs().items():
+        if isinstance(v, float):
+            assert v == v and abs(v) < 1e300 or name in ("friction_ratio", "t_invalid"), (name, v)

@@ -1,0 +1,119 @@
+"""FMU state (docs/conformance.md, "FMU state"): a state restores the whole configuration
+it was saved with (parameters validated, model rebuilt); a blob that does not fit is
+refused and the instance keeps its state."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from .conftest import MODELS, OK, ROOT
+from .inputs import feed, run_ball
+
+H = 2e-3
+
+
+def test_a_state_from_another_configuration_restores_that_configuration(open_fmu):
+    a, _ = run_ball(open_fmu, [H] * 50, m=2.0)
+    b, _ = run_ball(open_fmu, [H] * 50, m=0.51)
+    s = a.get_state()
+    assert b.set_state(s) == OK
+    assert b.get("m") == 2.0
+    assert b.get("N") == a.get("N")
+    # and both continue identically
+    for f in (a, b):
+        feed(f, f.time)
+        assert f.step(H) == OK
+    assert b.get("N") == a.get("N") and b.get("xC") == a.get("xC")
+
+
+def test_a_state_of_the_other_formulation_restores_that_formulation(open_fmu):
+    a, _ = run_ball(open_fmu, [H] * 20, formulation=2)
+    b, _ = run_ball(open_fmu, [H] * 20, formulation=1)
+    assert b.set_state(a.get_state()) == OK
+    assert b.get("formulation") == 2
+    for f in (a, b):
+        feed(f, f.time)
+        assert f.step(H) == OK
+    assert b.get("xC") == a.get("xC")
+
+
+@pytest.mark.parametrize("model", MODELS)
+def test_serialized_state_round_trip_is_exact(open_fmu, model):
+    if model == "BallInShell":
+        a, _ = run_ball(open_fmu, [H] * 10)
+    else:
+        a = open_fmu(model)
+        assert a.init() == OK
+        for _ in range(10):
+            assert a.step(H) == OK
+    s = a.get_state()
+    blob = a.serialize(s)
+    t_saved = a.time
+    for _ in range(5):
+        if model == "BallInShell":
+            feed(a, a.time)
+        assert a.step(H) == OK
+    after = a.outputs()
+    st, s2 = a.deserialize(blob)
+    assert st == OK and a.set_state(s2) == OK
+    a.time = t_saved
+    for _ in range(5):
+        if model == "BallInShell":
+            feed(a, a.time)
+        assert a.step(H) == OK
+    assert a.outputs() == after
+
+
+# Hand-made blobs: run in a subprocess (a crash here must fail the test, not the session).
+SCRIPT = r'''
+import json, sys
+sys.path.insert(0, sys.argv[1])
+from tests.conformance.harness import Fmu
+path, model, edit = sys.argv[2], sys.argv[3], sys.argv[4]
+fmu = Fmu(path, "victim")
+if model == "BallInShell":
+    fmu.set(x1O=0.5)
+assert fmu.init() == 0, fmu.messages()
+for _ in range(3):
+    assert fmu.step(1e-3) == 0
+before = fmu.outputs()
+state = json.loads(fmu.serialize(fmu.get_state()).decode())
+exec(edit)
+st, s = fmu.deserialize(json.dumps(state).encode())
+st2 = fmu.set_state(s) if st == 0 else None
+alive = not fmu.dead
+print(json.dumps({"deserialize": st, "set": st2, "same": alive and fmu.outputs() == before,
+                  "step": fmu.step(1e-3) if alive else None, "log": fmu.messages()}))
+'''
+
+EDITS = {
+    "negative_r": ("BallInShell", "state['r'] = -1.0; state['R'] = float('nan')", "R = nan"),
+    "bad_n": ("BallInShell", "state['__internal__']['state']['y'][0] = 5.0", "unit vector"),
+    "short_state": ("BallInShell", "state['__internal__']['state']['y'] = [0.0, 0.0]", "expected 6 numbers"),
+    "negative_r_only": ("BallInShell", "state['r'] = -1.0", "parameter r = -1.0 m is outside its accepted range"),
+    "wrong_model": ("BallInShell", "state['__model__'] = 'MotorStartup'", "belongs to model"),
+    "missing_variable": ("MotorStartup", "del state['l']", "variable l is missing"),
+    "bad_type": ("InductionMotor", "state['model'] = 'dq'", "wrong type"),
+    "drive_state": ("InductionMotor", "state['__internal__']['z'] = [0.0]", "drive state"),
+    "nan_time": ("MotorStartup", "state['__time__'] = None", "time must be finite"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(EDITS))
+def test_an_invalid_state_blob_is_refused_and_the_instance_keeps_its_state(fmus, flavour, case):
+    if flavour.name == "native":
+        pytest.skip("these edits are of pythonfmu's JSON state; the native flavour's binary states "
+                    "are validated the same way in tests/test_native_fmi.py (foreign, short, "
+                    "corrupted, impossible parameters, impossible ball state)")
+    model, edit, expected = EDITS[case]
+    proc = subprocess.run([sys.executable, "-c", SCRIPT, str(ROOT), str(fmus[model]), model, edit],
+                          capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    res = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert res["deserialize"] == flavour.refusal or res["set"] == flavour.refusal, res
+    assert expected in res["log"], res["log"]
+    if flavour.usable_after_refusal:
+        assert res["same"] and res["step"] == OK, res

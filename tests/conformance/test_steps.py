@@ -1,0 +1,199 @@
+"""The step-size policy (docs/conformance.md, "doStep"): any legal sequence of steps gives
+what uniform steps give; a step that is not a step is refused with the state intact; the
+work of one call is bounded."""
+from __future__ import annotations
+
+import math
+import time
+
+import pytest
+
+from .conftest import DISCARD, MODELS, OK
+from .inputs import feed, run_ball
+
+H = 2e-3  # the default communication step of the scenarios [s]
+N_STEPS = 100
+
+
+@pytest.fixture(scope="module")
+def uniform(fmus):
+    """N and xC after N_STEPS uniform steps (mode 1 and 2), the reference of the variable-step cases."""
+    from .harness import Fmu
+
+    ref = {}
+    for mode in (1, 2):
+        opened = []
+
+        def open_fmu(model, **p):
+            opened.append(Fmu(fmus[model], "ref", **p))
+            return opened[-1]
+        fmu, st = run_ball(open_fmu, [H] * N_STEPS, input_mode=mode)
+        assert st == OK
+        ref[mode] = (fmu.get("N"), fmu.get("xC"), fmu.time)
+        for f in opened:
+            f.free()
+    return ref
+
+
+# coupling error published for the default step (README, docs/coupling.md): N within 3e-4 N with
+# derivative inputs; the variable-step runs may differ from the uniform one by that much
+N_TOL = {1: 1e-3, 2: 5e-3}
+
+
+@pytest.mark.parametrize("mode", [1, 2])
+@pytest.mark.parametrize("tiny", [1e-3, 1e-4, 1e-6, 1e-12], ids=lambda f: f"first_step_{f:g}s")
+def test_one_tiny_step_then_uniform_steps_agrees_with_uniform(open_fmu, uniform, mode, tiny):
+    # the tiny step shifts the grid: compare at the uniform run's end time by a last step
+    steps = [tiny] + [H] * (N_STEPS - 1) + [H - tiny]
+    fmu, st = run_ball(open_fmu, steps, input_mode=mode)
+    assert st == OK, fmu.messages()
+    N, xC, t = uniform[mode]
+    assert fmu.time == pytest.approx(t, abs=1e-12)
+    assert abs(fmu.get("N") - N) < N_TOL[mode]
+    assert abs(fmu.get("xC") - xC) < 1e-6
+
+
+@pytest.mark.parametrize("pattern", ["alternating", "tiny_in_the_middle", "growing"])
+def test_irregular_step_sequences_agree_with_uniform(open_fmu, uniform, pattern):
+    if pattern == "alternating":
+        steps = [H / 1000, H - H / 1000] * N_STEPS
+    elif pattern == "tiny_in_the_middle":
+        steps = [H] * 50 + [1e-9, H - 1e-9] + [H] * (N_STEPS - 51)
+    else:
+        steps = [H / 4] * 4 + [H / 2] * 2 + [H] * (N_STEPS - 2)
+    fmu, st = run_ball(open_fmu, steps, input_mode=1)
+    assert st == OK, fmu.messages()
+    N, xC, t = uniform[1]
+    assert fmu.time == pytest.approx(t, abs=1e-12)
+    assert abs(fmu.get("N") - N) < N_TOL[1]
+    assert abs(fmu.get("xC") - xC) < 1e-6
+
+
+def test_long_and_short_steps_mixed_agree_with_uniform(open_fmu, uniform):
+    """Steps of 20 ms (the contact point's published error there is 1e-6 m, N's 2e-3 N:
+    docs/coupling.md) then 2 ms steps."""
+    fmu, st = run_ball(open_fmu, [0.02] * 5 + [H] * (N_STEPS - 50), input_mode=1)
+    assert st == OK, fmu.messages()
+    N, xC, t = uniform[1]
+    assert fmu.time == pytest.approx(t, abs=1e-12)
+    assert abs(fmu.get("N") - N) < 5e-3
+    assert abs(fmu.get("xC") - xC) < 1e-5
+
+
+@pytest.mark.parametrize("h", [1e-5, 1e-7])
+def test_many_tiny_steps_agree_with_one_step(open_fmu, h):
+    """Uniform steps too short for the positions' resolution (6 ulp(x) / h^2 > 1e-6 m/s2): the
+    fit takes velocities and accelerations; the result agrees with one 2 ms step."""
+    n = int(round(2e-4 / h))
+    fine, st = run_ball(open_fmu, [h] * n)
+    assert st == OK, fine.messages()
+    coarse, st = run_ball(open_fmu, [2e-4])
+    assert st == OK
+    assert abs(fine.get("xC") - coarse.get("xC")) < 1e-12
+    assert abs(fine.get("N") - coarse.get("N")) < 1e-6
+    assert "the reconstruction uses the velocity and acceleration inputs" in fine.messages()
+
+
+def _started(open_fmu, model):
+    if model == "BallInShell":
+        fmu, st = run_ball(open_fmu, [H] * 5)
+        assert st == OK
+        return fmu
+    fmu = open_fmu(model)
+    assert fmu.init() == OK
+    for _ in range(5):
+        assert fmu.step(H) == OK
+    return fmu
+
+
+@pytest.mark.parametrize("model", MODELS)
+@pytest.mark.parametrize("h", [0.0, -1e-3, math.nan, math.inf, -math.inf], ids=str)
+def test_a_step_size_that_is_not_a_step_is_refused_state_intact(open_fmu, flavour, model, h):
+    fmu = _started(open_fmu, model)
+    before = fmu.outputs()
+    n = len(fmu.log)
+    assert fmu.step(h) == flavour.step_refusal
+    assert "communicationStepSize" in fmu.messages(n) and "positive and finite" in fmu.messages(n)
+    assert fmu.outputs() == before
+    assert fmu.step(H) == OK  # and the instance carries on from where it was
+
+
+@pytest.mark.parametrize("model", MODELS)
+@pytest.mark.parametrize("where", ["back", "ahead", "nan"])
+def test_a_non_contiguous_step_is_refused_state_intact(open_fmu, flavour, model, where):
+    fmu = _started(open_fmu, model)
+    before = fmu.outputs()
+    t = {"back": fmu.time - H, "ahead": fmu.time + H, "nan": math.nan}[where]
+    n = len(fmu.log)
+    assert fmu.step(H, t=t) == flavour.step_refusal
+    assert "currentCommunicationPoint must equal the FMU's time" in fmu.messages(n)
+    assert fmu.outputs() == before
+    assert fmu.step(H) == OK
+
+
+@pytest.mark.parametrize("model", MODELS)
+def test_do_step_after_terminate_is_refused(open_fmu, flavour, model):
+    fmu = _started(open_fmu, model)
+    before = fmu.outputs()
+    assert fmu.terminate() == OK
+    n = len(fmu.log)
+    assert fmu.step(H) == flavour.step_refusal
+    assert "after fmi2Terminate" in fmu.messages(n)
+    assert fmu.outputs() == before
+
+
+def test_a_step_longer_than_max_step_is_discarded_state_intact(open_fmu):
+    fmu, st = run_ball(open_fmu, [H] * 5, max_step=0.01)
+    before = fmu.outputs()
+    n = len(fmu.log)
+    assert fmu.step(0.0101) == DISCARD
+    assert "exceeds max_step = 0.01 s" in fmu.messages(n)
+    assert fmu.outputs() == before
+    assert fmu.step(0.01) == OK
+
+
+def test_the_step_time_tolerance_is_relative(open_fmu):
+    """A master's own time arithmetic (t = k h instead of t += h) is accepted."""
+    fmu, st = run_ball(open_fmu, [0.1] * 3, max_step=0.1)
+    assert st == OK
+    t_master = 3 * 0.1  # 0.30000000000000004 vs 0.1 + 0.1 + 0.1
+    feed(fmu, t_master)
+    assert fmu.step(0.1, t=t_master) == OK
+
+
+@pytest.mark.parametrize("parameters, name", [
+    ({"integrator": 3, "h_fixed": 1e-22}, "h_fixed"),
+    ({"integrator": 3, "h_fixed": 1e-11}, "h_fixed"),
+    ({"delta": 1e300}, "delta"),
+    ({"c_drag": 1e300}, "c_drag"),
+    ({"c_drag": 1e6}, "c_drag"),
+    ({"delta": 0.03}, "delta"),
+])
+def test_parameters_that_make_the_work_unbounded_are_refused_at_initialisation(open_fmu, flavour, parameters,
+                                                                               name):
+    fmu = open_fmu("BallInShell", **parameters)
+    feed(fmu, 0.0)
+    t = time.perf_counter()
+    assert fmu.init() == flavour.refusal
+    assert time.perf_counter() - t < 5.0  # generous: the point is "not 12 s" on a busy machine
+    msg = fmu.messages()
+    assert f"parameter {name} = " in msg and "accepted range" in msg
+
+
+def test_the_work_of_one_step_is_bounded(open_fmu):
+    """The tightest tolerance the FMU accepts with the stiffest drag it accepts: every
+    step either completes or is discarded after at most MAX_INTERNAL_STEPS internal steps."""
+    fmu, st = run_ball(open_fmu, [H] * 3, tolerance=1e-15, integrator=1, c_drag=28000.0)
+    assert st in (OK, DISCARD)
+    if st == DISCARD:
+        assert "more than 20000 internal steps" in fmu.messages()
+
+
+def test_a_long_step_of_the_induction_motor_is_bounded(open_fmu):
+    fmu = open_fmu("InductionMotor", model=2)
+    assert fmu.init() == OK
+    st = fmu.step(1e4)
+    assert st in (OK, DISCARD)
+    if st == DISCARD:
+        assert "more than 20000 internal steps" in fmu.messages()
+        assert fmu.step(1e-3) == OK
