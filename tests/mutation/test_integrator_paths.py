@@ -133,3 +133,18 @@ def test_state_restores_mode_points_and_samples():
     assert b.state(0.45) == a.state(0.45)
     b.push(0.5, *quintic(0.5))  # the window keeps its 4 points
     assert [s[0] for s in b.samples] == [0.2, 0.3, 0.4, 0.5]
+
+
+@pytest.mark.parametrize("numpy_path", [False, True], ids=["kernel", "numpy"])
+@pytest.mark.parametrize("method", ["DOP853", "RK45"])
+def test_a_right_hand_side_that_turns_nan_is_reported_as_such(method, numpy_path, fresh):
+    """f is finite up to t = 0.3 s and NaN after: the step that reaches beyond (its last
+    stage, or only the FSAL evaluation at t + h) is retried smaller until it gives up,
+    saying why, on both step functions."""
+    fresh.setattr(_integ, "SMALL_SYSTEM", -1 if numpy_path else 16)
+
+    def f(t, y):
+        return np.array([y[1], -y[0]]) if t <= 0.3 else np.array([math.nan, math.nan])
+    with pytest.raises(ArithmeticError) as e:
+        Integrator(method, tol=1e-8).advance(f, 0.0, np.array([1.0, 0.0]), 1.0)
+    assert "non-finite values at t = " in str(e.value), str(e.value)

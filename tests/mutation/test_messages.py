@@ -133,3 +133,18 @@ def test_initial_state_refusals():
     with pytest.raises(ParameterError, match=r"initial position out of reach: .* R - r = 0\.225 m"):
         m.initial(xC0=0.2, yC0=0.2)
     assert m.initial(xC0=BALL.d).y[2] == pytest.approx(0.0, abs=1e-12)  # on the equator: reachable
+
+
+def test_paper_formulation_check_accepts_exactly_the_margin():
+    """R - zC == margin (R - r) exactly is still allowed (the refusal is strictly below)."""
+    d = BALL.d
+    for xC in np.linspace(0.97 * d, 0.99 * d, 200):  # a depth whose margin * d is exact
+        depth = math.sqrt(d * d - xC * xC)
+        margin = depth / d
+        if margin * d == depth:
+            break
+    assert margin * d == depth
+    form = PaperFormulation(BALL, equator_margin=margin)
+    form.check(np.array([xC, 0.0, 0.0, 0.0, 0.0]))
+    with pytest.raises(FormulationLimitError):
+        form.check(np.array([xC * (1 + 1e-12), 0.0, 0.0, 0.0, 0.0]))
