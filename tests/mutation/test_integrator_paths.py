@@ -148,3 +148,11 @@ def test_a_right_hand_side_that_turns_nan_is_reported_as_such(method, numpy_path
     with pytest.raises(ArithmeticError) as e:
         Integrator(method, tol=1e-8).advance(f, 0.0, np.array([1.0, 0.0]), 1.0)
     assert "non-finite values at t = " in str(e.value), str(e.value)
+
+
+def test_square_builds_the_strictly_lower_triangular_matrix():
+    """`_square` (run at import to build the tableaus, where a mutation tool cannot reach it)."""
+    A = _integ._square([[0.5], [0.0, 0.5], [0.0, 0.0, 1.0]], 4)
+    assert A.tolist() == [[0, 0, 0, 0], [0.5, 0, 0, 0], [0, 0.5, 0, 0], [0, 0, 1.0, 0]]
+    assert np.array_equal(_integ._square(_integ._RK45_A, 6), _integ.TABLEAUS["RK45"].A)
+    assert np.array_equal(_integ._square(_integ._DOP853_A, 12), _integ.TABLEAUS["DOP853"].A)

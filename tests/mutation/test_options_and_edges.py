@@ -125,3 +125,11 @@ def test_no_sample_no_fit():
     with pytest.raises(InputError) as e:
         InputReconstruction().accel(0.0)
     assert str(e.value) == "no platform sample has been set yet"
+
+
+def test_a_state_of_the_wrong_shape_stays_out_of_the_kernel():
+    """A vector model handed a 5-component state: the kernel (which reads 6 doubles) must not
+    take it; Python fails on it (an index error)."""
+    from ballmill.physics import BallState
+    with pytest.raises(IndexError):
+        simulate(BallModel(BALL), FAST, 0.05, 0.01, state=BallState(0.0, np.array([0.0, 0.0, -1.0, 0.0, 0.0])))
