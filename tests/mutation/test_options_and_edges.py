@@ -133,3 +133,54 @@ def test_a_state_of_the_wrong_shape_stays_out_of_the_kernel():
     from ballmill.physics import BallState
     with pytest.raises(IndexError):
         simulate(BallModel(BALL), FAST, 0.05, 0.01, state=BallState(0.0, np.array([0.0, 0.0, -1.0, 0.0, 0.0])))
+
+
+@pytest.mark.parametrize("points", [0, 9, -1])
+def test_reconstruction_window_bounds(points):
+    with pytest.raises(ValueError) as e:
+        InputReconstruction("positions", points=points)
+    assert str(e.value) == f"points must be between 1 and 8, got {points!r}"
+
+
+def test_reconstruction_window_of_one_and_eight():
+    assert InputReconstruction("positions", points=8).points == 8
+    r = InputReconstruction("positions", points=1)
+    r.push(0.0, 0.3, -0.2, 5.0, 6.0, 7.0, 8.0)  # velocities and accelerations are not used
+    # one position: the platform stands there
+    assert r.state(0.5) == (0.3, -0.2, 0.0, 0.0, 0.0, 0.0)
+    assert r.accel_function()(0.5) == (0.0, 0.0)
+
+
+@pytest.mark.parametrize("index, name", list(enumerate(("t", "x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O"))))
+def test_a_non_finite_input_is_named(index, name):
+    values = [0.25, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6]
+    values[index] = math.inf
+    r = InputReconstruction()
+    with pytest.raises(InputError) as e:
+        r.push(*values)
+    assert str(e.value) == f"input {name} must be finite, got inf at t = {values[0]!r} s"
+    assert r.samples == []
+
+
+def test_quartic_acceleration_takes_the_horner_path():
+    """Seven positions: a sextic in x, a quartic a(t) (5 coefficients), beyond the cubic closure."""
+    motion = poly_motion([0.1, -0.2, 0.3, 0.05, -0.04, 0.02, 0.01], [0.0, 0.1, -0.1, 0.2, 0.03, -0.02, 0.015])
+    rec = InputReconstruction("positions", points=7)
+    for k in range(7):
+        rec.push(0.1 * k, *motion(0.1 * k))
+    accel = rec.accel_function()
+    assert not hasattr(accel, "poly")
+    np.testing.assert_allclose(accel(0.65), motion(0.65)[4:], rtol=0, atol=1e-7)
+
+
+def test_samples_come_in_time_order_and_a_repeat_replaces():
+    r = InputReconstruction("positions", points=3)
+    r.push(0.1, 1.0, 2.0)
+    with pytest.raises(InputError) as e:
+        r.push(0.05, 1.0, 2.0)
+    assert str(e.value) == "inputs must come in time order: got t = 0.05 s after t = 0.1 s"
+    r.push(0.1, 3.0, 4.0)  # the same time again: replaces
+    assert r.samples == [(0.1, 3.0, 4.0, 0.0, 0.0, 0.0, 0.0)]
+    for k in range(2, 6):
+        r.push(0.1 * k, float(k), 0.0)
+    assert [s[0] for s in r.samples] == [0.30000000000000004, 0.4, 0.5]  # the window keeps 3
