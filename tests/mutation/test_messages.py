@@ -148,3 +148,10 @@ def test_paper_formulation_check_accepts_exactly_the_margin():
     form.check(np.array([xC, 0.0, 0.0, 0.0, 0.0]))
     with pytest.raises(FormulationLimitError):
         form.check(np.array([xC * (1 + 1e-12), 0.0, 0.0, 0.0, 0.0]))
+
+
+def test_ball_refuses_a_chamber_that_it_all_but_fills():
+    with pytest.raises(ParameterError) as e:
+        Ball(r=2.0 - 1e-9, R=2.0)  # (R - r) / R = 5e-10 < 1e-9
+    assert str(e.value) == f"R - r must be at least 1e-9 R, got r = {2.0 - 1e-9!r} m, R = 2.0 m"
+    assert Ball(r=2.0 - 4e-9, R=2.0).d > 0.0  # 2e-9 of R: allowed

@@ -184,3 +184,24 @@ def test_samples_come_in_time_order_and_a_repeat_replaces():
     for k in range(2, 6):
         r.push(0.1 * k, float(k), 0.0)
     assert [s[0] for s in r.samples] == [0.30000000000000004, 0.4, 0.5]  # the window keeps 3
+
+
+@pytest.mark.skipif(not KERNEL_AVAILABLE, reason="compiled kernel unavailable")
+def test_kernel_c_says_why_it_cannot_and_still_returns_when_nothing_is_left():
+    rec = InputReconstruction()
+    rec.push(0.0, *FAST.state(0.0))
+    accel = rec.accel_function()
+    m = BallModel(BALL, formulation="paper", kernel="c")
+    with pytest.raises(KernelUnavailable) as e:
+        m.advance(m.initial(xC0=0.05), 0.01, accel)
+    assert str(e.value) == "BallModel(kernel='c').advance: formulation 'paper' (the kernel does 'vector' only)"
+    v = BallModel(BALL, kernel="c")
+    s = v.initial(xC0=0.05)
+    with pytest.raises(KernelUnavailable) as e:
+        v.advance(s, 1, accel)  # an int end time
+    assert str(e.value) == "BallModel(kernel='c').advance: times that are not floats"
+    with pytest.raises(KernelUnavailable) as e:
+        v.advance(s, 0.01, FAST.accel)  # not the reconstruction's cubic
+    assert str(e.value).startswith("BallModel(kernel='c').advance: platform acceleration without polynomial")
+    same = v.advance(s, 0.0, accel)  # nothing to integrate: the kernel is not needed
+    assert same.t == 0.0 and np.array_equal(same.y, s.y)
