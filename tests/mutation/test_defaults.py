@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from ballmill.physics import (Ball, BallModel, CrankStartup, InputReconstruction, Integrator, energy, evaluate,
                               simulate)
@@ -87,3 +88,24 @@ def test_simulate_defaults():
     assert tr.success and tr.t.tolist() == [0.0, 0.01, 0.02]  # from the model's initial state
     assert set(tr.out) >= {"N", "zP", "contact"}  # with outputs
     assert np.array_equal(tr.y[0], m.initial().y)
+
+
+def test_paper_options_reach_the_formulation():
+    m = BallModel(BALL, formulation="paper", equator_margin=0.1, cramer=True)
+    assert m.form.equator_margin == 0.1 and m.form.cramer is True
+    from ballmill.physics.equations import make_formulation
+    f = make_formulation("paper", BALL, equator_margin=0.05, cramer=True)
+    assert isinstance(f, PaperFormulation) and f.equator_margin == 0.05 and f.cramer is True
+    with pytest.raises(ValueError) as e:
+        make_formulation("spherical", BALL)
+    assert str(e.value) == "formulation must be one of ['paper', 'vector'], got 'spherical'"
+
+
+def test_losses_are_read_from_any_ball_like_object():
+    from types import SimpleNamespace
+
+    from ballmill.physics.equations import _lossy
+    assert _lossy(SimpleNamespace()) is False  # no such attributes: lossless
+    assert _lossy(SimpleNamespace(drag=0.2)) is True
+    assert _lossy(SimpleNamespace(rolling_resistance=1e-4)) is True
+    assert _lossy(BALL) is False and _lossy(LOSSY) is True
