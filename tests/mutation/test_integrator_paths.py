@@ -156,3 +156,53 @@ def test_square_builds_the_strictly_lower_triangular_matrix():
     assert A.tolist() == [[0, 0, 0, 0], [0.5, 0, 0, 0], [0, 0.5, 0, 0], [0, 0, 1.0, 0]]
     assert np.array_equal(_integ._square(_integ._RK45_A, 6), _integ.TABLEAUS["RK45"].A)
     assert np.array_equal(_integ._square(_integ._DOP853_A, 12), _integ.TABLEAUS["DOP853"].A)
+
+
+@pytest.mark.parametrize("method", ["DOP853", "RK45", "RK4"])
+def test_a_scalar_equation(method, fresh):
+    """n = 1: the generated kernel unpacks one state (y' = -y, y = e^-t)."""
+    y, _, st = Integrator(method, tol=1e-10, h_fixed=1e-3).advance(lambda t, y: -y, 0.0, np.array([1.0]), 1.0)
+    assert (1, False) in _integ._KERNELS or (method, 1, False) in _integ._KERNELS
+    assert abs(y[0] - math.exp(-1.0)) < 1e-9 and st.steps > 0
+
+
+def test_kernels_are_generated_up_to_small_system_only(fresh):
+    def osc(n):
+        return lambda t, y: np.concatenate([y[n // 2:], -y[:n // 2]])
+    for n in (16, 18):
+        Integrator("RK45", tol=1e-6).advance(osc(n), 0.0, np.ones(n), 0.1)
+    assert ("RK45", 16, False) in _integ._KERNELS and ("RK45", 18, False) not in _integ._KERNELS
+
+
+@pytest.mark.parametrize("method", ["DOP853", "RK45"])
+def test_a_zero_step_size_is_no_step_size(method):
+    f = lambda t, y: np.array([y[1], -y[0]])  # noqa: E731
+    a = Integrator(method, tol=1e-8).advance(f, 0.0, np.array([1.0, 0.0]), 1.0, 0.0)
+    b = Integrator(method, tol=1e-8).advance(f, 0.0, np.array([1.0, 0.0]), 1.0, None)
+    assert np.array_equal(a[0], b[0]) and a[1] == b[1] and a[2] == b[2]
+
+
+@pytest.mark.parametrize("method", ["DOP853", "RK45", "RK4"])
+def test_one_integrator_reused_across_sizes_and_scales(method):
+    """The step function and scale tuples an Integrator keeps are rebuilt when the system
+    size, the tolerance or the scale changes: the results are those of fresh integrators."""
+    def osc(n):
+        return lambda t, y: np.concatenate([y[n // 2:], -2.0 * y[:n // 2]])
+
+    def fresh_run(n, tol, scale):
+        return Integrator(method, tol=tol, scale=scale, h_fixed=1e-2).advance(osc(n), 0.0, np.ones(n), 0.5)
+
+    reused = Integrator(method, tol=1e-7, scale=None, h_fixed=1e-2)
+    for n, tol, scale in ((2, 1e-7, None), (4, 1e-7, None), (4, 1e-9, None), (4, 1e-9, [1.0, 1.0, 50.0, 50.0]),
+                          (4, 1e-9, [1.0, 1.0, 0.01, 0.01]), (2, 1e-9, None)):
+        reused.tol = tol
+        reused.scale = None if scale is None else np.array(scale)
+        got = reused.advance(osc(n), 0.0, np.ones(n), 0.5)
+        want = fresh_run(n, tol, None if scale is None else np.array(scale))
+        assert np.array_equal(got[0], want[0]) and got[2] == want[2], (n, tol, scale)
+
+
+def test_rk4_takes_one_step_over_a_short_interval():
+    y, h, st = Integrator("RK4", h_fixed=1e-2).advance(lambda t, y: -y, 0.0, np.array([1.0]), 1e-3)
+    assert st.steps == 1 and st.nfev == 4 and h == 1e-2
+    assert abs(y[0] - math.exp(-1e-3)) < 1e-15
