@@ -155,3 +155,15 @@ def test_ball_refuses_a_chamber_that_it_all_but_fills():
         Ball(r=2.0 - 1e-9, R=2.0)  # (R - r) / R = 5e-10 < 1e-9
     assert str(e.value) == f"R - r must be at least 1e-9 R, got r = {2.0 - 1e-9!r} m, R = 2.0 m"
     assert Ball(r=2.0 - 4e-9, R=2.0).d > 0.0  # 2e-9 of R: allowed
+
+
+@pytest.mark.parametrize("name", ["xC0", "yC0", "wx0", "wy0", "wz0"])
+def test_each_initial_value_is_named(name):
+    values = dict(xC0=0.01, yC0=0.02, w0=[1.0, 2.0, 3.0])
+    if name.startswith("w"):
+        values["w0"][{"wx0": 0, "wy0": 1, "wz0": 2}[name]] = math.nan
+    else:
+        values[name] = math.nan
+    with pytest.raises(ParameterError) as e:
+        BallModel(BALL).initial(**values)
+    assert str(e.value) == f"{name} must be finite, got {name} = nan"
