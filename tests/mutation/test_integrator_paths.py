@@ -206,3 +206,31 @@ def test_rk4_takes_one_step_over_a_short_interval():
     y, h, st = Integrator("RK4", h_fixed=1e-2).advance(lambda t, y: -y, 0.0, np.array([1.0]), 1e-3)
     assert st.steps == 1 and st.nfev == 4 and h == 1e-2
     assert abs(y[0] - math.exp(-1e-3)) < 1e-15
+
+
+@pytest.mark.parametrize("numpy_path", [False, True], ids=["kernel", "numpy"])
+@pytest.mark.parametrize("method, work", [("DOP853", (23, 3, 313)), ("RK45", (81, 3, 505))])
+def test_recovery_from_non_finite_trial_steps(method, work, numpy_path, fresh):
+    """y' = -50 y, with f undefined (NaN) beyond |y| = 2, started with a carried step of 1 s:
+    the first trial steps are unstable and leave the domain, are rejected and retried at a
+    fifth of the size until one stays finite; then the controller takes over. The run
+    succeeds with the rejections counted (pinned: deterministic)."""
+    fresh.setattr(_integ, "SMALL_SYSTEM", -1 if numpy_path else 16)
+
+    def f(t, y):
+        return np.array([-50.0 * y[0]]) if abs(y[0]) <= 2.0 else np.array([math.nan])
+    y, _, st = Integrator(method, tol=1e-6).advance(f, 0.0, np.array([1.0]), 0.5, 1.0)
+    assert (st.steps, st.rejected, st.nfev) == work
+    assert y[0] == pytest.approx(math.exp(-25.0), rel=2e-3)
+
+
+def test_the_last_step_lands_on_the_end_time_exactly():
+    """y' = 0 from t = 0.1: the step grows tenfold per step and the last one is clipped to the
+    end; the driver then stands exactly at t_end, so no sliver step follows (6 to 8 steps
+    for ends between 0.2 and 10.1 s, never more)."""
+    for te in np.linspace(0.1, 10.0, 397):
+        t_end = float(te) + 0.1
+        _, _, st = Integrator("RK45", tol=1e-6).advance(lambda t, y: np.zeros(1), 0.1, np.array([1.0]), t_end)
+        # steps from 1e-6 s growing tenfold: k steps cover 1.111...e-6 (10^k - 1) s
+        need = next(k for k in range(1, 20) if 1e-6 * (10 ** k - 1) / 9 >= (t_end - 0.1) * (1 - 1e-12))
+        assert st.steps == need, (t_end, st.steps, need)
