@@ -5,13 +5,10 @@ failures, and FMUs that run (identically) with and without their bundled kernel.
 from __future__ import annotations
 
 import copy
-import json
 import math
 import os
 import pickle
 import shutil
-import subprocess
-import sys
 import textwrap
 import zipfile
 
@@ -20,6 +17,7 @@ import pytest
 
 from ballmill.physics import (KERNEL_AVAILABLE, KERNEL_REASON, Ball, BallModel, BallState, CrankStartup,
                               Harmonic, InputReconstruction, KernelUnavailable, StepFailure, fast)
+from host import run_host
 
 needs_kernel = pytest.mark.skipif(not KERNEL_AVAILABLE, reason=f"compiled kernel unavailable: {KERNEL_REASON}")
 
@@ -277,8 +275,8 @@ COUPLED = textwrap.dedent("""
     res = runner.run(sc, models, paths, progress=False, echo=False)
     np.save(out, res.data)
     lib, path, reason = fast._STATE if fast._STATE else (None, None, "never loaded")
-    print(json.dumps({"success": res.success, "steps": res.steps, "columns": res.columns,
-                      "kernel": lib is not None, "reason": reason}))
+    finish({"success": res.success, "steps": res.steps, "columns": res.columns,
+            "kernel": lib is not None, "reason": reason})
 """)
 
 
@@ -298,11 +296,8 @@ def test_coupled_fast_start_identical_without_the_kernel(fmu_build_dir, tmp_path
     runs = {}
     for no_kernel in (False, True):
         out = tmp_path / f"data_{no_kernel}.npy"
-        proc = subprocess.run([sys.executable, "-c", COUPLED, str(fmu_build_dir), scenario, str(step),
-                               "10.0" if step >= 0.04 else "3.0", str(out)],
-                              capture_output=True, text=True, timeout=300, env=_env(no_kernel))
-        assert proc.returncode == 0, proc.stderr[-3000:]
-        info = json.loads(proc.stdout.strip().splitlines()[-1])
+        info = run_host(COUPLED, [fmu_build_dir, scenario, step, "10.0" if step >= 0.04 else "3.0", out],
+                        tmp_path / f"info_{no_kernel}.json", env=_env(no_kernel))
         assert info["success"]
         runs[no_kernel] = (info, np.load(out))
     (on, a), (off, b) = runs[False], runs[True]
@@ -339,16 +334,14 @@ STANDALONE = textwrap.dedent("""
     np.save(out, np.array(r.tolist()))
     fast = sys.modules["ballmill.physics.fast"]
     lib, path, reason = fast._STATE if fast._STATE else (None, None, "never loaded")
-    print(json.dumps({"ball_from": sys.modules["ballmill"].__file__, "kernel": lib is not None,
-                      "path": str(path), "reason": reason}))
+    finish({"ball_from": sys.modules["ballmill"].__file__, "kernel": lib is not None,
+            "path": str(path), "reason": reason})
 """)
 
 
 def _standalone(unzipdir, out, no_kernel=False):
-    proc = subprocess.run([sys.executable, "-c", STANDALONE, str(unzipdir), str(out)], cwd=unzipdir,
-                          capture_output=True, text=True, timeout=300, env=_env(no_kernel))
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    return json.loads(proc.stdout.strip().splitlines()[-1]), np.load(out)
+    info = run_host(STANDALONE, [unzipdir, out], str(out) + ".json", cwd=unzipdir, env=_env(no_kernel))
+    return info, np.load(out)
 
 
 def test_fmu_bundles_the_kernel(fmus_of, tmp_path):
