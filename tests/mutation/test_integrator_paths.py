@@ -18,6 +18,7 @@ import pytest
 
 from ballmill.physics import Ball, BallModel, CrankStartup, InputReconstruction, Integrator
 from ballmill.physics import integrators as _integ
+from ballmill.physics.platform import HISTORY_EXTRA
 
 BALL = Ball()
 CRANK = CrankStartup(l=0.5, n0=60.0, t0=2.5)
@@ -123,16 +124,33 @@ def test_hold_keeps_the_last_acceleration(fresh):
 
 
 def test_state_restores_mode_points_and_samples():
+    """get_state/set_state carry the mode, the points and the whole history (issue 9: the
+    history keeps `points` + HISTORY_EXTRA samples for the node choice; a state of another
+    mode or number of points is refused, naming both)."""
     a = InputReconstruction("positions", points=4)
     for t in (0.0, 0.1, 0.2, 0.3, 0.4):
         a.push(t, *quintic(t))
-    b = InputReconstruction()  # derivatives, 2 points
+    with pytest.raises(ValueError) as e:
+        InputReconstruction().set_state(a.get_state())  # derivatives, 2 points
+    assert str(e.value) == ("input reconstruction state for mode 'positions' with 4 points, "
+                            "expected 'derivatives' with 2")
+    with pytest.raises(ValueError):
+        InputReconstruction("positions", points=3).set_state(a.get_state())
+    b = InputReconstruction("positions", points=4)
     b.set_state(a.get_state())
     assert (b.mode, b.points) == ("positions", 4)
-    assert b.samples == a.samples and len(b.samples) == 4
+    assert b.samples == a.samples and len(b.samples) == 5
     assert b.state(0.45) == a.state(0.45)
-    b.push(0.5, *quintic(0.5))  # the window keeps its 4 points
-    assert [s[0] for s in b.samples] == [0.2, 0.3, 0.4, 0.5]
+    assert [n[0] for n in b.nodes()] == [0.1, 0.2, 0.3, 0.4]  # the fit takes the newest 4
+    for k in range(5, 15):
+        b.push(0.1 * k, *quintic(0.1 * k))
+    # the history keeps points + HISTORY_EXTRA = 10 samples, the fit the newest 4 of them
+    assert len(b.samples) == 4 + HISTORY_EXTRA == 10
+    assert b.samples[0][0] == pytest.approx(0.5) and b.samples[-1][0] == pytest.approx(1.4)
+    assert [n[0] for n in b.nodes()] == [smp[0] for smp in b.samples[-4:]]
+    c = InputReconstruction("positions", points=4)
+    c.set_state(b.get_state())
+    assert c.samples == b.samples and c.state(1.45) == b.state(1.45)
 
 
 @pytest.mark.parametrize("numpy_path", [False, True], ids=["kernel", "numpy"])

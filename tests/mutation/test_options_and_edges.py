@@ -13,6 +13,7 @@ import pytest
 from ballmill.physics import (Ball, BallModel, CrankStartup, InputError, InputReconstruction, KERNEL_AVAILABLE,
                               KernelUnavailable, evaluate, fast, simulate)
 from ballmill.physics import model as _model
+from ballmill.physics.platform import HISTORY_EXTRA
 
 BALL = Ball()
 FAST = CrankStartup(l=0.5, n0=60.0, t0=2.5)
@@ -183,7 +184,17 @@ def test_samples_come_in_time_order_and_a_repeat_replaces():
     assert r.samples == [(0.1, 3.0, 4.0, 0.0, 0.0, 0.0, 0.0)]
     for k in range(2, 6):
         r.push(0.1 * k, float(k), 0.0)
-    assert [s[0] for s in r.samples] == [0.30000000000000004, 0.4, 0.5]  # the window keeps 3
+    # issue 9: the history keeps more than the fit's 3 points (for the node choice); the fit
+    # takes the newest 3 samples at least h/2 apart, newest first (h: the coming step)
+    assert [s[0] for s in r.samples] == [0.1, 0.2, 0.30000000000000004, 0.4, 0.5]
+    assert [n[0] for n in r.nodes()] == [0.30000000000000004, 0.4, 0.5]  # h = 0: the newest 3
+    r.set_horizon(0.3)  # nodes at least 0.15 s apart: every other sample
+    assert [n[0] for n in r.nodes()] == [0.1, 0.30000000000000004, 0.5]
+    assert r.window() == [0.1, 0.2, 0.30000000000000004, 0.4, 0.5]
+    for k in range(6, 14):
+        r.push(0.1 * k, float(k), 0.0)
+    assert len(r.samples) == 3 + HISTORY_EXTRA  # the oldest leave the history
+    assert r.samples[0][0] == pytest.approx(0.5)
 
 
 @pytest.mark.skipif(not KERNEL_AVAILABLE, reason="compiled kernel unavailable")
