@@ -3,7 +3,7 @@
  * The vector formulation of ballmill.physics (equations.py: n' = lambda n x omega,
  * omega' = k n x (a_O - g + r n' x omega), with the optional rolling resistance
  * and drag), the outputs of outputs.py (all fields of Outputs, in their order),
- * the platform motions of drives.py (CrankStartup, Fixed, Harmonic, Circle:
+ * the platform motions of drives/crank.py (CrankStartup, Fixed, Harmonic, Circle:
  * exact state(t)) and the explicit Runge-Kutta integrators of integrators.py
  * (DOP853, RK45, RK4) with the same step-size control, error norms, clipping
  * to the output points, carried step, renormalisation of n after every
@@ -20,9 +20,9 @@
  * polynomial of platform.InputReconstruction (motion BM_POLY: only a(t) is
  * known, evaluated in the closure's operation order).
  *
- * The general model of a chamber that moves in 3-D and turns (turning.py and
- * chamber.py; DESIGN.md section 10) has functions of its own, bmg_* at the end
- * of the file, reached through ballmill/physics/fast_turning.py; they share the
+ * The general model of a chamber that moves in 3-D and turns (turning/model.py and
+ * turning/motions.py; DESIGN.md section 10) has functions of its own, bmg_* at the end
+ * of the file, reached through ballmill/physics/turning/kernel.py; they share the
  * integrator helpers but leave the translation-only functions as they are.
  *
  * Plain C99, no Python C API in the functions: ballmill/physics/fast.py calls
@@ -111,7 +111,7 @@ typedef struct {
     long long steps, rejected, nfev;
 } bm_stats;
 
-/* ------------------------------------------------------------------ drives.py */
+/* ------------------------------------------------------------------ drives/crank.py */
 static void bm_motion_state(const bm_problem *P, double t, double o[6])
 {
     const double *p = P->mp;
@@ -661,23 +661,23 @@ BM_EXPORT void bm_eval_outputs(const bm_problem *P, const double *y, double ax, 
 }
 
 /* ======================================================================
- * The general model: a chamber with any rigid motion (turning.py, chamber.py;
- * DESIGN.md section 10). Functions bmg_*, reached through fast_turning.py; they
+ * The general model: a chamber with any rigid motion (turning/model.py, turning/motions.py;
+ * DESIGN.md section 10). Functions bmg_*, reached through turning/kernel.py; they
  * reuse the integrator helpers above (tableau rows, error norm, projection) but
  * none of the translation-only functions' code paths, which stay as they are.
  *
  *   n'     = (R/d) Omega x n + lambda n x omega
  *   omega' = k n x (a_A - g + R (Omega' x n + Omega x n') + r n' x omega)
  *
- * Motions: BMG_SPIN (chamber.Spin) and BMG_FIG1 (chamber.Fig1Machine with the
- * angle laws CrankStartup or ConstantSpeed), in chamber.py's operation order.
+ * Motions: BMG_SPIN (motions.Spin) and BMG_FIG1 (motions.Fig1Machine with the
+ * angle laws CrankStartup or ConstantSpeed), in turning/motions.py's operation order.
  * ====================================================================== */
 enum { BMG_SPIN = 1, BMG_FIG1 = 2 };
 enum { BMG_LAW_CONST = 0, BMG_LAW_CRANK = 1 };
-#define BMG_NCS 38  /* fields of chamber.ChamberState */
-#define BMG_NOUT 28 /* fields of turning.ChamberOutputs */
+#define BMG_NCS 38  /* fields of motions.ChamberState */
+#define BMG_NOUT 28 /* fields of turning.model.ChamberOutputs */
 
-/* Everything a general run needs; filled by fast_turning.py (ctypes mirror: _GProblem). */
+/* Everything a general run needs; filled by turning/kernel.py (ctypes mirror: _GProblem). */
 typedef struct {
     bm_problem base; /* integrator settings, and form = BM_VECTOR, ny = BM_NY (bm_error and bm_project
                         read them); its motion and ball fields are not read */
