@@ -10,6 +10,13 @@ sources (CSV) are interpolated with a cubic spline at each point.
 A step an FMU refuses (fmi2Discard, e.g. a non-finite input or the paper
 formulation at the equator) ends the run cleanly: everything recorded up to
 the last good point is kept, and the reason is in the result's messages.
+
+The stepping loop is lean (fmpy loads the FMUs and owns the instances; the loop
+calls their fmi2 functions from fmpy's library handles with ctypes arguments
+built once, and checks every status as fmpy does): the values travel through
+one array of doubles (the bus) that fmi2GetReal writes into and fmi2SetReal
+reads from, a record row is a copy of it into a preallocated array, and the
+progress bar is updated every PROGRESS_EVERY steps.
 """
 from __future__ import annotations
 
@@ -24,6 +31,7 @@ import numpy as np
 
 from . import spec as _spec
 
+PROGRESS_EVERY = 50  # steps between updates of the progress bar (which itself shows at most 10 per s)
 INIT_PASSES = 5  # at most, for the fixed-point iteration over connections in initialisation mode
 STATUS = {0: "ok", 1: "warning", 2: "discard", 3: "error", 4: "fatal", 5: "pending"}
 
@@ -142,6 +150,31 @@ class _TableSource:
         row = self.spline(t)
         return [float(row[self.columns.index(n)]) for n in names]
 
+    def reader(self, names, bus, offset: int):
+        """A function writing the values of these columns at the time in ``bus[0]`` into
+        ``bus[offset:offset + len(names)]`` (status 0: a table out of range raises)."""
+        end = offset + len(names)
+
+        def read():
+            bus[offset:end] = self.values(names, bus[0])
+            return 0
+        return read
+
+
+def _bare(fmu, name: str):
+    """fmpy's loaded fmi2 function ``name`` of this FMU as a plain C function returning the
+    status, without fmpy's wrapper or argument conversion: the master passes ready ctypes
+    objects of the exact C types (fmi2Component, arrays, size_t, fmi2Real, fmi2Boolean) and
+    checks the status itself. About half the cost of a call through fmpy's wrapper."""
+    address = ctypes.cast(getattr(fmu.dll, name), ctypes.c_void_p).value
+    return ctypes.CFUNCTYPE(ctypes.c_int)(address)
+
+
+def _slot(bus, i: int):
+    """A double* to element i of a ctypes array of doubles (what fmi2GetReal/SetReal take)."""
+    return ctypes.cast(ctypes.addressof(bus) + i * ctypes.sizeof(ctypes.c_double),
+                       ctypes.POINTER(ctypes.c_double))
+
 
 class _FmuInstance:
     def __init__(self, inst: _spec.Instance, path: Path, md, logger: _Logger):
@@ -168,57 +201,50 @@ class _FmuInstance:
             else:
                 self.fmu.setString([v.valueReference], [str(value)])
 
-    def getter(self, names):
-        """A function returning the values of these variables (Reals and Booleans).
+    def readers(self, names, bus, offset: int):
+        """FMI calls that write the values of these variables into ``bus[offset:offset + len(names)]``
+        (a ctypes array of doubles), as (function, arguments, name) triples: the master calls
+        ``function(*arguments)`` and refuses a status above fmi2Warning exactly as fmpy does.
 
-        The value-reference and value arrays are built once and the FMI functions called
-        with them directly (fmpy's getReal builds both anew at every call)."""
+        ``names`` must list the Reals first (the master orders them so): one fmi2GetReal
+        writes them straight into the bus; the Booleans and Integers (recorded, never
+        connected) follow with one call each and are converted to float."""
         from fmpy.fmi2 import fmi2Boolean, fmi2Integer, fmi2Real, fmi2ValueReference
-        fmu = self.fmu
-        reals = [(i, self.vars[n].valueReference) for i, n in enumerate(names) if self.vars[n].type == "Real"]
-        others = [(i, self.vars[n].valueReference, self.vars[n].type) for i, n in enumerate(names)
-                  if self.vars[n].type != "Real"]
-        n_total, n_real = len(names), len(reals)
-        rvr = (fmi2ValueReference * n_real)(*[vr for _, vr in reals])
-        rval = (fmi2Real * n_real)()
-        get_real = fmu.fmi2GetReal
-        plain = not others and [i for i, _ in reals] == list(range(n_total))
-        if plain:
-            def get():
-                get_real(fmu.component, rvr, n_real, rval)
-                return rval[:]
-            return get
-        bvr = [(i, fmi2ValueReference(vr), kind) for i, vr, kind in others]
-        bval, ival = fmi2Boolean(), fmi2Integer()
+        comp = ctypes.c_void_p(self.fmu.component)
+        kinds = [self.vars[n].type for n in names]
+        n_real = sum(k == "Real" for k in kinds)
+        if kinds[:n_real] != ["Real"] * n_real:
+            raise ValueError(f"{self.name}: the Reals must come first in {names}")
+        ops = []
+        if n_real:
+            vr = (fmi2ValueReference * n_real)(*[self.vars[n].valueReference for n in names[:n_real]])
+            ops.append((_bare(self.fmu, "fmi2GetReal"),
+                        (comp, vr, ctypes.c_size_t(n_real), _slot(bus, offset)), "fmi2GetReal"))
+        for kind, ctype in (("Boolean", fmi2Boolean), ("Integer", fmi2Integer)):
+            where = [i for i, k in enumerate(kinds) if k == kind]
+            if not where:
+                continue
+            vr = (fmi2ValueReference * len(where))(*[self.vars[names[i]].valueReference for i in where])
+            val = (ctype * len(where))()
+            fun = _bare(self.fmu, f"fmi2Get{kind}")
+            slots = [offset + i for i in where]
 
-        def get():
-            out = [0.0] * n_total
-            if n_real:
-                get_real(fmu.component, rvr, n_real, rval)
-                for (i, _), v in zip(reals, rval):
-                    out[i] = v
-            for i, vr, kind in bvr:
-                if kind == "Boolean":
-                    fmu.fmi2GetBoolean(fmu.component, ctypes.byref(vr), 1, ctypes.byref(bval))
-                    out[i] = float(bval.value)
-                else:
-                    fmu.fmi2GetInteger(fmu.component, ctypes.byref(vr), 1, ctypes.byref(ival))
-                    out[i] = float(ival.value)
-            return out
-        return get
+            def get(fun=fun, vr=vr, n=ctypes.c_size_t(len(where)), val=val, slots=slots):
+                status = fun(comp, vr, n, val)
+                if status <= 1:
+                    for slot, v in zip(slots, val):
+                        bus[slot] = float(v)
+                return status
+            ops.append((get, (), f"fmi2Get{kind}"))
+        return ops
 
-    def setter(self, vrs):
-        """A function setting these Real variables to a list of values (arrays built once)."""
-        from fmpy.fmi2 import fmi2Real, fmi2ValueReference
-        fmu = self.fmu
-        n = len(vrs)
-        varr = (fmi2ValueReference * n)(*vrs)
-        kind = fmi2Real * n
-        set_real = fmu.fmi2SetReal
-
-        def put(values):
-            set_real(fmu.component, varr, n, kind(*values))
-        return put
+    def writer(self, vrs, values_ptr):
+        """The fmi2SetReal call (function, arguments, name) that sets these Real inputs from
+        the doubles at ``values_ptr``."""
+        from fmpy.fmi2 import fmi2ValueReference
+        varr = (fmi2ValueReference * len(vrs))(*vrs)
+        return (_bare(self.fmu, "fmi2SetReal"),
+                (ctypes.c_void_p(self.fmu.component), varr, ctypes.c_size_t(len(vrs)), values_ptr), "fmi2SetReal")
 
     def close(self):
         import shutil
@@ -243,7 +269,7 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
     tables: dict[str, _TableSource] = {}
     order = _order(sc)
     columns = ["time"] + [f"{a}.{b}" for a, b in sc.record]
-    rows: list[list[float]] = []
+    rows, record, columns_at = 0, None, None
     success, message, steps = True, "completed", 0
     try:
         for name in order:
@@ -252,7 +278,8 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
                 fmus[name] = _FmuInstance(inst, paths[inst.fmu], models[inst.fmu], logger)
             else:
                 tables[name] = _TableSource(inst)
-        # what each instance must deliver at a communication point: connection sources + records
+        # what each instance must deliver at a communication point: connection sources + records,
+        # the Reals first (one fmi2GetReal for them)
         wanted = {n: [] for n in sc.instances}
         for si, sv, _, _ in sc.connections:
             if sv not in wanted[si]:
@@ -260,23 +287,41 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
         for inst, var in sc.record:
             if var not in wanted[inst]:
                 wanted[inst].append(var)
-        getters = {n: fmus[n].getter(wanted[n]) for n in fmus}
-        # inputs per destination FMU: (positions in the source's wanted list)
+        for n in fmus:
+            wanted[n].sort(key=lambda v, n=n: fmus[n].vars[v].type != "Real")  # stable
+        # the bus: slot 0 the time, then each instance's wanted values; the getters write
+        # into it, the setters read from it, a row of the record is a copy of it
+        offset, width = {}, 1
+        for n in sc.instances:
+            offset[n], width = width, width + len(wanted[n])
+        bus = (ctypes.c_double * width)()
+        bus_np = np.ctypeslib.as_array(bus)
+        reads = {n: (fmus[n].readers(wanted[n], bus, offset[n]) if n in fmus else
+                     [(tables[n].reader(wanted[n], bus, offset[n]), (), "table")]) for n in sc.instances}
+        # inputs per destination FMU: value references and the bus slots they take
         setters = {n: ([], []) for n in fmus}
         for si, sv, di, dv in sc.connections:
             setters[di][0].append(fmus[di].vars[dv].valueReference)
-            setters[di][1].append((si, wanted[si].index(sv)))
-        record_index = [(a, wanted[a].index(b)) for a, b in sc.record]
+            setters[di][1].append(offset[si] + wanted[si].index(sv))
+        gathers, writes = [], {}
+        for n, (vrs, slots) in setters.items():
+            if not vrs:
+                continue
+            if slots == list(range(slots[0], slots[0] + len(slots))):  # contiguous: straight from the bus
+                ptr = _slot(bus, slots[0])
+            else:
+                staged = (ctypes.c_double * len(slots))()
+                gathers.append((np.array(slots, dtype=np.intp), np.ctypeslib.as_array(staged)))
+                ptr = staged
+            writes[n] = fmus[n].writer(vrs, ptr)
+        step_ops = [op for n in sc.instances for op in reads[n]]
+        set_ops = list(writes.values())
+        columns_at = [0] + [offset[a] + wanted[a].index(b) for a, b in sc.record]
 
-        puts = [(fmus[n].setter(vrs), srcs) for n, (vrs, srcs) in setters.items() if vrs]
-        sources = [(n, getters[n], None) if n in fmus else (n, None, tables[n]) for n in sc.instances]
-
-        def collect(t):
-            return {n: (get() if get is not None else table.values(wanted[n], t)) for n, get, table in sources}
-
-        def push(values):
-            for put, srcs in puts:
-                put([values[s][k] for s, k in srcs])
+        def check(fun, args, fname):
+            status = fun(*args)
+            if status > 1:
+                raise FMICallException(function=fname, status=status)
 
         t = sc.start
         for name in order:
@@ -289,18 +334,20 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
         # initialisation mode: outputs follow the inputs (see ballmill.fmi.slave), so pass
         # values around until they settle; a loop through the connections converges in a few
         # passes because the fed-back quantities (reaction torque) barely move the sources
+        bus[0] = t
         values = {}
         for _ in range(INIT_PASSES):
             previous = {n: list(v) for n, v in values.items()}
             for name in order:
-                if name in tables:
-                    values[name] = tables[name].values(wanted[name], t)
-                    continue
-                vrs, srcs = setters[name]
-                ready = [(vr, values[s][k]) for vr, (s, k) in zip(vrs, srcs) if s in values]
-                if ready:  # inputs fed back from a later instance keep their start values on pass 1
-                    fmus[name].fmu.setReal([vr for vr, _ in ready], [v for _, v in ready])
-                values[name] = getters[name]()
+                if name in fmus:
+                    vrs, slots = setters[name]
+                    src = [si for si, _, di, _ in sc.connections if di == name]
+                    ready = [(vr, bus[slot]) for vr, slot, si in zip(vrs, slots, src) if si in values]
+                    if ready:  # inputs fed back from a later instance keep their start values on pass 1
+                        fmus[name].fmu.setReal([vr for vr, _ in ready], [v for _, v in ready])
+                for op in reads[name]:
+                    check(*op)
+                values[name] = bus[offset[name]:offset[name] + len(wanted[name])]
             if values == previous:
                 break
         for name in order:
@@ -309,19 +356,39 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
         init_time = time.perf_counter() - wall0
         bar = _Progress(sc.stop - sc.start, progress)
         n_steps = int(round((sc.stop - sc.start) / sc.step))
+        record = np.empty((n_steps + 1, width))
+        row_bytes = record.strides[0]
+        record_at, bus_at = record.ctypes.data, ctypes.addressof(bus)
+        memmove = ctypes.memmove
+        now, size = ctypes.c_double(), ctypes.c_double()  # the doStep arguments, set at each step
+        no_set_prior = ctypes.c_int(1)  # noSetFMUStatePriorToCurrentPoint = fmi2True, as fmpy's doStep
+        steppers = [(name, _bare(f.fmu, "fmi2DoStep"), (ctypes.c_void_p(f.fmu.component), now, size, no_set_prior))
+                    for name, f in fmus.items()]
+        every = PROGRESS_EVERY
         for k in range(n_steps + 1):
             t = sc.start + k * sc.step
             logger.now = t
-            values = collect(t)
-            rows.append([t] + [values[a][i] for a, i in record_index])
+            bus[0] = t
+            for fun, args, fname in step_ops:
+                status = fun(*args)
+                if status > 1:
+                    raise FMICallException(function=fname, status=status)
+            memmove(record_at + k * row_bytes, bus_at, row_bytes)
+            rows = k + 1
             if k == n_steps:
                 break
-            push(values)
+            for slots, staged in gathers:
+                np.take(bus_np, slots, out=staged)
+            for fun, args, fname in set_ops:
+                status = fun(*args)
+                if status > 1:
+                    raise FMICallException(function=fname, status=status)
             h = min(sc.step, sc.stop - t) if k == n_steps - 1 else sc.step
-            for name, f in fmus.items():
-                try:
-                    f.fmu.doStep(currentCommunicationPoint=t, communicationStepSize=h)
-                except FMICallException as e:
+            now.value, size.value = t, h
+            for name, do_step, args in steppers:
+                status = do_step(*args)
+                if status > 1:
+                    e = FMICallException(function="fmi2DoStep", status=status)
                     why = [m["message"] for m in logger.messages if m["instance"] == name
                            and m["status"] in ("discard", "error", "fatal")]
                     success = False
@@ -332,7 +399,8 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
             if not success:
                 break
             steps += 1
-            bar.update(t + h - sc.start, t + h)
+            if steps % every == 0 or k == n_steps - 1:
+                bar.update(t + h - sc.start, t + h)
     except Exception as e:
         success, message = False, f"{type(e).__name__}: {e}"
         init_time = locals().get("init_time", time.perf_counter() - wall0)
@@ -341,7 +409,7 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
     finally:
         for f in fmus.values():
             f.close()
-    data = np.array(rows, dtype=float) if rows else np.empty((0, len(columns)))
+    data = record[:rows, columns_at] if rows else np.empty((0, len(columns)))
     return RunResult(sc, columns, data, success, message, logger.messages,
                      time.perf_counter() - wall0, init_time, steps)
 

@@ -77,6 +77,7 @@ const char *fmu_instance_name(const fmu_instance *fi) { return fi->name; }
 double fmu_step_call(const fmu_instance *fi, char buf[160])
 {
     char a[32], b[32];
+    if (!buf) return fi->call_h;
     snprintf(buf, 160, "doStep(currentCommunicationPoint = %s s, communicationStepSize = %s s)",
              fmu_repr(fi->call_t, a), fmu_repr(fi->call_h, b));
     return fi->call_h;

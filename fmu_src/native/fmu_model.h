@@ -71,7 +71,8 @@ void fmu_log(fmu_instance *fi, fmi2Status status, const char *fmt, ...)
 const char *fmu_instance_name(const fmu_instance *fi);
 
 /* during a step: the communicationStepSize the master passed, and the call as
- * "doStep(currentCommunicationPoint = <tc> s, communicationStepSize = <h> s)" in buf */
+ * "doStep(currentCommunicationPoint = <tc> s, communicationStepSize = <h> s)" in buf
+ * unless buf is NULL (formatting costs microseconds: only for messages) */
 double fmu_step_call(const fmu_instance *fi, char buf[160]);
 
 /* x as Python's repr(float) writes it (1.0, 0.3, 1e-05, nan, inf), for messages */
