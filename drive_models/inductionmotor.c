@@ -434,35 +434,6 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
 }
 
 /* ===================================================================== step */
-/* Integrator.initial_step, numpy's order of summation in np.mean */
-static double mean(const double *a, int n)
-{
-    double rest = 0.0;
-    for (int i = 1; i < n; i++) rest += a[i];
-    return (a[0] + rest) / n;
-}
-
-static double initial_step(const bm_problem *P, const load_ctx *L, double t, const double *y, const double *f0,
-                           double span)
-{
-    double sc[BM_NYMAX], q[BM_NYMAX], y1[BM_NYMAX] = {0}, f1[BM_NYMAX];
-    int n = P->ny;
-    for (int i = 0; i < n; i++) sc[i] = P->tol * bm_pymax(fabs(y[i]), P->scale[i]) + P->tols[i];
-    for (int i = 0; i < n; i++) q[i] = (y[i] / sc[i]) * (y[i] / sc[i]);
-    double d0 = sqrt(mean(q, n));
-    for (int i = 0; i < n; i++) q[i] = (f0[i] / sc[i]) * (f0[i] / sc[i]);
-    double d1 = sqrt(mean(q, n));
-    double h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
-    h0 = bm_pymin(h0, span);
-    for (int i = 0; i < n; i++) y1[i] = y[i] + h0 * f0[i];
-    drive_rhs(P, L, t + h0, y1, f1);
-    for (int i = 0; i < n; i++) q[i] = ((f1[i] - f0[i]) / sc[i]) * ((f1[i] - f0[i]) / sc[i]);
-    double d2 = sqrt(mean(q, n)) / h0;
-    double h1 = (d1 <= 1e-15 && d2 <= 1e-15) ? bm_pymax(1e-6, h0 * 1e-3)
-                                             : pow(0.01 / bm_pymax(d1, d2), 1.0 / P->order);
-    return bm_pymin(bm_pymin(100 * h0, h1), P->h_max);
-}
-
 static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double t_end)
 {
     induction_motor *m = data;
@@ -516,7 +487,7 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
         double f0[BM_NYMAX];
         drive_rhs(&m->P, &L, t, m->z, f0);
         if (!bm_all_finite(f0, m->nz)) goto failed;
-        hh = initial_step(&m->P, &L, t, m->z, f0, t_end - t);
+        hh = bm_initial_step_np(&m->P, drive_rhs, &L, t, m->z, f0, t_end - t);
     }
     bm_stats stats = {0, 0, 0};
     if (!bm_advance(&m->P, &m->T, drive_rhs, &L, t, m->z, t_end, &hh, &stats)) goto failed;

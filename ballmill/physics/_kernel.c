@@ -567,6 +567,38 @@ static int bm_advance(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, const
     return 1;
 }
 
+/* np.mean as numpy sums a short array: the first element, then the sum of the rest */
+static inline double bm_np_mean(const double *a, int n)
+{
+    double rest = 0.0;
+    for (int i = 1; i < n; i++) rest += a[i];
+    return (a[0] + rest) / n;
+}
+
+/* Integrator.initial_step (Hairer-Wanner) for any right-hand side, f0 = rhs(t, y) given,
+ * with numpy's order of summation in its means, so it rounds as the Python does: the
+ * native FMUs' starting step (ballinshell.c, inductionmotor.c). */
+static inline double bm_initial_step_np(const bm_problem *P, bm_rhs_fn rhs, const void *ctx, double t,
+                                        const double *y, const double *f0, double span)
+{
+    double sc[BM_NYMAX], q[BM_NYMAX], y1[BM_NYMAX] = {0}, f1[BM_NYMAX];
+    int n = P->ny;
+    for (int i = 0; i < n; i++) sc[i] = P->tol * bm_pymax(fabs(y[i]), P->scale[i]) + P->tols[i];
+    for (int i = 0; i < n; i++) q[i] = (y[i] / sc[i]) * (y[i] / sc[i]);
+    double d0 = sqrt(bm_np_mean(q, n));
+    for (int i = 0; i < n; i++) q[i] = (f0[i] / sc[i]) * (f0[i] / sc[i]);
+    double d1 = sqrt(bm_np_mean(q, n));
+    double h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
+    h0 = bm_pymin(h0, span);
+    for (int i = 0; i < n; i++) y1[i] = y[i] + h0 * f0[i];
+    rhs(P, ctx, t + h0, y1, f1);
+    for (int i = 0; i < n; i++) q[i] = ((f1[i] - f0[i]) / sc[i]) * ((f1[i] - f0[i]) / sc[i]);
+    double d2 = sqrt(bm_np_mean(q, n)) / h0;
+    double h1 = (d1 <= 1e-15 && d2 <= 1e-15) ? bm_pymax(1e-6, h0 * 1e-3)
+                                             : pow(0.01 / bm_pymax(d1, d2), 1.0 / P->order);
+    return bm_pymin(bm_pymin(100 * h0, h1), P->h_max);
+}
+
 /* ------------------------------------------------------------------- model.py */
 /* simulate's loop from output point `start` (state y, step *h) over times[start..n-1]:
  * records ys[i] (and the outputs outs[i] unless outs is NULL) for every point
