@@ -25,6 +25,7 @@
 #include "fmu_model.h"
 #include "InductionMotor_interface.h"
 #include "bm_tableaus.h"
+#include "crank_kinematics.h"
 #include "_kernel.c"
 
 #define NZ_MAX 7 /* psi, psi', four fluxes (dq), W_motor */
@@ -161,16 +162,16 @@ static void publish(const induction_motor *m, const load_ctx *L, double t, doubl
         Pel = 1.5 * u * m->v_peak * c[0];
     }
     double psi = z[0], pd = z[1], pdd = (m->i * T + m_r) / m->J;
-    double cs = cos(psi), sn = sin(psi), l = m->l;
+    crank_point o = crank_kinematics(m->l, psi, pd, pdd);
     v[VR_psi] = psi;
     v[VR_psi_dot] = pd;
     v[VR_psi_ddot] = pdd;
-    v[VR_x1O] = l * cs;
-    v[VR_y1O] = l * sn;
-    v[VR_vx1O] = -l * sn * pd;
-    v[VR_vy1O] = l * cs * pd;
-    v[VR_ax1O] = -l * (sn * pdd + cs * pd * pd);
-    v[VR_ay1O] = l * (cs * pdd - sn * pd * pd);
+    v[VR_x1O] = o.x;
+    v[VR_y1O] = o.y;
+    v[VR_vx1O] = o.vx;
+    v[VR_vy1O] = o.vy;
+    v[VR_ax1O] = o.ax;
+    v[VR_ay1O] = o.ay;
     double ws = f * m->w_sync;
     v[VR_w_motor] = w_m;
     v[VR_n_motor] = w_m / RPM;
