@@ -856,20 +856,15 @@ static void bmg_outputs(const double *c, const double *y, const double *cs, doub
 {
     double nx = y[0], ny = y[1], nz = y[2], wx = y[3], wy = y[4], wz = y[5];
     /* Ib, not I: <complex.h> (which the native induction motor FMU includes first) makes I a macro */
-    double Rd = c[0], lam = c[1], R = c[2], r = c[3], g = c[4], k = c[5], d = c[6], m = c[7], Ib = c[8],
-           mu = c[9];
+    double Rd = c[0], lam = c[1], R = c[2], g = c[4], d = c[6], m = c[7], Ib = c[8], mu = c[9];
     double Ax = cs[0], Ay = cs[1], Az = cs[2], vAx = cs[3], vAy = cs[4], vAz = cs[5];
     double ax = cs[6], ay = cs[7], az = cs[8], ox = cs[9], oy = cs[10], oz = cs[11];
     double px = cs[12], py = cs[13], pz = cs[14];
     const double *q = cs + 15;
     const double *w1 = cs + 25, *v1 = cs + 28, *w2 = cs + 32, *v2 = cs + 35;
-    double ndx = Rd * (oy * nz - oz * ny) + lam * (ny * wz - nz * wy);
-    double ndy = Rd * (oz * nx - ox * nz) + lam * (nz * wx - nx * wz);
-    double ndz = Rd * (ox * ny - oy * nx) + lam * (nx * wy - ny * wx);
-    double bx = ax + R * ((py * nz - pz * ny) + (oy * ndz - oz * ndy)) + r * (ndy * wz - ndz * wy);
-    double by = ay + R * ((pz * nx - px * nz) + (oz * ndx - ox * ndz)) + r * (ndz * wx - ndx * wz);
-    double bz = (az + g) + R * ((px * ny - py * nx) + (ox * ndy - oy * ndx)) + r * (ndx * wy - ndy * wx);
-    double wdx = k * (ny * bz - nz * by), wdy = k * (nz * bx - nx * bz), wdz = k * (nx * by - ny * bx);
+    double f[6]; /* n', omega': the right-hand side, with cs[6..14] = (a_A, Omega, Omega') as kin */
+    bmg_derivative(c, y, cs + 6, f);
+    double ndx = f[0], ndy = f[1], ndz = f[2], wdx = f[3], wdy = f[4], wdz = f[5];
     double nddx = Rd * ((py * nz - pz * ny) + (oy * ndz - oz * ndy))
                   + lam * (ndy * wz - ndz * wy + ny * wdz - nz * wdy);
     double nddy = Rd * ((pz * nx - px * nz) + (oz * ndx - ox * ndz))
