@@ -25,6 +25,7 @@
 #include "fmu_model.h"
 #include "InductionMotor_interface.h"
 #include "bm_tableaus.h"
+#include "crank_kinematics.h"
 #include "_kernel.c"
 
 #define NZ_MAX 7 /* psi, psi', four fluxes (dq), W_motor */
@@ -161,16 +162,16 @@ static void publish(const induction_motor *m, const load_ctx *L, double t, doubl
         Pel = 1.5 * u * m->v_peak * c[0];
     }
     double psi = z[0], pd = z[1], pdd = (m->i * T + m_r) / m->J;
-    double cs = cos(psi), sn = sin(psi), l = m->l;
+    crank_point o = crank_kinematics(m->l, psi, pd, pdd);
     v[VR_psi] = psi;
     v[VR_psi_dot] = pd;
     v[VR_psi_ddot] = pdd;
-    v[VR_x1O] = l * cs;
-    v[VR_y1O] = l * sn;
-    v[VR_vx1O] = -l * sn * pd;
-    v[VR_vy1O] = l * cs * pd;
-    v[VR_ax1O] = -l * (sn * pdd + cs * pd * pd);
-    v[VR_ay1O] = l * (cs * pdd - sn * pd * pd);
+    v[VR_x1O] = o.x;
+    v[VR_y1O] = o.y;
+    v[VR_vx1O] = o.vx;
+    v[VR_vy1O] = o.vy;
+    v[VR_ax1O] = o.ax;
+    v[VR_ay1O] = o.ay;
     double ws = f * m->w_sync;
     v[VR_w_motor] = w_m;
     v[VR_n_motor] = w_m / RPM;
@@ -434,35 +435,6 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
 }
 
 /* ===================================================================== step */
-/* Integrator.initial_step, numpy's order of summation in np.mean */
-static double mean(const double *a, int n)
-{
-    double rest = 0.0;
-    for (int i = 1; i < n; i++) rest += a[i];
-    return (a[0] + rest) / n;
-}
-
-static double initial_step(const bm_problem *P, const load_ctx *L, double t, const double *y, const double *f0,
-                           double span)
-{
-    double sc[BM_NYMAX], q[BM_NYMAX], y1[BM_NYMAX] = {0}, f1[BM_NYMAX];
-    int n = P->ny;
-    for (int i = 0; i < n; i++) sc[i] = P->tol * bm_pymax(fabs(y[i]), P->scale[i]) + P->tols[i];
-    for (int i = 0; i < n; i++) q[i] = (y[i] / sc[i]) * (y[i] / sc[i]);
-    double d0 = sqrt(mean(q, n));
-    for (int i = 0; i < n; i++) q[i] = (f0[i] / sc[i]) * (f0[i] / sc[i]);
-    double d1 = sqrt(mean(q, n));
-    double h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
-    h0 = bm_pymin(h0, span);
-    for (int i = 0; i < n; i++) y1[i] = y[i] + h0 * f0[i];
-    drive_rhs(P, L, t + h0, y1, f1);
-    for (int i = 0; i < n; i++) q[i] = ((f1[i] - f0[i]) / sc[i]) * ((f1[i] - f0[i]) / sc[i]);
-    double d2 = sqrt(mean(q, n)) / h0;
-    double h1 = (d1 <= 1e-15 && d2 <= 1e-15) ? bm_pymax(1e-6, h0 * 1e-3)
-                                             : pow(0.01 / bm_pymax(d1, d2), 1.0 / P->order);
-    return bm_pymin(bm_pymin(100 * h0, h1), P->h_max);
-}
-
 static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double t_end)
 {
     induction_motor *m = data;
@@ -516,7 +488,7 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
         double f0[BM_NYMAX];
         drive_rhs(&m->P, &L, t, m->z, f0);
         if (!bm_all_finite(f0, m->nz)) goto failed;
-        hh = initial_step(&m->P, &L, t, m->z, f0, t_end - t);
+        hh = bm_initial_step_np(&m->P, drive_rhs, &L, t, m->z, f0, t_end - t);
     }
     bm_stats stats = {0, 0, 0};
     if (!bm_advance(&m->P, &m->T, drive_rhs, &L, t, m->z, t_end, &hh, &stats)) goto failed;

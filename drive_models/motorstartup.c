@@ -15,6 +15,7 @@
 
 #include "fmu_model.h"
 #include "MotorStartup_interface.h"
+#include "crank_kinematics.h"
 
 /* the parameter law's values (the pythonfmu flavour's LAWS) */
 enum { LAW_QUADRATIC = 1, LAW_SCURVE = 2, LAW_LINEAR = 3, LAW_QUINTIC = 4 };
@@ -71,16 +72,16 @@ static void publish(const motor_startup *m, double *v, double t)
     double a[3];
     angle(m, t, a);
     double psi = a[0], wd = a[1], wdd = a[2];
-    double c = cos(psi), s = sin(psi), l = m->l;
+    crank_point o = crank_kinematics(m->l, psi, wd, wdd);
     v[VR_psi] = psi;
     v[VR_psi_dot] = wd;
     v[VR_psi_ddot] = wdd;
-    v[VR_x1O] = l * c;
-    v[VR_y1O] = l * s;
-    v[VR_vx1O] = -l * s * wd;
-    v[VR_vy1O] = l * c * wd;
-    v[VR_ax1O] = -l * (s * wdd + c * wd * wd);
-    v[VR_ay1O] = l * (c * wdd - s * wd * wd);
+    v[VR_x1O] = o.x;
+    v[VR_y1O] = o.y;
+    v[VR_vx1O] = o.vx;
+    v[VR_vy1O] = o.vy;
+    v[VR_ax1O] = o.ax;
+    v[VR_ay1O] = o.ay;
     v[VR_T_drive] = m->j_total * wdd - v[VR_M_reaction];
     v[VR_P_drive] = v[VR_T_drive] * wd;
 }

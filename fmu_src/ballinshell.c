@@ -449,35 +449,6 @@ static void to_n(const ball_in_shell *b, const double *y, double n[3])
     }
 }
 
-/* Integrator.initial_step, with numpy's order of summation in np.mean (first element,
- * then the sum of the rest) */
-static double mean(const double *a, int n)
-{
-    double rest = 0.0;
-    for (int i = 1; i < n; i++) rest += a[i];
-    return (a[0] + rest) / n;
-}
-
-static double initial_step(const bm_problem *P, double t, const double *y, const double *f0, double span)
-{
-    double sc[BM_NY], q[BM_NY], y1[BM_NY] = {0}, f1[BM_NY];
-    int ny = P->ny;
-    for (int i = 0; i < ny; i++) sc[i] = P->tol * bm_pymax(fabs(y[i]), P->scale[i]) + P->tols[i];
-    for (int i = 0; i < ny; i++) q[i] = (y[i] / sc[i]) * (y[i] / sc[i]);
-    double d0 = sqrt(mean(q, ny));
-    for (int i = 0; i < ny; i++) q[i] = (f0[i] / sc[i]) * (f0[i] / sc[i]);
-    double d1 = sqrt(mean(q, ny));
-    double h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
-    h0 = bm_pymin(h0, span);
-    for (int i = 0; i < ny; i++) y1[i] = y[i] + h0 * f0[i];
-    bm_rhs(P, t + h0, y1, f1);
-    for (int i = 0; i < ny; i++) q[i] = ((f1[i] - f0[i]) / sc[i]) * ((f1[i] - f0[i]) / sc[i]);
-    double d2 = sqrt(mean(q, ny)) / h0;
-    double h1 = (d1 <= 1e-15 && d2 <= 1e-15) ? bm_pymax(1e-6, h0 * 1e-3)
-                                             : pow(0.01 / bm_pymax(d1, d2), 1.0 / P->order);
-    return bm_pymin(bm_pymin(100 * h0, h1), P->h_max);
-}
-
 /* BallModel.advance along the fit's a(t): 1 and *out, or 0 when the integrator fails */
 static int advance(ball_in_shell *b, const ball_state *in, double t_end, const fit *f, ball_state *out)
 {
@@ -492,7 +463,7 @@ static int advance(ball_in_shell *b, const ball_state *in, double t_end, const f
         double f0[BM_NY];
         bm_rhs(P, in->t, in->y, f0);
         if (!bm_all_finite(f0, P->ny)) return 0;
-        h = initial_step(P, in->t, in->y, f0, t_end - in->t);
+        h = bm_initial_step_np(P, bm_ball_rhs, NULL, in->t, in->y, f0, t_end - in->t);
     }
     bm_stats st = {0, 0, 0};
     if (!bm_advance(P, &b->T, bm_ball_rhs, NULL, in->t, out->y, t_end, &h, &st)) return 0;

@@ -42,6 +42,11 @@ MODEL_SOURCES = {
     "MotorStartup": ROOT / "drive_models" / "motorstartup.c",
     "InductionMotor": ROOT / "drive_models" / "inductionmotor.c",
 }
+# model -> the headers its C file includes besides the plumbing's, the kernel and the generated ones
+MODEL_HEADERS = {
+    "MotorStartup": [ROOT / "drive_models" / "crank_kinematics.h"],
+    "InductionMotor": [ROOT / "drive_models" / "crank_kinematics.h"],
+}
 FMI_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
 CFLAGS = ["-O2", "-Wall", "-Wextra", "-ffp-contract=off", "-fno-fast-math", "-fPIC", "-fvisibility=hidden"]
 
@@ -64,7 +69,7 @@ def source_files(name: str, model_source: Path | None = None) -> list[Path]:
     """Every file a native FMU is built from (its sources/ folder, less the generated headers)."""
     hdr = fmi_headers_dir()
     return ([PLUMBING / "fmi2.c", PLUMBING / "fmu_model.h", model_source or MODEL_SOURCES[name], KERNEL]
-            + [hdr / h for h in FMI_HEADERS])
+            + MODEL_HEADERS.get(name, []) + [hdr / h for h in FMI_HEADERS])
 
 
 def compiled_units(name: str, model_source: Path | None = None) -> list[str]:

@@ -567,6 +567,38 @@ static int bm_advance(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, const
     return 1;
 }
 
+/* np.mean as numpy sums a short array: the first element, then the sum of the rest */
+static inline double bm_np_mean(const double *a, int n)
+{
+    double rest = 0.0;
+    for (int i = 1; i < n; i++) rest += a[i];
+    return (a[0] + rest) / n;
+}
+
+/* Integrator.initial_step (Hairer-Wanner) for any right-hand side, f0 = rhs(t, y) given,
+ * with numpy's order of summation in its means, so it rounds as the Python does: the
+ * native FMUs' starting step (ballinshell.c, inductionmotor.c). */
+static inline double bm_initial_step_np(const bm_problem *P, bm_rhs_fn rhs, const void *ctx, double t,
+                                        const double *y, const double *f0, double span)
+{
+    double sc[BM_NYMAX], q[BM_NYMAX], y1[BM_NYMAX] = {0}, f1[BM_NYMAX];
+    int n = P->ny;
+    for (int i = 0; i < n; i++) sc[i] = P->tol * bm_pymax(fabs(y[i]), P->scale[i]) + P->tols[i];
+    for (int i = 0; i < n; i++) q[i] = (y[i] / sc[i]) * (y[i] / sc[i]);
+    double d0 = sqrt(bm_np_mean(q, n));
+    for (int i = 0; i < n; i++) q[i] = (f0[i] / sc[i]) * (f0[i] / sc[i]);
+    double d1 = sqrt(bm_np_mean(q, n));
+    double h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
+    h0 = bm_pymin(h0, span);
+    for (int i = 0; i < n; i++) y1[i] = y[i] + h0 * f0[i];
+    rhs(P, ctx, t + h0, y1, f1);
+    for (int i = 0; i < n; i++) q[i] = ((f1[i] - f0[i]) / sc[i]) * ((f1[i] - f0[i]) / sc[i]);
+    double d2 = sqrt(bm_np_mean(q, n)) / h0;
+    double h1 = (d1 <= 1e-15 && d2 <= 1e-15) ? bm_pymax(1e-6, h0 * 1e-3)
+                                             : pow(0.01 / bm_pymax(d1, d2), 1.0 / P->order);
+    return bm_pymin(bm_pymin(100 * h0, h1), P->h_max);
+}
+
 /* ------------------------------------------------------------------- model.py */
 /* simulate's loop from output point `start` (state y, step *h) over times[start..n-1]:
  * records ys[i] (and the outputs outs[i] unless outs is NULL) for every point
@@ -824,20 +856,15 @@ static void bmg_outputs(const double *c, const double *y, const double *cs, doub
 {
     double nx = y[0], ny = y[1], nz = y[2], wx = y[3], wy = y[4], wz = y[5];
     /* Ib, not I: <complex.h> (which the native induction motor FMU includes first) makes I a macro */
-    double Rd = c[0], lam = c[1], R = c[2], r = c[3], g = c[4], k = c[5], d = c[6], m = c[7], Ib = c[8],
-           mu = c[9];
+    double Rd = c[0], lam = c[1], R = c[2], g = c[4], d = c[6], m = c[7], Ib = c[8], mu = c[9];
     double Ax = cs[0], Ay = cs[1], Az = cs[2], vAx = cs[3], vAy = cs[4], vAz = cs[5];
     double ax = cs[6], ay = cs[7], az = cs[8], ox = cs[9], oy = cs[10], oz = cs[11];
     double px = cs[12], py = cs[13], pz = cs[14];
     const double *q = cs + 15;
     const double *w1 = cs + 25, *v1 = cs + 28, *w2 = cs + 32, *v2 = cs + 35;
-    double ndx = Rd * (oy * nz - oz * ny) + lam * (ny * wz - nz * wy);
-    double ndy = Rd * (oz * nx - ox * nz) + lam * (nz * wx - nx * wz);
-    double ndz = Rd * (ox * ny - oy * nx) + lam * (nx * wy - ny * wx);
-    double bx = ax + R * ((py * nz - pz * ny) + (oy * ndz - oz * ndy)) + r * (ndy * wz - ndz * wy);
-    double by = ay + R * ((pz * nx - px * nz) + (oz * ndx - ox * ndz)) + r * (ndz * wx - ndx * wz);
-    double bz = (az + g) + R * ((px * ny - py * nx) + (ox * ndy - oy * ndx)) + r * (ndx * wy - ndy * wx);
-    double wdx = k * (ny * bz - nz * by), wdy = k * (nz * bx - nx * bz), wdz = k * (nx * by - ny * bx);
+    double f[6]; /* n', omega': the right-hand side, with cs[6..14] = (a_A, Omega, Omega') as kin */
+    bmg_derivative(c, y, cs + 6, f);
+    double ndx = f[0], ndy = f[1], ndz = f[2], wdx = f[3], wdy = f[4], wdz = f[5];
     double nddx = Rd * ((py * nz - pz * ny) + (oy * ndz - oz * ndy))
                   + lam * (ndy * wz - ndz * wy + ny * wdz - nz * wdy);
     double nddy = Rd * ((pz * nx - px * nz) + (oz * ndx - ox * ndz))

@@ -331,13 +331,25 @@ def simulate(model, motion, times: np.ndarray, state, outputs: bool):
     """`model.simulate`'s loop over the grid ``times`` (times[0] = state.t) in the
     kernel; returns (ys, outs or None, success, message, last). Call only when
     `applicable` says ''."""
-    from .model import BallState, record_python
+    from .model import record_python
 
-    lib = _kernel()
+    return run_grid(_kernel().bm_simulate, _problem(model, motion), NOUT, model, model.rhs(motion.accel),
+                    lambda *a: record_python(model, motion, *a), times, state, outputs)
+
+
+def run_grid(kernel_simulate, P, nout: int, model, f, record_python, times: np.ndarray, state,
+             outputs: bool):
+    """A grid run in the kernel, shared by `simulate` and turning.kernel.simulate:
+    kernel_simulate (bm_simulate or bmg_simulate) with the problem P over ``times``,
+    states of NY and outputs of `nout` fields, after the first interval's initial step
+    taken by the Python integrator from the right-hand side f(t, y) as its advance would;
+    record_python(times, state, i, ys, outs) does the intervals the kernel hands back.
+    Returns (ys, outs or None, success, message, last)."""
+    from .model import BallState
+
     n = len(times)
-    P = _problem(model, motion)
     ys = np.empty((n, NY))
-    outs = np.empty((n, NOUT)) if outputs else None
+    outs = np.empty((n, nout)) if outputs else None
     times = np.ascontiguousarray(times, dtype=float)
     y = np.array(state.y, dtype=float)
     hbuf = np.empty(1)
@@ -349,7 +361,6 @@ def simulate(model, motion, times: np.ndarray, state, outputs: bool):
         # the first interval's initial step, by the Python integrator (as its advance would)
         span = float(times[1]) - state.t
         if span > 0.0:
-            f = model.rhs(motion.accel)
             y0 = np.array(state.y, dtype=float)
             f0 = f(state.t, y0)
             if all(map(math.isfinite, f0)):
@@ -361,10 +372,9 @@ def simulate(model, motion, times: np.ndarray, state, outputs: bool):
     p_times, p_y, p_h = times.ctypes.data_as(_dp), y.ctypes.data_as(_dp), hbuf.ctypes.data_as(_dp)
     info = model.info
     start, record = 0, 1
-    success, message = True, "completed"
     while True:
-        last = lib.bm_simulate(ctypes.byref(P), p_times, n, start, record, p_y, p_h, p_ys, p_outs,
-                                ctypes.byref(stats))
+        last = kernel_simulate(ctypes.byref(P), p_times, n, start, record, p_y, p_h, p_ys, p_outs,
+                               ctypes.byref(stats))
         if last > 0 and extra_nfev:  # the first interval was done with the initial step from here
             stats.nfev += extra_nfev
             extra_nfev = 0
@@ -377,7 +387,7 @@ def simulate(model, motion, times: np.ndarray, state, outputs: bool):
         info.rejected += stats.rejected
         info.nfev += stats.nfev
         stats = _Stats()
-        ok, message, state = record_python(model, motion, times, state, last + 1, ys, outs)
+        ok, message, state = record_python(times, state, last + 1, ys, outs)
         if not ok:
             return ys[:last + 1], (outs[:last + 1] if outputs else None), False, message, last
         y[:] = state.y
@@ -387,7 +397,7 @@ def simulate(model, motion, times: np.ndarray, state, outputs: bool):
     info.steps += stats.steps
     info.rejected += stats.rejected
     info.nfev += stats.nfev
-    return ys, outs, success, message, n - 1
+    return ys, outs, True, "completed", n - 1
 
 
 # ----------------------------------------------------------------------------

@@ -164,61 +164,10 @@ class _IntegratorOnly:
 def simulate(model, motion, times: np.ndarray, state, outputs: bool):
     """model.simulate_general's loop in the kernel; returns (ys, outs or None, success,
     message, last). Call only when `applicable` says ''."""
-    from ..model import BallState
     from .model import record_python
 
-    lib = _lib()
-    n = len(times)
-    G = problem(model, motion)
-    ys = np.empty((n, NY))
-    outs = np.empty((n, NOUT)) if outputs else None
-    times = np.ascontiguousarray(times, dtype=float)
-    y = np.array(state.y, dtype=float)
-    hbuf = np.empty(1)
-    stats = _Stats()
-    integ = model.integrator
-    h = state.h
-    extra_nfev = 0
-    if integ.adaptive and not (h is not None and h > 0.0 and math.isfinite(h)) and n > 1:
-        span = float(times[1]) - state.t
-        if span > 0.0:
-            f = model.rhs(motion)
-            y0 = np.array(state.y, dtype=float)
-            f0 = f(state.t, y0)
-            if all(map(math.isfinite, f0)):
-                h = integ.initial_step(f, state.t, y0, np.asarray(f0, dtype=float), span)
-                extra_nfev = 1
-    hbuf[0] = h if h is not None else math.nan
-    p_ys = ys.ctypes.data_as(_dp)
-    p_outs = outs.ctypes.data_as(_dp) if outputs else None
-    p_times, p_y, p_h = times.ctypes.data_as(_dp), y.ctypes.data_as(_dp), hbuf.ctypes.data_as(_dp)
-    info = model.info
-    start, record = 0, 1
-    while True:
-        last = lib.bmg_simulate(ctypes.byref(G), p_times, n, start, record, p_y, p_h, p_ys, p_outs,
-                                ctypes.byref(stats))
-        if last > 0 and extra_nfev:
-            stats.nfev += extra_nfev
-            extra_nfev = 0
-        if last == n - 1:
-            break
-        if last > start:
-            state = BallState(float(times[last]), y.copy(), float(hbuf[0]))
-        info.steps += stats.steps
-        info.rejected += stats.rejected
-        info.nfev += stats.nfev
-        stats = _Stats()
-        ok, message, state = record_python(model, motion, times, state, last + 1, ys, outs)
-        if not ok:
-            return ys[:last + 1], (outs[:last + 1] if outputs else None), False, message, last
-        y[:] = state.y
-        hbuf[0] = state.h if state.h is not None else math.nan
-        extra_nfev = 0
-        start, record = last + 1, 0
-    info.steps += stats.steps
-    info.rejected += stats.rejected
-    info.nfev += stats.nfev
-    return ys, outs, True, "completed", n - 1
+    return fast.run_grid(_lib().bmg_simulate, problem(model, motion), NOUT, model, model.rhs(motion),
+                         lambda *a: record_python(model, motion, *a), times, state, outputs)
 
 
 # single evaluations (tests, benchmark)

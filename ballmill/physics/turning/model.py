@@ -154,13 +154,7 @@ def evaluate_c(c, y, cs) -> ChamberOutputs:
     (Ax, Ay, Az, vAx, vAy, vAz, ax, ay, az, ox, oy, oz, px, py, pz,
      q00, q01, q02, q10, q11, q12, q20, q21, q22,
      q1d, w1x, w1y, w1z, v1x, v1y, v1z, q2d, w2x, w2y, w2z, v2x, v2y, v2z) = cs
-    ndx = Rd * (oy * nz - oz * ny) + lam * (ny * wz - nz * wy)
-    ndy = Rd * (oz * nx - ox * nz) + lam * (nz * wx - nx * wz)
-    ndz = Rd * (ox * ny - oy * nx) + lam * (nx * wy - ny * wx)
-    bx = ax + R * ((py * nz - pz * ny) + (oy * ndz - oz * ndy)) + r * (ndy * wz - ndz * wy)
-    by = ay + R * ((pz * nx - px * nz) + (oz * ndx - ox * ndz)) + r * (ndz * wx - ndx * wz)
-    bz = (az + g) + R * ((px * ny - py * nx) + (ox * ndy - oy * ndx)) + r * (ndx * wy - ndy * wx)
-    wdx, wdy, wdz = k * (ny * bz - nz * by), k * (nz * bx - nx * bz), k * (nx * by - ny * bx)
+    ndx, ndy, ndz, wdx, wdy, wdz = derivative(c[:6], y, (ax, ay, az, ox, oy, oz, px, py, pz))
     # n'' = (R/d) (Omega' x n + Omega x n') + lambda (n' x omega + n x omega')
     nddx = Rd * ((py * nz - pz * ny) + (oy * ndz - oz * ndy)) + lam * (ndy * wz - ndz * wy + ny * wdz - nz * wdy)
     nddy = Rd * ((pz * nx - px * nz) + (oz * ndx - ox * ndz)) + lam * (ndz * wx - ndx * wz + nz * wdx - nx * wdz)
