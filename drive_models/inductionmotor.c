@@ -162,16 +162,7 @@ static void publish(const induction_motor *m, const load_ctx *L, double t, doubl
         Pel = 1.5 * u * m->v_peak * c[0];
     }
     double psi = z[0], pd = z[1], pdd = (m->i * T + m_r) / m->J;
-    crank_point o = crank_kinematics(m->l, psi, pd, pdd);
-    v[VR_psi] = psi;
-    v[VR_psi_dot] = pd;
-    v[VR_psi_ddot] = pdd;
-    v[VR_x1O] = o.x;
-    v[VR_y1O] = o.y;
-    v[VR_vx1O] = o.vx;
-    v[VR_vy1O] = o.vy;
-    v[VR_ax1O] = o.ax;
-    v[VR_ay1O] = o.ay;
+    crank_publish(v, m->l, psi, pd, pdd);
     double ws = f * m->w_sync;
     v[VR_w_motor] = w_m;
     v[VR_n_motor] = w_m / RPM;

@@ -72,16 +72,7 @@ static void publish(const motor_startup *m, double *v, double t)
     double a[3];
     angle(m, t, a);
     double psi = a[0], wd = a[1], wdd = a[2];
-    crank_point o = crank_kinematics(m->l, psi, wd, wdd);
-    v[VR_psi] = psi;
-    v[VR_psi_dot] = wd;
-    v[VR_psi_ddot] = wdd;
-    v[VR_x1O] = o.x;
-    v[VR_y1O] = o.y;
-    v[VR_vx1O] = o.vx;
-    v[VR_vy1O] = o.vy;
-    v[VR_ax1O] = o.ax;
-    v[VR_ay1O] = o.ay;
+    crank_publish(v, m->l, psi, wd, wdd);
     v[VR_T_drive] = m->j_total * wdd - v[VR_M_reaction];
     v[VR_P_drive] = v[VR_T_drive] * wd;
 }
