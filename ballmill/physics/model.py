@@ -205,6 +205,11 @@ def simulate(model: BallModel, motion, t_end: float, dt: float, state: BallState
     if kernel not in KERNELS:
         raise ValueError(f"kernel must be one of {KERNELS}, got {kernel!r}")
     state = state or model.initial()
+    size = len(model.integrator.scale)
+    if np.shape(state.y) != (size,):
+        raise ParameterError(
+            f"state.y must hold the {size} coordinates of the {model.formulation!r} formulation "
+            f"({'n, omega' if size == 6 else 'xC, yC, omega'}), got shape {np.shape(state.y)}")
     n_steps = int(round((t_end - state.t) / dt))
     times = state.t + dt * np.arange(n_steps + 1)
     if kernel != "python":

@@ -53,6 +53,21 @@ def test_simulate_refuses_a_bad_output_step(dt):
     assert str(e.value) == f"dt must be positive and finite, got {dt!r} s"
 
 
+@pytest.mark.parametrize("formulation, size", [("vector", 6), ("paper", 5)])
+def test_simulate_names_a_state_of_the_wrong_size(formulation, size):
+    """A state of the other formulation is refused with both sizes named (it used to raise a bare
+    IndexError deep in the equations, or run on a misread state)."""
+    from ballmill.physics.errors import ParameterError
+    from ballmill.physics.model import BallState
+    m = BallModel(BALL, formulation=formulation)
+    wrong = 11 - size
+    with pytest.raises(ParameterError) as e:
+        simulate(m, FAST, 0.1, 0.01, state=BallState(0.0, np.zeros(wrong)))
+    assert f"the {size} coordinates of the {formulation!r} formulation" in str(e.value)
+    assert f"got shape ({wrong},)" in str(e.value)
+    assert simulate(m, FAST, 0.1, 0.01, state=m.initial(xC0=0.05)).success
+
+
 def test_simulate_with_nothing_to_integrate():
     m = BallModel(BALL)
     s = m.initial(xC0=0.05, t0=1.0)
@@ -130,10 +145,12 @@ def test_no_sample_no_fit():
 
 def test_a_state_of_the_wrong_shape_stays_out_of_the_kernel():
     """A vector model handed a 5-component state: the kernel (which reads 6 doubles) must not
-    take it; Python fails on it (an index error)."""
+    take it (simulate refuses it before, test above; the kernel's own guard serves other callers)."""
     from ballmill.physics import BallState
-    with pytest.raises(IndexError):
-        simulate(BallModel(BALL), FAST, 0.05, 0.01, state=BallState(0.0, np.array([0.0, 0.0, -1.0, 0.0, 0.0])))
+    m = BallModel(BALL)
+    assert _model.fast.applicable(m, FAST, BallState(0.0, np.array([0.0, 0.0, -1.0, 0.0, 0.0]))) \
+        == "state of shape (5,)"
+    assert _model.fast.applicable(m, FAST, m.initial(xC0=0.05)) == ""
 
 
 @pytest.mark.parametrize("points", [0, 9, -1])
