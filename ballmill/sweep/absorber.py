@@ -518,7 +518,10 @@ def plot_frf(prepared: AbsorberPrepared, study, table: list[dict], path: Path) -
         ax.set_ylabel("amplitude of the structure [mm]")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7, loc="upper right")
-    fig.suptitle(f"{study.name}: {study.description}" if study.description else study.name, fontsize=10)
+    import textwrap
+
+    fig.suptitle(textwrap.fill(f"{study.name}: {study.description}" if study.description else study.name, 100),
+                 fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
