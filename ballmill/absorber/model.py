@@ -412,8 +412,14 @@ def simulate_absorber(system: StructureBall, t_end: float, dt: float, state: Abs
         rows = [system.outputs(float(tt), zz) for tt, zz in zip(times, zs)]
         data = {key: np.array([r[key] for r in rows], dtype=float) for key in rows[0]}
     else:
-        xs = [system.struct.cavity(0.0, zz.tolist(), 0.0, 0.0, (0.0, 0.0, 0.0, 0.0))[:2] for zz in zs]
-        data = {"xO": np.array([p[0] for p in xs]), "yO": np.array([p[1] for p in xs])}
+        # StructureModel.cavity's positions, sum(phi_j q_j) left to right, on all rows at once
+        pos = []
+        for cs, off, nm in system.struct._axes:
+            acc = np.zeros(len(zs))
+            for j, c in enumerate(cs):
+                acc = c[3] * zs[:, off + j] if j == 0 else acc + c[3] * zs[:, off + j]
+            pos.append(acc)
+        data = {"xO": pos[0], "yO": pos[1]}
     return AbsorberResult(times, zs, data, AbsorberState(float(times[-1]), zs[-1].copy(), h),
                           success, message, steps, nfev)
 
