@@ -76,6 +76,8 @@ def _lib():
             lib.bma_simulate.argtypes = [A, _dp, ctypes.c_longlong, _dp, _dp, _dp, ctypes.POINTER(_Stats)]
             lib.bma_eval_rhs.restype = None
             lib.bma_eval_rhs.argtypes = [A, ctypes.c_double, _dp, _dp]
+            lib.bma_eval_project.restype = ctypes.c_int
+            lib.bma_eval_project.argtypes = [A, _dp]
         _LIB = (lib, reason)
     return _LIB[0]
 
@@ -153,6 +155,13 @@ def eval_rhs(A: _AProblem, t: float, z) -> tuple:
     f = np.empty(A.ny)
     _lib().bma_eval_rhs(ctypes.byref(A), t, zz.ctypes.data_as(_dp), f.ctypes.data_as(_dp))
     return tuple(f.tolist())
+
+
+def eval_project(A: _AProblem, z) -> list:
+    """The compiled projection of n onto the unit sphere (tests)."""
+    zz = np.array(z, dtype=float)
+    _lib().bma_eval_project(ctypes.byref(A), zz.ctypes.data_as(_dp))
+    return zz.tolist()
 
 
 def simulate_grid(A: _AProblem, times: np.ndarray, zs: np.ndarray, start: int, h: float):

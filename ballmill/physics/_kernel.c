@@ -1286,7 +1286,7 @@ static double bma_error(const bma_problem *A, const bm_tab *T, double K[][BMA_NY
 static int bma_project(const bma_problem *A, double *z)
 {
     double *n = z + A->ny - 9;
-    double q = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    double q = sqrt(bma_sq(n[0]) + bma_sq(n[1]) + bma_sq(n[2])); /* model.py: z[ib] ** 2 + ... */
     if (q == 0.0) return 0;
     double s = 1.0 / q;
     n[0] *= s; n[1] *= s; n[2] *= s;
@@ -1391,6 +1391,7 @@ BM_EXPORT long long bma_simulate(const bma_problem *A, const double *times, long
 }
 
 BM_EXPORT void bma_eval_rhs(const bma_problem *A, double t, const double *z, double *dz) { bma_rhs(A, t, z, dz); }
+BM_EXPORT int bma_eval_project(const bma_problem *A, double *z) { return bma_project(A, z); }
 BM_EXPORT size_t bma_problem_size(void) { return sizeof(bma_problem); }
 
 /* what fast.py checks before it trusts this build */

@@ -480,7 +480,7 @@ def plot_frf(prepared: AbsorberPrepared, study, table: list[dict], path: Path) -
         ax.plot(f, np.abs(case.linear_frf(f)) * case.force * 1e3, "k--", lw=0.9,
                 label="with ball, linear theory (2 DOF closed form)")
         for direction in ("steady", "up", "down"):
-            pts = [d for d in ok if d["direction"] == direction]
+            pts = [d for d in ok if d["direction"] == direction and d["contact"]]  # no amplitude past contact
             if not pts:
                 continue
             mk, col, lab = style[direction]
@@ -508,7 +508,8 @@ def plot_frf(prepared: AbsorberPrepared, study, table: list[dict], path: Path) -
             ax.plot([d["frequency_Hz"] for d in failed if d["frequency_Hz"] is not None],
                     [y0] * len([d for d in failed if d["frequency_Hz"] is not None]), "s", color="k",
                     mfc="none", label="failed point (see results.parquet)")
-        extra = ", ".join(f"{k} = {v:g}" if isinstance(v, float) else f"{k} = {v}" for k, v in key)
+        extra = ", ".join(f"{k} = {v:g}" if isinstance(v, float) else f"{k} = {v}" for k, v in key
+                          if k != "excitation.F0")  # F0 leads the title anyway
         ball = case.ball
         ax.set_title(f"F0 = {case.force:g} {'N' if case.load == 'force' else 'm/s2'} ({case.load}), structure "
                      f"{case.structure.x.modes[0].mass:g} kg / {case.structure.x.modes[0].frequency:g} Hz / "
