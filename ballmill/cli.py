@@ -11,7 +11,9 @@
                                              the scenario as an SSP package for other FMI tools
     ballmill sweep SCENARIO|STUDY [--grid inst.param=VALUES ...] [--out DIR] [...]
                                              a design study: many points, one row each in
-                                             DIR/results.parquet (see ballmill sweep -h)
+                                             DIR/results.parquet (see ballmill sweep -h); a ball
+                                             absorber study (absorber_frf: --mode steady|up|down|both)
+                                             also DIR/frf.csv and DIR/frf.png
     ballmill steady [--n0 ...] [--l ...] [--r ...] [--R ...] [--mu ...]
                                              the ball's relative equilibrium on the crank circle
 """

@@ -212,3 +212,15 @@ def test_command_line_writes_frf_csv(tmp_path):
     f = np.array([0.5, 0.55, 0.6])
     assert np.allclose([float(r["amplitude_m"]) for r in rows], closed_form(f), rtol=0.02)
     assert (tmp_path / "frf.png").stat().st_size > 10000 and (tmp_path / "results.parquet").exists()
+
+
+def test_contact_loss_is_marked_and_the_sweep_restarts(tmp_path):
+    """40 N at the lower peak throws the ball off the wall within the first window: the row
+    says so (contact, valid False) and the sweep's next point starts afresh (restarted)."""
+    study = load("absorber_frf", set_=["excitation.F0=40"], grid={"excitation.frequency": [0.75, 0.76]}, mode="up")
+    rows = run_study(study, tmp_path, scheduler="in-process", progress=False).rows
+    assert [(r["contact"], r["valid"], r["converged"]) for r in rows] == [(False, False, False)] * 2
+    assert all(r["N_min_N"] < 0 for r in rows)
+    assert [r["restarted"] for r in rows] == [False, True]
+    table = _frf_csv(tmp_path / "frf.csv")
+    assert [(r["direction"], r["contact"], r["valid"]) for r in table] == [("up", "0", "0")] * 2
