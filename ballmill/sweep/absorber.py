@@ -489,6 +489,9 @@ def plot_frf(prepared: AbsorberPrepared, study, table: list[dict], path: Path) -
             conv = np.array([bool(d["converged"]) for d in pts])
             if direction != "steady":  # a sweep in the order it ran
                 ax.plot(x, y, "-", color=col, lw=0.8, alpha=0.7)
+            ay_ = np.array([d["amplitude_y_m"] or 0.0 for d in pts]) * 1e3
+            if direction != "steady" and (ay_ > 0.1 * np.maximum(y, 1e-12)).any():  # a whirl moves it in y
+                ax.plot(x, ay_, ":", color=col, lw=1.0, label=f"{lab}: amplitude in y (the ball whirls)")
             ax.plot(x[conv], y[conv], mk, ms=4, color=col, label=lab)
             if (~conv).any():
                 ax.plot(x[~conv], y[~conv], mk, ms=5, mfc="none", color=col,
@@ -518,7 +521,7 @@ def plot_frf(prepared: AbsorberPrepared, study, table: list[dict], path: Path) -
         ax.set_xlabel("excitation frequency [Hz]")
         ax.set_ylabel("amplitude of the structure [mm]")
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7, loc="upper right")
+        ax.legend(fontsize=7, loc="best")
     import textwrap
 
     fig.suptitle(textwrap.fill(f"{study.name}: {study.description}" if study.description else study.name, 100),
