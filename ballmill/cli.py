@@ -11,7 +11,9 @@
                                              the scenario as an SSP package for other FMI tools
     ballmill sweep SCENARIO|STUDY [--grid inst.param=VALUES ...] [--out DIR] [...]
                                              a design study: many points, one row each in
-                                             DIR/results.parquet (see ballmill sweep -h)
+                                             DIR/results.parquet (see ballmill sweep -h); a ball
+                                             absorber study (absorber_frf: --mode steady|up|down|both)
+                                             also DIR/frf.csv and DIR/frf.png
     ballmill steady [--n0 ...] [--l ...] [--r ...] [--R ...] [--mu ...]
                                              the ball's relative equilibrium on the crank circle
 """
@@ -97,7 +99,7 @@ def _sweep(args) -> int:
         model = {k: v for k, v in (("kind", args.model), ("method", args.method), ("h", args.h),
                                    ("dt", args.dt), ("target_P", args.target)) if v is not None}
         study = spec.load(args.study, set_=args.set or (), grid=grid or None, sample=sample, model=model,
-                          stop=args.stop)
+                          stop=args.stop, mode=args.mode)
         if not study.swept:
             raise spec.StudyError(["nothing to sweep: give --grid inst.param=VALUES or --sample with --range "
                                    "(or a study file with [grid] or [sample])"])
@@ -186,7 +188,10 @@ def main(argv=None) -> int:
                    help="a fixed override, as in ballmill run (repeatable)")
     w.add_argument("--out", help="output folder (default: out/sweep/STUDY); re-running resumes")
     w.add_argument("--stop", type=float, help="simulate up to this time [s] instead of the scenario's stop")
-    w.add_argument("--model", help="evaluator: auto (default), crank-kernel or cosim")
+    w.add_argument("--model", help="evaluator: auto (default), crank-kernel or cosim (absorber for case studies)")
+    w.add_argument("--mode", choices=("steady", "up", "down", "both"),
+                   help="a case study's mode (absorber: independent steady states refined at the peaks, or "
+                        "stepped sweeps up, down or both, continuing from state to state)")
     w.add_argument("--method", help="kernel integrator: RK4 (default), RK45 or DOP853")
     w.add_argument("--h", type=float, help="RK4 first step [s] (default 0.01; halved per point to meet the target)")
     w.add_argument("--target", type=float, help="RK4: estimated contact-point error to reach [m] (default 1e-5)")

@@ -339,8 +339,14 @@ RECORDS = ("full", "motion")
 def simulate_absorber(system: StructureBall, t_end: float, dt: float, state: AbsorberState | None = None,
                       tol: float = 1e-9, method: str = "DOP853", x_ref: float = 1e-3,
                       record: str = "full", h_max: float | None = None,
-                      integrator: Integrator | None = None) -> AbsorberResult:
+                      integrator: Integrator | None = None, kernel: str = "auto") -> AbsorberResult:
     """Integrate from state (default: all at rest) to t_end, sampled every dt.
+
+    kernel: "auto" runs the integration in the compiled kernel where it covers
+    the run (`ballmill.absorber.kernel.applicable`: harmonic force or ground,
+    at most 4 modes per axis), "c" insists (KernelUnavailable with the reason),
+    "python" never uses it. Both give the same trajectory to round-off in the
+    right-hand side (tests/test_absorber_kernel.py); the outputs are Python's.
 
     record: "full" (every output of `StructureBall.outputs`) or "motion" (the
     state only, and xO, yO: cheaper, for steady-state measurements).
@@ -368,8 +374,25 @@ def simulate_absorber(system: StructureBall, t_end: float, dt: float, state: Abs
     z, h, t = state.z, state.h, state.t
     steps = nfev = 0
     success, message, last = True, "completed", n_steps
-    for i in range(1, n_steps + 1):
-        te = float(times[i])
+    compiled = None
+    if kernel not in ("auto", "c", "python"):
+        raise ValueError(f"kernel must be 'auto', 'c' or 'python', got {kernel!r}")
+    if kernel != "python":
+        from . import kernel as _kernel
+        why = _kernel.applicable(system, integ) or ("ground record breakpoints" if bps else "")
+        if kernel == "c" and why:
+            from ballmill.physics.fast import KernelUnavailable
+            raise KernelUnavailable(why)
+        compiled = None if why else _kernel.problem(system, integ)
+    i = 1
+    while i <= n_steps:
+        if compiled is not None and h is not None:  # the adaptive methods' first step is Python's
+            reached, h_c, st_steps, st_nfev = _kernel.simulate_grid(compiled, times, zs, i - 1, h)
+            if reached >= i:
+                steps, nfev, h = steps + st_steps, nfev + st_nfev, h_c
+                z, t, i = zs[reached].copy(), float(times[reached]), reached + 1
+                continue
+        te = float(times[i])  # this interval in Python (the kernel handed it back, or is not used)
         try:
             j = bisect.bisect_right(bps, t)
             while j < len(bps) and bps[j] < te - 1e-12:
@@ -382,14 +405,21 @@ def simulate_absorber(system: StructureBall, t_end: float, dt: float, state: Abs
             success, message, last = False, f"stopped at t = {t:.6g} s: {e}", i - 1
             break
         zs[i] = z
+        i += 1
     times, zs = times[:last + 1], zs[:last + 1]
     data = {}
     if record == "full":
         rows = [system.outputs(float(tt), zz) for tt, zz in zip(times, zs)]
         data = {key: np.array([r[key] for r in rows], dtype=float) for key in rows[0]}
     else:
-        xs = [system.struct.cavity(0.0, zz.tolist(), 0.0, 0.0, (0.0, 0.0, 0.0, 0.0))[:2] for zz in zs]
-        data = {"xO": np.array([p[0] for p in xs]), "yO": np.array([p[1] for p in xs])}
+        # StructureModel.cavity's positions, sum(phi_j q_j) left to right, on all rows at once
+        pos = []
+        for cs, off, nm in system.struct._axes:
+            acc = np.zeros(len(zs))
+            for j, c in enumerate(cs):
+                acc = c[3] * zs[:, off + j] if j == 0 else acc + c[3] * zs[:, off + j]
+            pos.append(acc)
+        data = {"xO": pos[0], "yO": pos[1]}
     return AbsorberResult(times, zs, data, AbsorberState(float(times[-1]), zs[-1].copy(), h),
                           success, message, steps, nfev)
 

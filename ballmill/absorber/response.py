@@ -40,6 +40,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from ballmill.absorber.model import AbsorberState, StructureBall, simulate_absorber
+from ballmill.physics import outputs as _out
 from ballmill.physics.params import Ball
 from ballmill.absorber.structure import HarmonicForce, HarmonicGround, Structure
 
@@ -232,15 +233,24 @@ def settling_windows(case: AbsorberCase, frequency: float, periods_per_window: i
 def _window(sysb: StructureBall, res, frequency: float) -> dict:
     """Amplitudes and the ball's validity over one window of whole periods (the
     last sample, which starts the next window, left out of the fits)."""
-    rows = [sysb.outputs(float(tt), zz) for tt, zz in zip(res.t, res.z)]
+    # the few outputs a window needs, as StructureBall.outputs computes them (the same
+    # calls, so the same numbers), without the rest of that dict (energy, forces, ...)
+    ib, ball = sysb.ib, sysb.ball
+    xC, N, ratio, angle = [], [], [], []
+    for tt, zz in zip(res.t, res.z):
+        z = zz.tolist()
+        ax, ay = sysb.solve_acceleration(float(tt), z)
+        o = _out.evaluate(ball, z[ib:ib + 3], z[ib + 3:ib + 6], ax, ay)
+        xC.append(o.xC)
+        N.append(o.N)
+        ratio.append(o.friction_ratio)
+        angle.append(math.acos(max(-1.0, min(1.0, -z[ib + 2]))))
     tw = res.t[:-1]
     A, pk, ph = _window_amplitude(tw, res["xO"][:-1], frequency)
-    col = lambda k: np.array([r[k] for r in rows[:-1]])  # noqa: E731
     return {"A": A, "peak": pk, "phase": ph,
-            "Ay": _window_amplitude(tw, col("yO"), frequency)[0],
-            "U": _window_amplitude(tw, col("xC"), frequency)[0],
-            "angle": max(r["theta"] for r in rows), "ratio": max(r["friction_ratio"] for r in rows),
-            "N_min": min(r["N"] for r in rows)}
+            "Ay": _window_amplitude(tw, res["yO"][:-1], frequency)[0],
+            "U": _window_amplitude(tw, np.array(xC[:-1]), frequency)[0],
+            "angle": max(angle), "ratio": max(ratio), "N_min": min(N)}
 
 
 def refine(frequencies, amplitudes, rtol: float = 0.003, df_min: float = 2e-4):

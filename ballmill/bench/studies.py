@@ -19,7 +19,12 @@ shutdown, and writing results.parquet:
 3. how the time grows with the number of points (1 and 2 local workers, and
    in this process without Dask) and what a scheduler reached by address adds
    (a `dask scheduler` and two `dask worker` processes on this machine,
-   started beforehand: what a user's existing cluster looks like to the sweep).
+   started beforehand: what a user's existing cluster looks like to the sweep);
+4. the ball absorber's studies (ballmill.sweep.absorber): `absorber_frf` (steady
+   states at 0.05 N, refined at the peaks) and `absorber_frf_nonlinear` (up and
+   down sweeps at 1 N and 5 N) on 2 local workers with the compiled coupled model,
+   and the FRF on a small grid once more with the kernel switched off
+   (BALLMILL_NO_KERNEL=1: the pure-Python model). --quick: small grids only.
 
 The section is delimited by HTML comments so that it can be replaced in a
 BENCHMARKS.md written by the rest of `ballmill bench`.
@@ -167,10 +172,34 @@ def measure(quick: bool, progress=print, root: Path | None = None) -> dict:
                 _stop(procs)
         except RuntimeError as e:
             data["remote_error"] = str(e)
+        data["absorber"] = _absorber(quick, work, env, progress)
     finally:
         shutil.rmtree(work, ignore_errors=True)
     data["load_end"] = machine.load()
     return data
+
+
+ABSORBER_SMALL = ["--grid", "excitation.frequency=0.70:0.90:11"]  # 0.02 Hz, refined at the peaks
+NONLINEAR_SMALL = ["--grid", "excitation.F0=1.0", "--grid", "excitation.frequency=0.70:0.90:11"]
+
+
+def _absorber(quick: bool, work: Path, env: dict, progress=print) -> list[dict]:
+    """The absorber studies: [{label, wall, points, split}, ...]."""
+    runs = [("absorber_frf, 0.02 Hz start grid over 0.70-0.90 Hz, 0.05 N", ["absorber_frf", *ABSORBER_SMALL], env),
+            ("the same, pure Python (BALLMILL_NO_KERNEL=1)", ["absorber_frf", *ABSORBER_SMALL],
+             {**env, "BALLMILL_NO_KERNEL": "1"}),
+            ("absorber_frf_nonlinear, 1 N only, 0.02 Hz over 0.70-0.90 Hz, up and down",
+             ["absorber_frf_nonlinear", *NONLINEAR_SMALL], env)]
+    if not quick:
+        runs += [("absorber_frf (the study file: 61 points over 0.5-1.1 Hz, refined)", ["absorber_frf"], env),
+                 ("absorber_frf_nonlinear (the study file: 1 N and 5 N, 61 frequencies, up and down)",
+                  ["absorber_frf_nonlinear"], env)]
+    out = []
+    for k, (label, args, e) in enumerate(runs):
+        progress(f"studies: {label}")
+        wall, js = _sweep([*args, "--workers", "2"], work / f"a{k}", e)
+        out.append({"label": label, "wall": wall, "points": js["points"], "split": _split(work / f"a{k}")})
+    return out
 
 
 def _f(v, d=3):
@@ -250,6 +279,21 @@ def report(data: dict) -> str:
     if data.get("remote_error"):
         L.append("")
         L.append(f"Scheduler by address: not measured ({data['remote_error']}).")
+    if data.get("absorber"):
+        L.append("")
+        L.append("The ball absorber's studies (`ballmill sweep absorber_frf`, `absorber_frf_nonlinear`; "
+                 "ballmill.sweep.absorber): each point a steady state of the coupled structure + ball model, "
+                 "integrated until the amplitude settles to 1e-3 (DOP853, tol 1e-9); the FRF refined at its "
+                 "peaks in rounds, the sweeps one chain (direction and force) per task; 2 local workers.")
+        L.append("")
+        L.append("| study | points | whole command [s] | first task to last result [s] | integration in the "
+                 "workers [s] | CPU of the workers' tasks [s] |")
+        L.append("|---|---|---|---|---|---|")
+        for r in data["absorber"]:
+            s_ = r["split"]
+            w = s_.get("workers", {})
+            L.append(f"| {r['label']} | {r['points']} | {r['wall']:.2f} | {s_.get('run', 0):.2f} | "
+                     f"{w.get('integration', 0):.2f} | {_f(w.get('task_cpu'))} |")
     L.append("")
     ls, le = data.get("load_start"), data.get("load_end")
     if ls and le:

@@ -20,6 +20,9 @@
  * polynomial of platform.InputReconstruction (motion BM_POLY: only a(t) is
  * known, evaluated in the closure's operation order).
  *
+ * The ball absorber (a modal structure carrying the cavity, absorber/model.py) has
+ * functions of its own too, bma_*, reached through ballmill/absorber/kernel.py.
+ *
  * The general model of a chamber that moves in 3-D and turns (turning/model.py and
  * turning/motions.py; DESIGN.md section 10) has functions of its own, bmg_* at the end
  * of the file, reached through ballmill/physics/turning/kernel.py; they share the
@@ -1029,6 +1032,367 @@ BM_EXPORT void bmg_eval_outputs(const bmg_problem *G, const double *y, const dou
     bmg_outputs(G->oc, y, cs, o);
 }
 BM_EXPORT size_t bmg_problem_size(void) { return sizeof(bmg_problem); }
+
+/* ======================================================================
+ * The ball absorber: a modal structure carrying the cavity and the ball rolling in it,
+ * in one ODE (ballmill/absorber/model.py StructureBall.rhs; structure.py StructureModel,
+ * HarmonicForce, HarmonicGround; DESIGN.md section 11). Functions bma_*, reached through
+ * ballmill/absorber/kernel.py. State: the structure (q_x[nx], q_x'[nx], q_y[ny], q_y'[ny]),
+ * the ball (n, omega), the quadratures (W_exc, W_damp, W_ball). The cavity's acceleration
+ * is solved with the ball's load at each instant (the 2x2 system of model.py, on the
+ * rolling-resistance branch that is consistent). Written in the Python code's operation
+ * order; the integrator loop is bm_advance's for the longer state.
+ * ====================================================================== */
+#define BMA_MODES 4                   /* modes per axis, at most */
+#define BMA_NY (4 * BMA_MODES + 9)     /* states, at most */
+#define BMA_PI 3.141592653589793       /* math.pi */
+
+/* Everything a run needs; filled by absorber/kernel.py (ctypes mirror: _AProblem). */
+typedef struct {
+    bm_problem base; /* integrator settings (tableau, tol, h_fixed, h_max, max_steps); its ny,
+                        scale and tols are not read (the state is longer than BM_NYMAX) */
+    int ny;          /* states: 2 (nm[0] + nm[1]) + 9 */
+    int nm[2];       /* modes of the x and y axes (0: the axis does not move) */
+    double mode[2][BMA_MODES][6]; /* per mode: M, K, C, phi, psi, L */
+    double G[2];     /* flexibility of each axis: sum phi^2 / M */
+    int ground;      /* 0: a harmonic force, 1: a harmonic ground acceleration */
+    double exc[7];   /* amplitude_x, frequency, amplitude_y, phase, phase_y, sweep_rate, t0 */
+    double c[7];     /* lambda, r, g, k, m, d, r k (StructureBall._c) */
+    int lossy;       /* drag or rolling resistance */
+    double delta, J, drag, eps2;
+    double loss_nr[9]; /* loss constants without the rolling resistance (StructureBall._loss_nr) */
+    double loss[9];    /* equations.loss_constants (the formulation's lossy derivative) */
+    double scale[BMA_NY], tols[BMA_NY];
+} bma_problem;
+
+/* Python's x ** 2 is libm's pow, which rounds differently from x * x about once in a
+ * thousand; the exponent is read through a volatile so that the compiler cannot fold
+ * pow(x, 2.0) into x * x */
+static volatile double bma_two = 2.0;
+static double bma_sq(double x) { return pow(x, bma_two); }
+
+/* excitation.loads(t): (F_x, F_y, a_gx, a_gy) */
+static void bma_loads(const bma_problem *A, double t, double L[4])
+{
+    const double *e = A->exc;
+    double s = t - e[6];
+    double th = e[3] + 2.0 * BMA_PI * s * (e[1] + 0.5 * e[5] * s);
+    double x = e[0] * sin(th), y = e[2] * sin(th + e[4]);
+    L[0] = A->ground ? 0.0 : x;
+    L[1] = A->ground ? 0.0 : y;
+    L[2] = A->ground ? x : 0.0;
+    L[3] = A->ground ? y : 0.0;
+}
+
+/* StructureModel.free_acceleration: a_free per axis and each mode's acceleration without the ball */
+static void bma_free(const bma_problem *A, const double *z, const double L[4], double a0[2],
+                     double rr[2][BMA_MODES])
+{
+    int off = 0;
+    for (int ax = 0; ax < 2; ax++) {
+        int n = A->nm[ax];
+        double F = L[ax], g = L[2 + ax], a = g;
+        for (int j = 0; j < n; j++) {
+            const double *md = A->mode[ax][j]; /* M, K, C, phi, psi, L */
+            double rj = (md[4] * F - md[5] * g - md[2] * z[off + n + j] - md[1] * z[off + j]) / md[0];
+            rr[ax][j] = rj;
+            a += md[3] * rj;
+        }
+        a0[ax] = a;
+        off += 2 * n;
+    }
+}
+
+/* StructureBall._load_affine: F_b = F0 + B a_O (horizontal), rolling resistance on or off */
+static void bma_load_affine(const bma_problem *A, const double *n, const double *w, const double *nd,
+                            int branch_rr, double o[6])
+{
+    double lam = A->c[0], r = A->c[1], g = A->c[2], k = A->c[3], m = A->c[4], d = A->c[5], rk = A->c[6];
+    double nx = n[0], ny = n[1], nz = n[2], wx = w[0], wy = w[1], wz = w[2];
+    double ndx = nd[0], ndy = nd[1], ndz = nd[2], wd[3];
+    (void)lam;
+    if (A->lossy) {
+        bm_omega_dot_lossy(A->loss_nr, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, 0.0, 0.0, wd);
+    } else {
+        double bx = 0.0 + r * (ndy * wz - ndz * wy);
+        double by = 0.0 + r * (ndz * wx - ndx * wz);
+        double bz = g + r * (ndx * wy - ndy * wx);
+        wd[0] = k * (ny * bz - nz * by);
+        wd[1] = k * (nz * bx - nx * bz);
+        wd[2] = k * (nx * by - ny * bx);
+    }
+    double wdx = wd[0], wdy = wd[1], wdz = wd[2], rho = 0.0;
+    if (branch_rr) {
+        double s = nx * wx + ny * wy + nz * wz;
+        double tx = wx - s * nx, ty = wy - s * ny, tz = wz - s * nz;
+        double sq = sqrt(tx * tx + ty * ty + tz * tz + A->eps2);
+        double N0 = m * (d * (ndx * ndx + ndy * ndy + ndz * ndz) - g * nz);
+        double f = -A->delta * N0 / (A->J * sq);
+        wdx = wdx + f * tx;
+        wdy = wdy + f * ty;
+        wdz = wdz + f * tz;
+        rho = d * A->delta * m / (A->J * sq);
+    }
+    o[0] = -m * r * (ndy * wz - ndz * wy + ny * wdz - nz * wdy);
+    o[1] = -m * r * (ndz * wx - ndx * wz + nz * wdx - nx * wdz);
+    double c1 = 1.0 - rk;
+    o[2] = -m * (c1 + rk * nx * nx + rho * ndx * nx);
+    o[3] = -m * (rk * nx * ny + rho * ndx * ny);
+    o[4] = -m * (rk * ny * nx + rho * ndy * nx);
+    o[5] = -m * (c1 + rk * ny * ny + rho * ndy * ny);
+}
+
+/* StructureBall.rhs */
+static void bma_rhs(const bma_problem *A, double t, const double *z, double *dz)
+{
+    double L[4], a0[2], rr[2][BMA_MODES], F[6];
+    int ns = A->ny - 9, ib = ns;
+    const double *n = z + ib, *w = z + ib + 3;
+    double lam = A->c[0], r = A->c[1], g = A->c[2], m = A->c[4], d = A->c[5];
+    double nd[3] = {lam * (n[1] * w[2] - n[2] * w[1]), lam * (n[2] * w[0] - n[0] * w[2]),
+                    lam * (n[0] * w[1] - n[1] * w[0])};
+    bma_loads(A, t, L);
+    bma_free(A, z, L, a0, rr);
+    /* StructureBall._solve */
+    double Gx = A->G[0], Gy = A->G[1], ax = 0.0, ay = 0.0;
+    int nb = A->delta != 0.0 ? 2 : 1;
+    for (int b = 0; b < nb; b++) {
+        int branch = nb == 2 && b == 0;
+        bma_load_affine(A, n, w, nd, branch, F);
+        double a11 = 1.0 - Gx * F[2], a12 = -Gx * F[3];
+        double a21 = -Gy * F[4], a22 = 1.0 - Gy * F[5];
+        double b1 = a0[0] + Gx * F[0], b2 = a0[1] + Gy * F[1];
+        double det = a11 * a22 - a12 * a21;
+        ax = (b1 * a22 - a12 * b2) / det;
+        ay = (a11 * b2 - a21 * b1) / det;
+        if (nb == 1) break;
+        double N = m * (d * (bma_sq(nd[0]) + bma_sq(nd[1]) + bma_sq(nd[2])) - ax * n[0] - ay * n[1] - g * n[2]);
+        if ((N > 0.0) == branch) break;
+    }
+    /* the ball's derivative (VectorFormulation.derivative / _derivative_lossy) at a_O */
+    double *db = dz + ib;
+    {
+        double nx = n[0], ny = n[1], nz = n[2], wx = w[0], wy = w[1], wz = w[2];
+        double ndx = lam * (ny * wz - nz * wy);
+        double ndy = lam * (nz * wx - nx * wz);
+        double ndz = lam * (nx * wy - ny * wx);
+        db[0] = ndx; db[1] = ndy; db[2] = ndz;
+        if (A->lossy) {
+            bm_omega_dot_lossy(A->loss, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, db + 3);
+        } else {
+            double k = A->c[3];
+            double bx = ax + r * (ndy * wz - ndz * wy);
+            double by = ay + r * (ndz * wx - ndx * wz);
+            double bz = g + r * (ndx * wy - ndy * wx);
+            db[3] = k * (ny * bz - nz * by);
+            db[4] = k * (nz * bx - nx * bz);
+            db[5] = k * (nx * by - ny * bx);
+        }
+    }
+    double wdx = db[3], wdy = db[4], wdz = db[5];
+    double Fb[2];
+    Fb[0] = -m * (ax + r * (nd[1] * w[2] - nd[2] * w[1] + n[1] * wdz - n[2] * wdy));
+    Fb[1] = -m * (ay + r * (nd[2] * w[0] - nd[0] * w[2] + n[2] * wdx - n[0] * wdz));
+    /* the structure: q' and q'' = r_j + phi_j F_b / M_j; the powers (StructureModel.powers) */
+    double P_exc = 0.0, P_damp = 0.0, vel[2] = {0.0, 0.0};
+    int off = 0;
+    for (int a = 0; a < 2; a++) {
+        int nm = A->nm[a];
+        for (int j = 0; j < nm; j++) {
+            const double *md = A->mode[a][j];
+            dz[off + j] = z[off + nm + j];
+            dz[off + nm + j] = rr[a][j] + md[3] * Fb[a] / md[0];
+        }
+        for (int j = 0; j < nm; j++) {
+            const double *md = A->mode[a][j];
+            double qd = z[off + nm + j];
+            P_exc += qd * (md[4] * L[a] - md[5] * L[2 + a]);
+            P_damp += md[2] * qd * qd;
+            vel[a] = j ? vel[a] + md[3] * qd : md[3] * qd; /* Python's sum(): 0 + first = first */
+        }
+        off += 2 * nm;
+    }
+    /* the ground's inertial load on the ball, -m a_g . v_C (relative to the ground) */
+    if (L[2] != 0.0 || L[3] != 0.0)
+        P_exc -= m * (L[2] * (vel[0] + d * nd[0]) + L[3] * (vel[1] + d * nd[1]));
+    dz[ns + 6] = P_exc;
+    dz[ns + 7] = P_damp;
+    double Pb = 0.0;
+    if (A->lossy) { /* StructureBall._ball_dissipation */
+        double nd2 = bma_sq(nd[0]) + bma_sq(nd[1]) + bma_sq(nd[2]);
+        Pb = A->drag * d * d * nd2;
+        if (A->delta != 0.0) {
+            double N = m * (d * nd2 - ax * n[0] - ay * n[1] - g * n[2]);
+            if (N > 0.0) {
+                double s = n[0] * w[0] + n[1] * w[1] + n[2] * w[2];
+                double e0 = w[0] - s * n[0], e1 = w[1] - s * n[1], e2 = w[2] - s * n[2];
+                double t2 = bma_sq(e0) + bma_sq(e1) + bma_sq(e2);
+                Pb += A->delta * N * t2 / sqrt(t2 + A->eps2);
+            }
+        }
+    }
+    dz[ns + 8] = Pb;
+}
+
+static double bma_dot(const bm_row *row, double K[][BMA_NY], int i)
+{
+    if (row->n == 0) return 0.0;
+    double acc = row->c[0] * K[row->j[0]][i];
+    for (int q = 1; q < row->n; q++) acc += row->c[q] * K[row->j[q]][i];
+    return acc;
+}
+
+static void bma_stages(const bma_problem *A, const bm_tab *T, double t, const double *y, double h,
+                       double K[][BMA_NY], double *ynew)
+{
+    int ns = A->base.ns, ny = A->ny;
+    double yt[BMA_NY];
+    for (int s = 1; s < ns; s++) {
+        for (int i = 0; i < ny; i++) yt[i] = y[i] + bma_dot(&T->A[s], K, i) * h;
+        bma_rhs(A, t + A->base.C[s] * h, yt, K[s]);
+    }
+    for (int i = 0; i < ny; i++) ynew[i] = y[i] + h * bma_dot(&T->B, K, i);
+}
+
+/* bm_error for the longer state */
+static double bma_error(const bma_problem *A, const bm_tab *T, double K[][BMA_NY], double h, const double *y,
+                        const double *yn)
+{
+    const bm_problem *P = &A->base;
+    double sc[BMA_NY];
+    int ny = A->ny;
+    for (int i = 0; i < ny; i++)
+        sc[i] = P->tol * bm_pymax(bm_pymax(fabs(y[i]), fabs(yn[i])), A->scale[i]) + A->tols[i];
+    if (!P->has_e3) {
+        double sum = 0.0;
+        for (int i = 0; i < ny; i++) {
+            double e = bma_dot(&T->E, K, i) * h / sc[i];
+            sum = i ? sum + e * e : e * e;
+        }
+        return sqrt(sum / ny);
+    }
+    double e5n = 0.0, e3n = 0.0;
+    for (int i = 0; i < ny; i++) {
+        double e = bma_dot(&T->E, K, i) / sc[i];
+        double g = bma_dot(&T->E3, K, i) / sc[i];
+        e5n = i ? e5n + e * e : e * e;
+        e3n = i ? e3n + g * g : g * g;
+    }
+    if (e5n == 0.0 && e3n == 0.0) return 0.0;
+    return fabs(h) * e5n / sqrt((e5n + 0.01 * e3n) * ny);
+}
+
+/* StructureBall.project: n back on the unit sphere (0 where Python's 1.0 / sqrt(0) raises) */
+static int bma_project(const bma_problem *A, double *z)
+{
+    double *n = z + A->ny - 9;
+    double q = sqrt(bma_sq(n[0]) + bma_sq(n[1]) + bma_sq(n[2])); /* model.py: z[ib] ** 2 + ... */
+    if (q == 0.0) return 0;
+    double s = 1.0 / q;
+    n[0] *= s; n[1] *= s; n[2] *= s;
+    return 1;
+}
+
+/* bm_advance for the absorber: Integrator.advance from t to t_end. 1: y and *h updated;
+ * 0: Python must do this interval (it fails there, or needs the initial step). */
+static int bma_advance(const bma_problem *A, const bm_tab *T, double t, double *y_io, double t_end,
+                       double *h_io, bm_stats *st)
+{
+    const bm_problem *P = &A->base;
+    double K[BM_NS_MAX + 1][BMA_NY], y[BMA_NY], ynew[BMA_NY];
+    int ny = A->ny;
+    size_t bytes = (size_t)ny * sizeof(double);
+    double span = t_end - t;
+    if (span <= 0.0) return 1;
+    memcpy(y, y_io, bytes);
+    bma_rhs(A, t, y, K[0]);
+    st->nfev++;
+    if (!bm_all_finite(K[0], ny)) return 0;
+    int ns = P->ns;
+    if (!P->adaptive) {
+        double q = ceil(span / P->h_fixed - 1e-9);
+        if (!(q <= (double)P->max_steps)) return 0;
+        long long count = q < 1.0 ? 1 : (long long)q;
+        double hh = span / (double)count;
+        for (long long i = 0; i < count; i++) {
+            double ti = t + (double)i * hh;
+            if (i) {
+                bma_rhs(A, ti, y, K[0]);
+                st->nfev++;
+            }
+            bma_stages(A, T, ti, y, hh, K, ynew);
+            st->nfev += ns - 1;
+            if (!bm_all_finite(ynew, ny)) return 0;
+            memcpy(y, ynew, bytes);
+            if (!bma_project(A, y)) return 0;
+            st->steps++;
+        }
+        memcpy(y_io, y, bytes);
+        *h_io = P->h_fixed;
+        return 1;
+    }
+    double h = *h_io;
+    if (!(h > 0.0 && isfinite(h))) return 0;
+    double order = (double)P->order;
+    double h_min_abs = 1e-14 * bm_pymax(1.0, fabs(t_end));
+    double t_last = t_end - 1e-12 * bm_pymax(1.0, fabs(t_end));
+    while (t < t_end) {
+        if (st->steps + st->rejected >= P->max_steps) return 0;
+        h = bm_pymin(h, P->h_max);
+        int last = t + h >= t_last;
+        double hh = last ? t_end - t : h;
+        bma_stages(A, T, t, y, hh, K, ynew);
+        bma_rhs(A, t + hh, ynew, K[ns]);
+        st->nfev += ns;
+        double err = bma_error(A, T, K, hh, y, ynew);
+        if (!(bm_all_finite(ynew, ny) && isfinite(err))) {
+            st->rejected++;
+            h = 0.2 * hh;
+            if (!(h >= h_min_abs)) return 0;
+            continue;
+        }
+        if (err <= 1.0) {
+            double factor = err == 0.0 ? 10.0 : bm_pymin(10.0, 0.9 * pow(err, -1.0 / order));
+            t = last ? t_end : t + hh;
+            memcpy(y, ynew, bytes);
+            if (!bma_project(A, y)) return 0;
+            memcpy(K[0], K[ns], sizeof K[0]);
+            st->steps++;
+            h = last ? bm_pymax(h, hh * factor) : hh * factor;
+        } else {
+            st->rejected++;
+            h = hh * bm_pymax(0.2, 0.9 * pow(err, -1.0 / order));
+            if (!(h >= h_min_abs)) return 0;
+        }
+    }
+    memcpy(y_io, y, bytes);
+    *h_io = h;
+    return 1;
+}
+
+/* simulate_absorber's loop over output points times[1..n-1] from the state y (at times[0])
+ * with step *h: ys[i] for every point reached; returns the index of the last point reached
+ * (y and *h are the state and step there; *total the work). Stops at the first interval
+ * it cannot complete (Python redoes that one). */
+BM_EXPORT long long bma_simulate(const bma_problem *A, const double *times, long long n, double *y, double *h,
+                                 double *ys, bm_stats *total)
+{
+    bm_tab T;
+    bm_tab_make(&A->base, &T);
+    for (long long i = 1; i < n; i++) {
+        bm_stats st = {0, 0, 0};
+        if (!bma_advance(A, &T, times[i - 1], y, times[i], h, &st)) return i - 1;
+        total->steps += st.steps;
+        total->rejected += st.rejected;
+        total->nfev += st.nfev;
+        memcpy(ys + (size_t)A->ny * (size_t)i, y, (size_t)A->ny * sizeof(double));
+    }
+    return n - 1;
+}
+
+BM_EXPORT void bma_eval_rhs(const bma_problem *A, double t, const double *z, double *dz) { bma_rhs(A, t, z, dz); }
+BM_EXPORT int bma_eval_project(const bma_problem *A, double *z) { return bma_project(A, z); }
+BM_EXPORT size_t bma_problem_size(void) { return sizeof(bma_problem); }
 
 /* what fast.py checks before it trusts this build */
 BM_EXPORT int bm_abi(void) { return BM_ABI; }

@@ -682,25 +682,29 @@ def report(file, frf_rows, sweep_rows, trows, ground_summary, opt_rows, timings,
         "the force input, a_O = a_free + G F_b (`free_acceleration`, `flexibility`): that is the algebraic "
         "loop a Jacobi master has to break, and `simulate_absorber` (structure + ball in one ODE, with the "
         "loop solved exactly) is the reference to measure its coupling error against.",
-        "* **A sweep layer** calls `ballmill.absorber.response.steady_state(case, frequency)` per point "
-        "(`AbsorberCase` is a frozen, picklable description; `Point.row()` a flat row), asks "
-        "`refine(frequencies, amplitudes)` for the next batch until it returns nothing, runs each "
-        "`sweep(case, frequencies)` (up or down) as one sequential task, and takes the bare column from "
-        "`bare_amplitude`.",
+        "* **The sweep layer** runs these curves as design studies: `ballmill sweep absorber_frf --out DIR` "
+        "(this page's FRF at 0.05 N: independent steady states, the grid refined around every peak in rounds, "
+        "each round one batch of tasks on Dask) and `ballmill sweep absorber_frf_nonlinear --out DIR` (the "
+        "sweeps up and down at 1 N and 5 N, each sweep one task) write `DIR/frf.csv` (`frequency_Hz`, "
+        "`amplitude_m`, `amplitude_bare_m`, the linear theory, validity) and `DIR/frf.png` "
+        "(`ballmill.sweep.absorber`; the study files are in scenarios/studies/).",
         "* **A tower summary** is `ballmill.absorber.summary.structure_summary(t, data, bare, mu)`.",
         "",
-        "## Run times (2 shared cores, pure Python)",
+        "## Run times (2 shared cores)",
         "",
-        "The coupled model is pure Python (the compiled kernel covers the ball alone), at tolerance 1e-9. "
-        f"Measured in this run: {timings['frf'] / max(1, sum(r['periods'] for r in frf_rows)) * 1e3:.1f} ms of "
+        "The coupled model runs in the compiled kernel (`ballmill/absorber/kernel.py`: the right-hand side "
+        "and the integrator in C, bit for bit the Python path) wherever the excitation is harmonic; the "
+        "ground record runs in Python. Tolerance 1e-9. "
+        f"Measured in this run: {timings['frf'] / max(1, sum(r['periods'] for r in frf_rows)) * 1e3:.2f} ms of "
         "wall time per excitation period in the FRF at 0.05 N, "
-        f"{timings['sweeps, undamped ball'] / max(1, sum(r['periods'] for r in sweep_rows if r['design'] == 'tuned, undamped')) * 1e3:.1f} ms "
+        f"{timings['sweeps, undamped ball'] / max(1, sum(r['periods'] for r in sweep_rows if r['design'] == 'tuned, undamped')) * 1e3:.2f} ms "
         "in the sweeps of the undamped ball (larger motions, smaller steps). A point that settles from the "
         "linear steady state needs 12-40 periods; a sweep point must wait out the transient its frequency "
         "step starts (decay time 1/(zeta omega) = 40 s, 32 periods, for the split modes of the undamped "
         "ball), 100-240 periods. Wall times: "
         + ", ".join(f"{k}: {v:.0f} s" for k, v in timings.items()) + " (on 2 cores shared with other "
-        "jobs). A compiled kernel path for the coupled model would allow finer sweep grids.",
+        "jobs; in pure Python, before the compiled path, the undamped sweeps took 655 s and the rolling "
+        "resistance 439 s).",
         "",
     ]
     file.write_text("\n".join(lines) + "\n")

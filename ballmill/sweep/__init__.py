@@ -10,7 +10,10 @@ Layers (each module's docstring has the details):
 * evaluators: how a point is computed, a registry by kind of scenario (the
   monolithic compiled kernel for a closed-form crank drive, the co-simulation
   otherwise); new models register their own;
-* engine: batches on Dask or in this process, resume, DIR/results.parquet;
+* absorber: the built-in absorber case (case = "absorber": structure + ball,
+  steady states refined at the peaks or continued up/down sweeps, frf.csv);
+* engine: batches on Dask or in this process, rounds, chains, resume,
+  DIR/results.parquet;
 * plots: curves, heat maps (invalid regions hatched), scatter plots.
 """
 from .engine import Outcome, columns, run_study

@@ -22,7 +22,16 @@
   workers have ballmill installed; "in-process" runs the batches here, one
   after another. An evaluator whose Prepared says ``sequential = True`` (points
   that continue from the previous one's state) gets all its points, in
-  order, in one task. The rows do not depend on which (tests check it): every
+  order, in one task; one with ``chain_key(params) -> (chain, order)`` gets
+  each chain whole, in order, in one task (chains run in parallel; a chain
+  with a point missing is recomputed whole, since its states are not kept).
+* Rounds: a Prepared with ``next_points(rows) -> [params, ...]`` is asked,
+  after each round, which points to add given every row so far (the
+  absorber's FRF refines its grid where the curve peaks); each round is one
+  batch of tasks on the same executor, until it names none. The rounds are a
+  function of the rows, so a resumed study finds the same ones. A Prepared
+  with ``write_outputs(study, rows, out_dir, plots, log)`` writes its own
+  files beside results.parquet (the absorber's frf.csv and frf.png). The rows do not depend on which (tests check it): every
   point is computed by the same function from the same inputs, and the rows
   are sorted by point index before they are written.
 """
@@ -78,6 +87,9 @@ def run_batch(prepared, custom, batch):
     t0, c0 = time.perf_counter(), time.thread_time()
     prepared.timing.clear()
     prepared.timing.update(integration=0.0, indicators=0.0)
+    begin = getattr(prepared, "begin_batch", None)
+    if begin is not None:  # a chained evaluator starts each task's chain afresh
+        begin()
     rows = [run_point(prepared, custom, i, pid, p) for i, pid, p in batch]
     split = dict(prepared.timing)
     split["task"] = time.perf_counter() - t0
@@ -146,14 +158,14 @@ class Outcome:
 
 class _Bar:
     def __init__(self, total: int, enabled: bool):
-        self.total, self.enabled, self.done = total, enabled and total > 0, 0
+        self.total, self.enabled, self.done = total, enabled, 0
         self.t0 = time.perf_counter()
         self.tty = sys.stderr.isatty()
         self.last = -1.0
 
     def add(self, n: int):
         self.done += n
-        if not self.enabled:
+        if not self.enabled or self.total <= 0:
             return
         wall = time.perf_counter() - self.t0
         frac = self.done / self.total
@@ -168,6 +180,19 @@ class _Bar:
         elif not self.tty and math.floor(10 * frac) > self.last:
             self.last = math.floor(10 * frac)
             sys.stderr.write(f"  {self.done}/{self.total} points ({wall:.1f} s)\n")
+
+
+MAX_ROUNDS = 50  # refinement rounds at most (an evaluator's own limit is usually lower)
+
+
+def _chains(todo: list, key) -> list[list]:
+    """The tasks of a chained evaluator: points with the same key(params) form one chain, run
+    whole and in the order given by key's second element (so a chain is never split)."""
+    groups: dict = {}
+    for item in todo:
+        k, order = key(item[2])
+        groups.setdefault(k, []).append((order, item))
+    return [[it for _, it in sorted(g, key=lambda x: x[0])] for g in groups.values()]
 
 
 def _default_batch(n: int, workers: int) -> int:
@@ -186,10 +211,13 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
     parts = out_dir / "parts"
     results = out_dir / "results.parquet"
 
-    try:
-        sc = _scen.load(study.scenario, study.set)
-    except _scen.ScenarioError as e:
-        raise StudyError(e.problems) from None
+    if study.case is not None:  # a built-in model case: its pseudo-scenario (instances, parameters)
+        sc = _ev.CASES[study.case].scenario(study.set)
+    else:
+        try:
+            sc = _scen.load(study.scenario, study.set)
+        except _scen.ScenarioError as e:
+            raise StudyError(e.problems) from None
     if study.stop is not None:
         if study.stop <= sc.start:
             raise StudyError([f"stop = {study.stop} s must be after the scenario's start {sc.start} s"])
@@ -204,7 +232,7 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
     except ValueError as e:
         raise StudyError([str(e)]) from None
     prepared = ev.prepare(sc, study, build_dir)
-    context = study.context(sc.path.read_text(), ev.kind)
+    context = study.context(getattr(sc, "text", None) or sc.path.read_text(), ev.kind)
     chash = context_hash(context)
     cols = columns(study, ev.indicators)
 
@@ -226,11 +254,12 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
         done_rows = {k: r for k, r in done_rows.items() if r.get("status") == "ok"}
 
     points = study.points()
-    todo = []
-    for i, p in enumerate(points):
-        pid = point_id(p)
-        if pid not in done_rows:
-            todo.append((i, pid, p))
+    todo = [(i, point_id(p), p) for i, p in enumerate(points) if point_id(p) not in done_rows]
+    chain_key = getattr(prepared, "chain_key", None)
+    if chain_key is not None and todo:
+        # a chain continues from state to state: one missing point recomputes its whole chain
+        missing = {chain_key(p)[0] for _, _, p in todo}
+        todo = [(i, point_id(p), p) for i, p in enumerate(points) if chain_key(p)[0] in missing]
     skipped = len(points) - len(todo)
     units = {**{k: u for k, (u, _) in ev.indicators.items()}, **UNITS_META}
     info = {"name": study.name, "description": study.description, "context": context, "context_hash": chash,
@@ -273,50 +302,87 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
     c0 = time.perf_counter()
     run_s = 0.0
     # an evaluator whose points continue from one another (a slow sweep up or down a
-    # frequency, say) gets all its points, in order, in one task
+    # frequency, say) gets each chain of points, whole and in order, in one task
     sequential = bool(getattr(prepared, "sequential", False))
-    if todo:
-        if scheduler == "in-process":
-            executor = "in-process"
-            nb = len(todo) if sequential else (batch or _default_batch(len(todo), 1))
-            r0 = time.perf_counter()
-            for k in range(0, len(todo), nb):
-                take(*run_batch(prepared, study.indicators, todo[k:k + nb]))
-            run_s = time.perf_counter() - r0
-        else:
-            from dask.distributed import Client, LocalCluster, as_completed
+    chain_key = getattr(prepared, "chain_key", None)
+    next_points = getattr(prepared, "next_points", None)
+    client = cluster = None
+    nworkers = 1
+    cluster_start = 0.0
 
-            cluster = None
-            k0 = time.perf_counter()
-            if scheduler in (None, "local"):
-                n = workers or os.cpu_count() or 1
-                cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                       dashboard_address=None, silence_logs=40)
-                client = Client(cluster)
-                executor = f"dask LocalCluster, {n} worker process(es)"
-            else:
-                client = Client(scheduler)
-                executor = f"dask scheduler {scheduler}"
-            cluster_start = time.perf_counter() - k0
-            try:
-                nworkers = max(1, len(client.scheduler_info(n_workers=-1)["workers"]))
-                nb = len(todo) if sequential else (batch or _default_batch(len(todo), nworkers))
-                executor += f" ({nworkers} worker(s) seen)"
-                r0 = time.perf_counter()
-                prep = client.scatter(prepared, broadcast=True)
-                futs = [client.submit(run_batch, prep, study.indicators, todo[k:k + nb], pure=False)
-                        for k in range(0, len(todo), nb)]
-                for fut in as_completed(futs):
-                    take(*fut.result())
-                    fut.release()
-                run_s = time.perf_counter() - r0
-            finally:
-                k1 = time.perf_counter()
-                client.close()
-                if cluster is not None:
-                    cluster.close()
-                split_total["cluster_start"] = cluster_start
-                split_total["cluster_close"] = time.perf_counter() - k1
+    def tasks_of(todo_round):
+        if chain_key is not None:
+            return _chains(todo_round, chain_key)
+        nb_ = len(todo_round) if sequential else (
+            batch or _default_batch(len(todo_round), nworkers))
+        return [todo_round[k:k + nb_] for k in range(0, len(todo_round), nb_)]
+
+    try:
+        rnd = 0
+        while True:
+            if todo:
+                tasks = tasks_of(todo)
+                nb = max(nb, max(len(t) for t in tasks))
+                if scheduler == "in-process":
+                    executor = "in-process"
+                    r0 = time.perf_counter()
+                    for task in tasks:
+                        take(*run_batch(prepared, study.indicators, task))
+                    run_s += time.perf_counter() - r0
+                else:
+                    if client is None:
+                        from dask.distributed import Client, LocalCluster
+
+                        k0 = time.perf_counter()
+                        if scheduler in (None, "local"):
+                            n = workers or os.cpu_count() or 1
+                            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                                   dashboard_address=None, silence_logs=40)
+                            client = Client(cluster)
+                            executor = f"dask LocalCluster, {n} worker process(es)"
+                        else:
+                            client = Client(scheduler)
+                            executor = f"dask scheduler {scheduler}"
+                        cluster_start = time.perf_counter() - k0
+                        nworkers = max(1, len(client.scheduler_info(n_workers=-1)["workers"]))
+                        executor += f" ({nworkers} worker(s) seen)"
+                        prep = client.scatter(prepared, broadcast=True)
+                        tasks = tasks_of(todo)  # batch size for the workers seen
+                        nb = max(len(t) for t in tasks)
+                    from dask.distributed import as_completed
+
+                    r0 = time.perf_counter()
+                    futs = [client.submit(run_batch, prep, study.indicators, task, pure=False) for task in tasks]
+                    for fut in as_completed(futs):
+                        take(*fut.result())
+                        fut.release()
+                    run_s += time.perf_counter() - r0
+            # refinement: the evaluator looks at every row so far and names the points to add
+            # (each round one batch of tasks on the same executor); deterministic, so a resumed
+            # study finds the same rounds and skips what it has
+            if next_points is None or rnd >= MAX_ROUNDS:
+                break
+            have = {r["point_id"]: r for r in done_rows.values()}
+            have.update({r["point_id"]: r for r in new_rows})
+            listed = [have[point_id(p)] for p in points if point_id(p) in have]
+            extra = next_points(listed)
+            extra = [p for p in extra if point_id(p) not in {point_id(q) for q in points}]
+            if not extra:
+                break
+            rnd += 1
+            base = len(points)
+            points.extend(extra)
+            todo = [(base + j, point_id(p), p) for j, p in enumerate(extra) if point_id(p) not in done_rows]
+            bar.total += len(todo)
+            skipped += len(extra) - len(todo)
+    finally:
+        if client is not None:
+            k1 = time.perf_counter()
+            client.close()
+            if cluster is not None:
+                cluster.close()
+            split_total["cluster_start"] = cluster_start
+            split_total["cluster_close"] = time.perf_counter() - k1
     compute_s = time.perf_counter() - c0
 
     # the results file: old rows (minus those recomputed) and the new ones, by point index
@@ -331,12 +397,15 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
         parts.rmdir()
     write_s += time.perf_counter() - w0
     plot_files = []
-    if plots:
+    if plots and getattr(prepared, "generic_plots", True):
         from . import plots as _plots
         try:
             plot_files = _plots.write(study, rows, out_dir)
         except Exception as e:  # noqa: BLE001 - the results stand without their plots
             log(f"plots not written: {type(e).__name__}: {e}")
+    write_outputs = getattr(prepared, "write_outputs", None)
+    if write_outputs is not None:  # an evaluator's own result files (and plots) beside the parquet
+        plot_files += write_outputs(study, rows, out_dir, plots=plots, log=log)
     failed = sum(1 for r in new_rows if r.get("status") != "ok")
     # how the time went (not part of the results, which do not depend on who computed them)
     timing = {"prepare": setup_s, "cluster_start": split_total.pop("cluster_start", 0.0), "run": run_s,

@@ -18,7 +18,10 @@ the cheapest faithful evaluator: they are tried in the order of ORDER.
   through the fmpy co-simulation master, exactly as `ballmill run` does; its
   error is the ball FMU's own estimate, the largest `coupling_error`.
 
-A later model (a structure that feels the ball, say) registers its own
+The absorber (a structure that feels the ball: `ballmill.sweep.absorber`) is
+such a model: a built-in case (``case = "absorber"`` in a study file, no FMU
+scenario) with its own evaluator, indicators, refinement rounds and chains.
+A later model registers its own
 evaluator with `register` (with ``before`` to be tried ahead of the
 co-simulation), with its own built-in ``indicators`` and `Prepared.evaluate`
 if a mill's indicators do not fit it; the sweep engine does not change.
@@ -36,6 +39,15 @@ from .indicators import BUILTIN, Record, evaluate
 
 REGISTRY: dict[str, "Evaluator"] = {}
 ORDER: list[str] = []
+# built-in model cases a study names with ``case = NAME`` instead of an FMU scenario: NAME ->
+# an object with MODES, MODEL (default model settings), POSITIVE (settings that must be > 0),
+# check_study(grid, model, mode, where), study_grid(grid, mode) and scenario(set_) (the
+# pseudo-scenario the engine and the evaluator read); see ballmill.sweep.absorber
+CASES: dict = {}
+
+
+def register_case(name: str, case):
+    CASES[name] = case
 
 
 class Evaluator:
@@ -404,3 +416,4 @@ def _toml(v) -> str:
 
 register(CrankKernel())
 register(Cosim())
+from . import absorber as _absorber  # noqa: E402,F401 - registers the absorber case and its evaluator

@@ -91,6 +91,8 @@ class Study:
     indicators: list[Indicator] = field(default_factory=list)
     source: Path | None = None  # the study file, if any
     stop: float | None = None  # overrides the scenario's experiment stop [s]
+    case: str | None = None  # a built-in model case instead of an FMU scenario (evaluators.CASES)
+    mode: str | None = None  # the case's mode (absorber: steady, up, down, both)
 
     @property
     def swept(self) -> list[str]:
@@ -121,9 +123,12 @@ class Study:
 
     def context(self, scenario_text: str, evaluator: str) -> dict:
         """What the results of this study depend on besides the points (stored with them)."""
-        return {"scenario": self.scenario, "scenario_sha256": hashlib.sha256(scenario_text.encode()).hexdigest(),
+        ctx = {"scenario": self.scenario, "scenario_sha256": hashlib.sha256(scenario_text.encode()).hexdigest(),
                 "stop": self.stop, "set": sorted(self.set), "model": dict(sorted(self.model.items())), "evaluator": evaluator,
                 "indicators": [i.to_dict() for i in self.indicators]}
+        if self.case is not None:  # (absent for FMU scenarios: their contexts stay as they were)
+            ctx.update(case=self.case, mode=self.mode)
+        return ctx
 
 
 def point_id(point: dict) -> str:
@@ -198,9 +203,28 @@ def _window_ok(w) -> bool:
 
 def build(scenario: str, *, name: str | None = None, description: str = "", set_=(), grid=None,
           sample=None, model=None, indicators=(), source: Path | None = None, where: str = "study",
-          stop: float | None = None) -> Study:
-    """A checked Study (StudyError lists every problem)."""
+          stop: float | None = None, case: str | None = None, mode: str | None = None) -> Study:
+    """A checked Study (StudyError lists every problem). ``case``: a built-in model case
+    (`evaluators.CASES`, e.g. "absorber") instead of the FMU scenario ``scenario``; its
+    ``mode``, model settings and pseudo-parameters come from the case."""
     problems: list[str] = []
+    spec_case = None
+    if case is not None:
+        from .evaluators import CASES
+        if case not in CASES:
+            raise StudyError([f"{where}: case {case!r}: no such case (known: {', '.join(sorted(CASES))})"])
+        spec_case = CASES[case]
+        if stop is not None:
+            problems.append(f"{where}: stop: does not apply to case {case!r} (its points run until they settle)")
+        if sample:
+            problems.append(f"{where}: sample: case {case!r} takes a [grid]")
+        if indicators:
+            problems.append(f"{where}: indicators: case {case!r} has its own indicators only")
+        mode = spec_case.MODES[0] if mode is None else mode
+        if mode not in spec_case.MODES:
+            problems.append(f"{where}: mode: expected one of {', '.join(spec_case.MODES)}, got {mode!r}")
+    elif mode is not None:
+        problems.append(f"{where}: mode: only a study of a built-in case (case = ...) has a mode")
     if stop is not None and not (isinstance(stop, (int, float)) and not isinstance(stop, bool)
                                  and math.isfinite(stop) and stop > 0):
         problems.append(f"{where}: stop: expected a positive number of seconds, got {stop!r}")
@@ -252,16 +276,21 @@ def build(scenario: str, *, name: str | None = None, description: str = "", set_
         if f"{inst}.{param}" in g or (smp and f"{inst}.{param}" in smp["ranges"]):
             problems.append(f"{where}: --set {text}: {inst}.{param} is also swept")
     m = {"kind": "auto", "method": "RK4", "h": 0.01, "tolerance": 1e-8, "dt": 0.01, "target_P": 1e-5}
+    if spec_case is not None:
+        m = dict(spec_case.MODEL)
     for key, v in (model or {}).items():
         if key not in m:
             problems.append(f"{where}: model.{key}: unknown key (known: {', '.join(m)})")
             continue
         m[key] = v
-    for key in ("h", "tolerance", "dt", "target_P"):
+    for key in (("h", "tolerance", "dt", "target_P") if spec_case is None else spec_case.POSITIVE):
         v = m[key]
         if not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0):
             problems.append(f"{where}: model.{key}: expected a positive number, got {v!r}")
-    if m["method"] not in ("RK4", "RK45", "DOP853"):
+    if spec_case is not None:
+        problems += spec_case.check_study(g, m, mode, where)
+        g = spec_case.study_grid(g, mode)
+    elif m["method"] not in ("RK4", "RK45", "DOP853"):
         problems.append(f"{where}: model.method: expected RK4, RK45 or DOP853, got {m['method']!r}")
     inds = []
     seen = set()
@@ -295,7 +324,7 @@ def build(scenario: str, *, name: str | None = None, description: str = "", set_
         raise StudyError(problems)
     return Study(name=name or Path(str(scenario)).stem, scenario=str(scenario), description=description,
                  set=list(set_), grid=g, sample=smp, model=m, indicators=inds, source=source,
-                 stop=None if stop is None else float(stop))
+                 stop=None if stop is None else float(stop), case=case, mode=mode)
 
 
 def resolve_study(name_or_path: str) -> Path | None:
@@ -310,26 +339,32 @@ def resolve_study(name_or_path: str) -> Path | None:
                 doc = tomllib.loads(c.read_text())
             except tomllib.TOMLDecodeError as e:
                 raise StudyError([f"{c}: not valid TOML: {e}"]) from None
-            if "scenario" in doc:
+            if "scenario" in doc or "case" in doc:
                 return c
     return None
 
 
-def load(name_or_path: str, *, set_=(), grid=None, sample=None, model=None, stop=None) -> Study:
+def load(name_or_path: str, *, set_=(), grid=None, sample=None, model=None, stop=None, mode=None) -> Study:
     """A study from a study file or a scenario name, with command-line additions: ``set_``
-    (overrides, appended), ``grid`` (axes, replacing the file's), ``sample``, ``model``."""
+    (overrides, appended), ``grid`` (axes, replacing the file's), ``sample``, ``model``,
+    ``mode`` (a case study's mode, replacing the file's)."""
     path = resolve_study(name_or_path)
     if path is None:
+        if mode is not None:
+            raise StudyError([f"--mode {mode}: only a study of a built-in case (case = ...) has a mode"])
         _scen.resolve(name_or_path)  # a clear error when it is no scenario either
         return build(name_or_path, set_=list(set_), grid=grid, sample=sample, model=model, where="command line",
                      stop=stop)
     where = path.as_posix()
     doc = tomllib.loads(path.read_text())
-    unknown = set(doc) - {"description", "scenario", "stop", "set", "grid", "sample", "model", "indicators"}
+    unknown = set(doc) - {"description", "scenario", "case", "mode", "stop", "set", "grid", "sample", "model",
+                          "indicators"}
     if unknown:
-        raise StudyError([f"{where}: unknown key(s) {sorted(unknown)}; expected description, scenario, stop, "
-                          f"set, grid, sample, model, indicators"])
-    scen = doc["scenario"]
+        raise StudyError([f"{where}: unknown key(s) {sorted(unknown)}; expected description, scenario (or case "
+                          f"and mode), stop, set, grid, sample, model, indicators"])
+    if "case" in doc and "scenario" in doc:
+        raise StudyError([f"{where}: a study has a scenario or a case, not both"])
+    scen = doc.get("scenario", doc.get("case"))
     cand = path.parent / scen
     if cand.is_file() or cand.with_suffix(".toml").is_file():
         scen = str(cand if cand.is_file() else cand.with_suffix(".toml"))
@@ -345,7 +380,8 @@ def load(name_or_path: str, *, set_=(), grid=None, sample=None, model=None, stop
     mdl = {**(doc.get("model") or {}), **(model or {})}
     return build(scen, name=path.stem, description=str(doc.get("description", "")), set_=fixed, grid=g,
                  sample=smp, model=mdl, indicators=doc.get("indicators", []), source=path, where=where,
-                 stop=stop if stop is not None else doc.get("stop"))
+                 stop=stop if stop is not None else doc.get("stop"), case=doc.get("case"),
+                 mode=mode if mode is not None else doc.get("mode"))
 
 
 def _toml_value(v) -> str:
