@@ -116,12 +116,14 @@ class BallInShell(Slave):
             raise ValueError(f"input_mode = {self.input_mode!r} is not available with motion = 2: use "
                              f"1 (derivatives) or 3 (hold)")
         self._model = ChamberModel(ball, method=method, tol=self.tolerance, h_fixed=self.h_fixed,
-                                   max_steps=MAX_INTERNAL_STEPS, kernel="python")
+                                   max_steps=MAX_INTERNAL_STEPS)
         self._inputs = ChamberReconstruction(GENERAL_MODES[self.input_mode], R=ball.R)
         self._correct = bool(self.corrector) and self.input_mode != 3
 
     def start(self):
         if self._general:
+            # the checks (and messages) of the translation-only model's initial state
+            BallModel(self._model.ball).initial(self.xC0, self.yC0, (self.wx0, self.wy0, self.wz0))
             problem = self._inputs.push(*self._sample(self._time))
             self._state = self._model.initial(self._inputs, self.xC0, self.yC0,
                                               (self.wx0, self.wy0, self.wz0), t0=self._time)

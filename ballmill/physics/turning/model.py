@@ -299,7 +299,16 @@ class ChamberModel:
         return f
 
     def advance(self, state: BallState, t_end: float, motion: ChamberMotion) -> BallState:
-        """Integrate from state.t to t_end (Python); the old state is left intact on failure."""
+        """Integrate from state.t to t_end; the old state is left intact on failure. A motion
+        whose accel is reconstruction.ChamberReconstruction's closure (``accel.poly``; the
+        BallInShell FMU with motion = 2) runs in the compiled kernel unless ``kernel`` is
+        "python" (the same state bit for bit); anything else in Python."""
+        if self.kernel != "python" and hasattr(motion.accel, "poly"):
+            from . import kernel as fast_turning
+
+            new = fast_turning.advance(self, state, t_end, motion.accel)
+            if new is not None:
+                return new
         y, h, st = self.integrator.advance(self.rhs(motion), state.t, state.y, t_end, state.h)
         self.info.steps += st.steps
         self.info.rejected += st.rejected
