@@ -706,12 +706,16 @@ static void outputs_at(ball_in_shell *b, const ball_state *s, const fit *f, doub
     to_n(b, s->y, nw);
     memcpy(nw + 3, s->y + b->P.ny - 3, 3 * sizeof(double));
     bm_outputs(&b->P, nw, m[4], m[5], m[0], m[1], o);
-    /* the chamber does not turn: its axes are the frame's; P = O + (xP, yP, zP), O = (x1O, y1O, 0) */
-    double px = m[0] + o[O_XP], py = m[1] + o[O_YP], pz = o[O_ZP];
+    /* the chamber does not turn: its axes are the frame's. The moment about O1 is A x F + M_A,
+     * A = (x1O, y1O, R) (with losses M_A holds the material's moments too), so MO1z is the crank's
+     * torque M_reaction plus MAz */
+    double xo = m[0], yo = m[1], R = b->R;
     double sx = o[O_FX], sy = o[O_FY], sz = o[O_FZ];
     o[O_XPCH] = o[O_XP]; o[O_YPCH] = o[O_YP]; o[O_ZPCH] = o[O_ZP];
     o[O_FXCH] = sx; o[O_FYCH] = sy; o[O_FZCH] = sz;
-    o[O_MO1X] = py * sz - pz * sy; o[O_MO1Y] = pz * sx - px * sz; o[O_MO1Z] = px * sy - py * sx;
+    o[O_MO1X] = (yo * sz - R * sy) + o[O_MAX];
+    o[O_MO1Y] = (R * sx - xo * sz) + o[O_MAY];
+    o[O_MO1Z] = o[O_MR] + o[O_MAZ];
 }
 
 static void publish(double *v, const double o[N_OUT])

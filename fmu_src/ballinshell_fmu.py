@@ -297,7 +297,7 @@ class BallInShell(Slave):
             return _general_outputs(self._model, state, self._inputs.state(t))
         x, y, _, _, ax, ay = self._inputs.state(t)
         out = self._model.outputs(state, ax, ay, x, y)
-        return _Translated(out, x, y)
+        return _Translated(out, x, y, self.R)
 
     def _values(self, out):
         """The output values to publish (ArithmeticError naming an output that is not finite;
@@ -410,18 +410,19 @@ class _Kin:
 class _Translated:
     """motion = 1: outputs.Outputs at t and the new outputs derived from them (contact point and
     force in the chamber's axes = the frame's, since the chamber does not turn; the moment about
-    O1 of the force at P = O + (xP, yP, zP), O = (x1O, y1O, 0))."""
+    O1 = A x F + M_A with A = (x1O, y1O, R), so that MO1z = M_reaction + MAz; with losses M_A
+    holds the ground material's moments too)."""
 
     __slots__ = ("out", "extra", "contact", "rolling", "N", "friction_ratio")
 
-    def __init__(self, out, x, y):
+    def __init__(self, out, x, y, R):
         self.out = out
         self.contact, self.rolling, self.N, self.friction_ratio = out.contact, out.rolling, out.N, out.friction_ratio
-        px, py, pz = x + out.xP, y + out.yP, out.zP
         sx, sy, sz = out.Fx, out.Fy, out.Fz
         self.extra = (("xP_ch", out.xP), ("yP_ch", out.yP), ("zP_ch", out.zP),
                       ("Fx_ch", sx), ("Fy_ch", sy), ("Fz_ch", sz),
-                      ("MO1x", py * sz - pz * sy), ("MO1y", pz * sx - px * sz), ("MO1z", px * sy - py * sx))
+                      ("MO1x", (y * sz - R * sy) + out.MAx), ("MO1y", (R * sx - x * sz) + out.MAy),
+                      ("MO1z", out.M_reaction + out.MAz))
 
 
 class _General:

@@ -334,7 +334,8 @@ BALL_MOTION_OUTPUTS = (
     ("Fy_ch", "N", "Force of the ball on the chamber, y in the chamber's axes (Q^T F)"),
     ("Fz_ch", "N", "Force of the ball on the chamber, z in the chamber's axes (Q^T F)"),
     ("MO1x", "N.m", "Moment of the ball's force on the chamber about the fixed origin O1, x in the fixed "
-                    "axes: a drive with twist (w, v) feels w . MO1 + v . F"),
+                    "axes (A x F + M_A; motion = 1: A = (x1O, y1O, R)): a drive of the chamber with "
+                    "twist (w, v) feels w . MO1 + v . F"),
     ("MO1y", "N.m", "Moment of the ball's force on the chamber about the fixed origin O1, y in the fixed "
                     "axes"),
     ("MO1z", "N.m", "Moment of the ball's force on the chamber about the fixed origin O1, z in the fixed "
