@@ -154,6 +154,49 @@ static int recon_inconsistency(const ball_in_shell *b, const sample *p, const sa
     return 1;
 }
 
+static void chamber_centre(const sample *p, double R, double A[3], double vA[3], double aA[3]);
+
+/* motion = 2, mode 1 (ChamberReconstruction.inconsistency): the chamber centres of samples p
+ * and q, per axis with recon_inconsistency's residual and thresholds; 0, or 1 with the
+ * description in why and *jump set when the history must restart */
+static int general_inconsistency(const ball_in_shell *b, const sample *p, const sample *q, int *jump, char *why,
+                                 size_t size)
+{
+    double Ap[3], vp[3], ap[3], Aq[3], vq[3], aq[3];
+    chamber_centre(p, b->R, Ap, vp, ap);
+    chamber_centre(q, b->R, Aq, vq, aq);
+    double H = q->t - p->t;
+    double a_mag = fmax(sqrt(ap[0] * ap[0] + ap[1] * ap[1] + ap[2] * ap[2]),
+                        sqrt(aq[0] * aq[0] + aq[1] * aq[1] + aq[2] * aq[2]));
+    int worst = -1;
+    double worst_ratio = 0.0, rw = 0.0, lw = 0.0;
+    for (int k = 0; k < 3; k++) {
+        double r = Aq[k] - Ap[k] - 0.5 * H * (vp[k] + vq[k]) + H * H * (aq[k] - ap[k]) / 12.0;
+        double a_scale = b->a_tol + A_REL * a_mag;
+        double limit = a_scale * H * H / 6.0 + 8.0 * ulp(fmax(fabs(Ap[k]), fabs(Aq[k])));
+        if (fabs(r) > limit && (worst < 0 || fabs(r) / limit > worst_ratio)) {
+            worst = k;
+            worst_ratio = fabs(r) / limit;
+            rw = r;
+            lw = limit;
+        }
+    }
+    *jump = 0;
+    if (worst < 0) return 0;
+    *jump = 6.0 * fabs(rw) / (H * H) > b->a_tol + a_mag;
+    char e[6][32], tp[32], tq[32];
+    const char c = "xyz"[worst];
+    snprintf(why, size, "the chamber centre A = O + Q (0, 0, R) of the inputs (x1O..az1O, Omega, Omega_dot, Q) "
+             "disagrees in %c between t = %s s (A%c = %s m, vA%c = %s m/s, aA%c = %s m/s2) and t = %s s (A%c = %s m, "
+             "vA%c = %s m/s, aA%c = %s m/s2): position residual %.3g m, accepted |r| <= %.3g m (input_tol = %g "
+             "m/s2 + %g |a| of acceleration)%s",
+             c, fmu_repr(p->t, tp), c, fmu_repr(Ap[worst], e[0]), c, fmu_repr(vp[worst], e[1]), c,
+             fmu_repr(ap[worst], e[2]), fmu_repr(q->t, tq), c, fmu_repr(Aq[worst], e[3]), c,
+             fmu_repr(vq[worst], e[4]), c, fmu_repr(aq[worst], e[5]), rw, lw, b->a_tol, A_REL,
+             *jump ? "; the reconstruction restarts at the newer sample" : "");
+    return 1;
+}
+
 /* push the inputs seen at t; a second sample at the same t replaces the first.
  * -1 and why when the sample is refused (state unchanged); 1 and why when it is
  * inconsistent with the one before (mode 1; the history then restarts on a jump); 0 */
@@ -254,9 +297,11 @@ static int recon_push(ball_in_shell *b, const double *v, double t, char *why, si
         }
         b->samples[b->n_samples++] = s;
     }
-    if (b->motion == 1 && b->mode == 1 && has_prev && b->n_samples > 1) {
+    if (b->mode == 1 && has_prev && b->n_samples > 1) {
         int jump;
-        if (recon_inconsistency(b, &prev, &b->samples[b->n_samples - 1], &jump, why, size)) {
+        const sample *now = &b->samples[b->n_samples - 1];
+        if (b->motion == 2 ? general_inconsistency(b, &prev, now, &jump, why, size)
+                           : recon_inconsistency(b, &prev, now, &jump, why, size)) {
             if (jump) {
                 b->samples[0] = b->samples[b->n_samples - 1];
                 b->n_samples = 1;

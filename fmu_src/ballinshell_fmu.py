@@ -117,7 +117,7 @@ class BallInShell(Slave):
                              f"1 (derivatives) or 3 (hold)")
         self._model = ChamberModel(ball, method=method, tol=self.tolerance, h_fixed=self.h_fixed,
                                    max_steps=MAX_INTERNAL_STEPS)
-        self._inputs = ChamberReconstruction(GENERAL_MODES[self.input_mode], R=ball.R)
+        self._inputs = ChamberReconstruction(GENERAL_MODES[self.input_mode], R=ball.R, a_tol=self.input_tol)
         self._correct = bool(self.corrector) and self.input_mode != 3
 
     def start(self):

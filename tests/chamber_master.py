@@ -1,28 +1,18 @@
 """An in-test co-simulation master for BallInShell with motion = 2: it feeds the FMU the exact
 inputs of a library chamber motion (ballmill.physics.turning.motions) at every communication
-point and collects the outputs. Shared by tests/test_fmu_chamber.py and the benchmark."""
+point and collects the outputs (tests/test_fmu_chamber.py; the benchmark feeds the same inputs,
+ballmill.physics.turning.reconstruction.inputs_of)."""
 from __future__ import annotations
 
 from fmpy.fmi1 import FMICallException
 
-from ballmill.fmi.interface import BALL_ALL_INPUTS
+from ballmill.physics.turning.reconstruction import NAMES
+from ballmill.physics.turning.reconstruction import inputs_of as reconstruction_inputs
 
 
 def inputs_of(cs, R):
-    """The FMU's inputs (BALL_ALL_INPUTS order) for a motions.ChamberState: the chamber-fixed
-    point O = A - Q (0, 0, R) and its velocity and acceleration, Omega, Omega', Q."""
-    (Ax, Ay, Az, vAx, vAy, vAz, aAx, aAy, aAz, ox, oy, oz, px, py, pz, *q) = cs[:24]
-    ex, ey, ez = R * q[2], R * q[5], R * q[8]
-    cx, cy, cz = oy * ez - oz * ey, oz * ex - ox * ez, ox * ey - oy * ex
-    a = ((py * ez - pz * ey) + (oy * cz - oz * cy), (pz * ex - px * ez) + (oz * cx - ox * cz),
-         (px * ey - py * ex) + (ox * cy - oy * cx))
-    values = {"x1O": Ax - ex, "y1O": Ay - ey, "z1O": Az - ez,
-              "vx1O": vAx - cx, "vy1O": vAy - cy, "vz1O": vAz - cz,
-              "ax1O": aAx - a[0], "ay1O": aAy - a[1], "az1O": aAz - a[2],
-              "Omega_x": ox, "Omega_y": oy, "Omega_z": oz, "Omega_dot_x": px, "Omega_dot_y": py,
-              "Omega_dot_z": pz}
-    values.update({f"Q{i + 1}{j + 1}": q[3 * i + j] for i in range(3) for j in range(3)})
-    return {name: values[name] for name in BALL_ALL_INPUTS}
+    """The FMU's inputs for a motions.ChamberState (reconstruction.inputs_of), by name."""
+    return dict(zip(NAMES, reconstruction_inputs(cs, R)))
 
 
 def drive(inst, motion, R, h, t_end, outputs, t_start=0.0):

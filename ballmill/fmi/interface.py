@@ -357,14 +357,16 @@ BALL_IN_SHELL = _interface(
         ("g", "parameter", _ball.g, "Gravitational acceleration", dict(unit="m/s2", min=0.0, max=1e3)),
         ("mu", "parameter", _ball.mu, "Friction coefficient ball/chamber, for the rolling check",
          dict(unit="1", min=0.0, max=100.0)),
-        ("xC0", "parameter", 0.0, "Initial ball centre x (lower half of the chamber)", dict(unit="m")),
-        ("yC0", "parameter", 0.0, "Initial ball centre y (lower half of the chamber)", dict(unit="m")),
-        ("wx0", "parameter", 0.0, "Initial angular velocity x",
-         dict(unit="rad/s", min=-W0_MAX, max=W0_MAX)),
-        ("wy0", "parameter", 0.0, "Initial angular velocity y",
-         dict(unit="rad/s", min=-W0_MAX, max=W0_MAX)),
-        ("wz0", "parameter", 0.0, "Initial angular velocity z",
-         dict(unit="rad/s", min=-W0_MAX, max=W0_MAX)),
+        ("xC0", "parameter", 0.0, "Initial ball centre x (lower half of the chamber; motion = 2: in the "
+         "chamber's axes)", dict(unit="m")),
+        ("yC0", "parameter", 0.0, "Initial ball centre y (lower half of the chamber; motion = 2: in the "
+         "chamber's axes)", dict(unit="m")),
+        ("wx0", "parameter", 0.0, "Initial angular velocity x (motion = 2: relative to the chamber, in its "
+         "axes; 0 = co-rotating)", dict(unit="rad/s", min=-W0_MAX, max=W0_MAX)),
+        ("wy0", "parameter", 0.0, "Initial angular velocity y (motion = 2: relative to the chamber, in its "
+         "axes)", dict(unit="rad/s", min=-W0_MAX, max=W0_MAX)),
+        ("wz0", "parameter", 0.0, "Initial angular velocity z (motion = 2: relative to the chamber, in its "
+         "axes)", dict(unit="rad/s", min=-W0_MAX, max=W0_MAX)),
         ("formulation", "parameter", 1, "Equations: 1 = vector (n, omega; whole sphere), "
          "2 = paper (xC, yC, omega; lower hemisphere only)", dict(min=1, max=2)),
         # default RK45 at 1e-8: with communication steps of a few ms the coupling error dominates

@@ -122,3 +122,23 @@ def test_reset_returns_to_motion_1_defaults(open_fmu):
     assert fmu.init() == OK  # the defaults: a motion = 1 instance that initialises
     assert fmu.get("motion") == 1 and fmu.get("Omega_z") == 0.0 and fmu.get("Q11") == 1.0
     assert fmu.step(H) == OK
+
+
+def test_a_jump_in_the_chamber_inputs_is_flagged_and_the_reconstruction_restarts(open_fmu):
+    """Mode 1's consistency check on the chamber centre (docs/conformance.md): a master that
+    sets the spin only from the second communication point on (the chamber's centre then
+    jumps in velocity and acceleration: A - O turns at once) is flagged, valid latches false
+    with that time, and the history restarts there; a consistent run is not flagged."""
+    fmu = open_fmu("BallInShell", motion=2, xC0=0.04, R=0.25)
+    feed(fmu, 0.0, Omega_z=0.0, Q33=1.0)
+    fmu.set(Q11=1.0, Q12=0.0, Q21=0.0, Q22=1.0, x1O=0.1)
+    assert fmu.init() == OK
+    assert fmu.step(H) == OK
+    fmu.set(Omega_x=2.0, Q22=math.cos(0.004), Q23=-math.sin(0.004), Q32=math.sin(0.004), Q33=math.cos(0.004))
+    assert fmu.step(H) == OK
+    log = fmu.messages()
+    assert "the chamber centre A = O + Q (0, 0, R) of the inputs" in log, log
+    assert "the reconstruction restarts at the newer sample" in log
+    assert fmu.get("valid") is False and fmu.get("t_invalid") == H
+    ok = spinning(open_fmu, 200)
+    assert ok.get("valid") is True, ok.messages()

@@ -30,7 +30,11 @@ the node chosen last, up to ``points``; history ``points + 6``). Modes "position
 no orientation-only counterpart of the position fit yet.
 
 Every sample is checked: finite values (named by the FMU's input names) and Q a
-rotation (|Q Q^T - I| <= Q_TOL entrywise, det Q > 0). The arithmetic is written as
+rotation (|Q Q^T - I| <= Q_TOL entrywise, det Q > 0). In mode "derivatives" each new
+sample's chamber centre (A, v_A, a_A) is checked against the previous one's per axis with
+platform.InputReconstruction's Euler-Maclaurin residual and thresholds (|a|: the larger 3-D
+magnitude of a_A); an inconsistency is reported (the FMU flags it: valid = false), and a
+jump (6 |r| / H^2 > a_tol + |a|) restarts the history at the new sample. The arithmetic is written as
 scalar expressions in a fixed order that fmu_src/ballinshell.c repeats operation for
 operation, so both FMU flavours agree bit for bit. The fit's coefficients are in
 physical time s = t - t_k; ``kin.poly`` carries them for the compiled kernel.
@@ -40,6 +44,7 @@ from __future__ import annotations
 import math
 
 from ..errors import InputError
+from ..platform import A_REL, ulp
 
 MODES = ("derivatives", "hold")
 POINTS = {"derivatives": 2, "hold": 1}
@@ -103,13 +108,30 @@ def rotate(theta, q):
                  for i in range(3) for j in range(3))
 
 
+def inputs_of(cs, R):
+    """The inputs (NAMES order) that describe the chamber state cs (motions.ChamberState's
+    fields) to the FMU: the chamber-fixed point O = A - Q (0, 0, R) with its velocity and
+    acceleration (the inverse of `centre`), Omega, Omega', Q. For in-test masters and the
+    benchmark, which feed a library motion to the FMU."""
+    (Ax, Ay, Az, vAx, vAy, vAz, aAx, aAy, aAz, ox, oy, oz, px, py, pz, *q) = cs[:24]
+    ex, ey, ez = R * q[2], R * q[5], R * q[8]
+    cx, cy, cz = oy * ez - oz * ey, oz * ex - ox * ez, ox * ey - oy * ex
+    a = ((py * ez - pz * ey) + (oy * cz - oz * cy), (pz * ex - px * ez) + (oz * cx - ox * cz),
+         (px * ey - py * ex) + (ox * cy - oy * cx))
+    return (Ax - ex, Ay - ey, vAx - cx, vAy - cy, aAx - a[0], aAy - a[1], Az - ez, vAz - cz, aAz - a[2],
+            ox, oy, oz, px, py, pz, *q)
+
+
 class ChamberReconstruction:
     """The chamber's motion between communication points from its samples (module docstring).
     ``R``: the chamber's radius [m] (A = O + Q (0, 0, R))."""
 
-    def __init__(self, mode: str = "derivatives", R: float = 0.25):
+    def __init__(self, mode: str = "derivatives", R: float = 0.25, a_tol: float = 1e-2):
         if mode not in MODES:
             raise ValueError(f"input mode must be one of {MODES} for a turning chamber, got {mode!r}")
+        if not (a_tol > 0 and math.isfinite(a_tol)):
+            raise ValueError(f"a_tol must be positive and finite, got {a_tol!r} m/s2")
+        self.a_tol = float(a_tol)
         self.mode = mode
         self.points = POINTS[mode]
         self.R = float(R)
@@ -122,7 +144,9 @@ class ChamberReconstruction:
     def push(self, t, *inputs):
         """Record the inputs (NAMES order) seen at t; a sample at the newest time replaces
         it. InputError (state unchanged) for a non-finite value, a time earlier than the
-        newest sample or a Q that is not a rotation. Returns None (no consistency check)."""
+        newest sample or a Q that is not a rotation. Returns None, or (mode "derivatives") the
+        description of an inconsistency of the new sample with the previous one (the history
+        then restarts at this sample on a jump)."""
         smp = (float(t),) + tuple(float(v) for v in inputs)
         if len(smp) != NSAMPLE:
             raise InputError(f"a chamber sample has {NSAMPLE - 1} inputs, got {len(smp) - 1}")
@@ -138,11 +162,47 @@ class ChamberReconstruction:
         self._dirty = True
         if self.samples and smp[0] == self.samples[-1][0]:
             self.samples[-1] = smp
+            prev = self.samples[-2] if len(self.samples) > 1 else None
         else:
+            prev = self.samples[-1] if self.samples else None
             self.samples.append(smp)
             if len(self.samples) > self.points + HISTORY_EXTRA:
                 del self.samples[0]
+        if self.mode == "derivatives" and prev is not None:
+            problem, jump = self.inconsistency(prev, smp)
+            if problem:
+                if jump:
+                    self.samples[:] = [smp]
+                return problem
         return None
+
+    def inconsistency(self, p, q):
+        """(None, False) if the chamber centre's A, v_A, a_A of samples p and q agree, else
+        (what disagrees, whether it is a jump); module docstring."""
+        R = self.R
+        Ap, vp, ap = centre(p, R)
+        Aq, vq, aq = centre(q, R)
+        H = q[0] - p[0]
+        a_mag = max(math.sqrt(ap[0] * ap[0] + ap[1] * ap[1] + ap[2] * ap[2]),
+                    math.sqrt(aq[0] * aq[0] + aq[1] * aq[1] + aq[2] * aq[2]))
+        worst = None
+        for k in range(3):
+            r = Aq[k] - Ap[k] - 0.5 * H * (vp[k] + vq[k]) + H * H * (aq[k] - ap[k]) / 12.0
+            a_scale = self.a_tol + A_REL * a_mag
+            limit = a_scale * H * H / 6.0 + 8.0 * ulp(max(abs(Ap[k]), abs(Aq[k])))
+            if abs(r) > limit and (worst is None or abs(r) / limit > worst[0]):
+                worst = (abs(r) / limit, k, r, limit)
+        if worst is None:
+            return None, False
+        _, k, r, limit = worst
+        jump = 6.0 * abs(r) / (H * H) > self.a_tol + a_mag
+        c = "xyz"[k]
+        restart = "; the reconstruction restarts at the newer sample" if jump else ""
+        return (f"the chamber centre A = O + Q (0, 0, R) of the inputs (x1O..az1O, Omega, Omega_dot, Q) "
+                f"disagrees in {c} between t = {p[0]!r} s (A{c} = {Ap[k]!r} m, vA{c} = {vp[k]!r} m/s, "
+                f"aA{c} = {ap[k]!r} m/s2) and t = {q[0]!r} s (A{c} = {Aq[k]!r} m, vA{c} = {vq[k]!r} m/s, "
+                f"aA{c} = {aq[k]!r} m/s2): position residual {r:.3g} m, accepted |r| <= {limit:.3g} m "
+                f"(input_tol = {self.a_tol:g} m/s2 + {A_REL:g} |a| of acceleration){restart}"), jump
 
     def get_state(self):
         return {"mode": self.mode, "points": self.points, "samples": [list(s) for s in self.samples]}
@@ -287,4 +347,5 @@ class ChamberReconstruction:
         return tuple(A) + tuple(vA) + tuple(aA) + tuple(Om) + tuple(Omd) + rotate(th, self._Q) + (0.0,) * 14
 
 
-__all__ = ["ChamberReconstruction", "MODES", "NAMES", "NPOLY", "Q_TOL", "centre", "rotate", "rotation_problem"]
+__all__ = ["ChamberReconstruction", "MODES", "NAMES", "NPOLY", "Q_TOL", "centre", "inputs_of", "rotate",
+           "rotation_problem"]
