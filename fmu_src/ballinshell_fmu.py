@@ -35,6 +35,7 @@ if not os.path.exists(getattr(sys.modules.get("ballmill"), "__file__", None) or 
         del sys.modules[_name]
 
 import math
+import operator
 
 import numpy as np
 
@@ -55,6 +56,8 @@ INPUTS = BALL_INPUTS
 MOTIONS = {1: "translation", 2: "general"}
 GENERAL_MODES = {1: "derivatives", 3: "hold"}  # input modes of motion = 2
 _UNITS = {v.name: v.unit for v in BALL_IN_SHELL.variables}
+_MOTION_VALUES = operator.attrgetter(*BALL_MOTION_INPUTS)
+_MOTION_DEFAULTS = tuple(BALL_MOTION_START[name] for name in BALL_MOTION_INPUTS)
 
 
 class BallInShell(Slave):
@@ -164,6 +167,8 @@ class BallInShell(Slave):
     def _check_translation(self):
         """motion = 1 takes only a horizontal translation: a new input away from its default
         is refused (ValueError naming it), never ignored."""
+        if _MOTION_VALUES(self) == _MOTION_DEFAULTS:  # one comparison per step
+            return
         for name in BALL_MOTION_INPUTS:
             v = getattr(self, name)
             if v != BALL_MOTION_START[name]:

@@ -142,3 +142,12 @@ def test_a_jump_in_the_chamber_inputs_is_flagged_and_the_reconstruction_restarts
     assert fmu.get("valid") is False and fmu.get("t_invalid") == H
     ok = spinning(open_fmu, 200)
     assert ok.get("valid") is True, ok.messages()
+
+
+def test_motion_is_fixed_after_initialisation(open_fmu, flavour):
+    fmu = spinning(open_fmu, 2)
+    n = len(fmu.log)
+    assert fmu.set(motion=1) == flavour.refusal
+    assert "parameter motion is fixed" in fmu.messages(n) and "motion keeps 2" in fmu.messages(n)
+    if flavour.usable_after_refusal:
+        assert fmu.get("motion") == 2
