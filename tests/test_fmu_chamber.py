@@ -245,3 +245,30 @@ def test_drive_power_from_MO1_and_F_is_the_balls_energy_change(built_fmus, opene
     work = np.concatenate([[0.0], np.cumsum(0.5 * (P[1:] + P[:-1]) * np.diff(times))])
     assert np.ptp(E) > 0.01  # the drum lifts the ball: a real exchange of energy
     assert np.max(np.abs((E - E[0]) - work)) < 1e-6, np.max(np.abs((E - E[0]) - work))
+
+
+def test_spinning_bowl_small_oscillations_through_the_fmu_match_the_closed_form(built_fmus, opened):
+    """The closed-form anchor of issue 12 through the FMU: in a bowl spinning at Omega about the
+    vertical through its fixed centre, small swings z = n_x + i n_y are A+ exp(i s+ t) + A-
+    exp(i s- t) with s+- = beta/2 +- sqrt(beta^2/4 + w0^2), beta = Omega (2/5)/(7/5)
+    (ballmill.studies.fig1.bowl_frequencies; the ball starts at rest relative to the bowl,
+    z(0) = z0, z'(0) = i Omega z0). At xC0 = 1 mm (eps = 4.4e-3 rad) the neglected terms are
+    O(eps^2) = 2e-5 relative; over 10 s (60 rad of the fast mode) a phase error ~1e-3: bound
+    3e-3 of the amplitude. A ball that ignored the spin (beta = 0) would be off by > 0.3."""
+    from ballmill.studies.fig1 import bowl_frequencies
+
+    ball, Om = Ball(), 3.0
+    motion = Spin((0.0, 0.0, Om), (0.0, 0.0, R))
+    inst = opened.open(built_fmus["BallInShell"], "bowl_small", motion=2, xC0=0.001, integrator=1,
+                       tolerance=1e-11)
+    times, rows, status = drive(inst, motion, R, 0.01, 10.0, ["xC", "yC"])
+    assert status == 0
+    t, rows = np.array(times), np.array(rows)
+    z = (rows[:, 0] + 1j * rows[:, 1]) / ball.d  # C - O = d n + (0, 0, R)
+    sp_, sm = bowl_frequencies(Om)
+    z0 = 0.001 / ball.d
+    zl = z0 * ((Om - sm) * np.exp(1j * sp_ * t) + (sp_ - Om) * np.exp(1j * sm * t)) / (sp_ - sm)
+    assert np.abs(z - zl).max() / z0 <= 3e-3
+    w0 = ball.omega_small  # without the spin's coupling
+    still = z0 * (np.cos(w0 * t) + 1j * (Om / w0) * np.sin(w0 * t))
+    assert np.abs(z - still).max() / z0 > 0.3
