@@ -1,4 +1,7 @@
-"""BallInShell FMU: the ball rolling without slip in a translating spherical chamber.
+"""BallInShell FMU: the ball rolling without slip in a spherical chamber that translates
+(motion = 1) or moves in 3-D and turns (motion = 2: inputs z1O..az1O, Omega, Omega_dot, Q;
+the general model of ballmill.physics.turning along turning/reconstruction.py's fit of the
+chamber's motion; outputs also in the chamber's axes and the moment about O1).
 
 A thin pythonfmu adapter over ballmill.physics (DESIGN.md sections 3 and 5).
 Inputs: the platform position x1O, y1O (and, when the source knows them, its
