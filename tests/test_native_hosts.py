@@ -73,9 +73,9 @@ def unpacked(fmus_of, tmp_path_factory):
     return out
 
 
-def _run(host, binary, guid, vr, steps, cycles, prefix=()):
+def _run(host, binary, guid, vr, steps, cycles, prefix=(), settings=()):
     cmd = [*prefix, str(host), str(binary), guid, binary.parent.parent.parent.as_uri() + "/resources",
-           str(steps), "0.002", str(cycles), str(vr)]
+           str(steps), "0.002", str(cycles), str(vr), *settings]
     return subprocess.run(cmd, capture_output=True, text=True, timeout=600)
 
 
@@ -119,6 +119,27 @@ def test_valgrind_finds_no_invalid_access_and_no_leak(host, unpacked, model):
     assert "Invalid read" not in proc.stderr and "Invalid write" not in proc.stderr
     lost = re.search(r"definitely lost: ([\d,]+) bytes", proc.stderr)
     assert lost is None or lost.group(1) == "0", proc.stderr[-2000:]
+
+
+def test_valgrind_on_ball_in_a_spinning_bowl(host, unpacked):
+    """BallInShell with motion = 2 (issue 12: the chamber's reconstruction and the general
+    model's kernel functions) in the C host under valgrind: a bowl spinning at 3 rad/s about
+    the vertical through its fixed centre (inputs constant: O and A stay, Q's third column
+    stays e_z), the ball started off-centre."""
+    if shutil.which("valgrind") is None:
+        pytest.skip("valgrind not installed (apt-get install valgrind)")
+    from ballmill.fmi.interface import BALL_IN_SHELL as B
+
+    binary, guid, vr = unpacked["BallInShell"]
+    settings = (f"I{B.value_reference('motion')}=2", f"R{B.value_reference('Omega_z')}=3.0",
+                f"R{B.value_reference('xC0')}=0.05")
+    proc = _run(host, binary, guid, vr, 50, 2, settings=settings,
+                prefix=("valgrind", "--error-exitcode=99", "--leak-check=full", "--errors-for-leak-kinds=definite"))
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert "ERROR SUMMARY: 0 errors" in proc.stderr
+    lost = re.search(r"definitely lost: ([\d,]+) bytes", proc.stderr)
+    assert lost is None or lost.group(1) == "0", proc.stderr[-2000:]
+    assert 0.0 < float(proc.stdout.split()[0]) < 10.0  # N [N] of the ball pressed on the bowl
 
 
 @pytest.mark.parametrize("model", sorted(CASES))

@@ -7,7 +7,10 @@
  * that a test can see leaks as growth; the exit status is 0 only when every call
  * returned fmi2OK (or fmi2Warning).
  *
- *   fmi_host LIBRARY GUID RESOURCE_URI STEPS H CYCLES OUTPUT_VR
+ *   fmi_host LIBRARY GUID RESOURCE_URI STEPS H CYCLES OUTPUT_VR [I<vr>=<value> | R<vr>=<value> ...]
+ *
+ * The optional settings (an Integer or a Real by value reference) are made after each
+ * fmi2Instantiate, before the initialisation.
  */
 #include <dlfcn.h>
 #include <stdarg.h>
@@ -59,8 +62,8 @@ static long rss_kb(void)
 
 int main(int argc, char **argv)
 {
-    if (argc != 8) {
-        fprintf(stderr, "usage: fmi_host LIBRARY GUID RESOURCE_URI STEPS H CYCLES OUTPUT_VR\n");
+    if (argc < 8) {
+        fprintf(stderr, "usage: fmi_host LIBRARY GUID RESOURCE_URI STEPS H CYCLES OUTPUT_VR [I<vr>=<v> | R<vr>=<v> ...]\n");
         return 2;
     }
     long steps = atol(argv[4]), cycles = atol(argv[6]);
@@ -77,6 +80,8 @@ int main(int argc, char **argv)
     LOAD(fmi2ExitInitializationMode)
     LOAD(fmi2DoStep)
     LOAD(fmi2GetReal)
+    LOAD(fmi2SetReal)
+    LOAD(fmi2SetInteger)
     LOAD(fmi2Terminate)
     LOAD(fmi2FreeInstance)
     fmi2CallbackFunctions cb = {logger, calloc, free, NULL, NULL};
@@ -89,6 +94,22 @@ int main(int argc, char **argv)
             fprintf(stderr, "fmi_host: fmi2Instantiate returned NULL\n");
             failed = 1;
             break;
+        }
+        for (int a = 8; a < argc; a++) {
+            char kind = argv[a][0], *eq = strchr(argv[a], '=');
+            if (!eq || (kind != 'I' && kind != 'R')) {
+                fprintf(stderr, "fmi_host: setting %s is not I<vr>=<value> or R<vr>=<value>\n", argv[a]);
+                failed = 1;
+                break;
+            }
+            fmi2ValueReference r = (fmi2ValueReference)atol(argv[a] + 1);
+            if (kind == 'I') {
+                fmi2Integer x = (fmi2Integer)atol(eq + 1);
+                CHECK(fmi2SetInteger(inst, &r, 1, &x));
+            } else {
+                fmi2Real x = atof(eq + 1);
+                CHECK(fmi2SetReal(inst, &r, 1, &x));
+            }
         }
         CHECK(fmi2SetupExperiment(inst, fmi2False, 0.0, 0.0, fmi2False, 0.0));
         CHECK(fmi2EnterInitializationMode(inst));

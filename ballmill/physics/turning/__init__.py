@@ -6,8 +6,10 @@ or crank start-up angle laws); ``model`` the general model's equations, outputs
 (with the drives' reaction moments), energy and first integrals, `ChamberModel`
 and the drivers `simulate_general` and `simulate_chamber`; ``kernel`` the same
 model's compiled bmg_* functions of ``../_kernel.c`` (ctypes), which give the
-Python path's trajectory bit for bit. The translation-only ball model it falls
-back to for a `Translation` is ``ballmill.physics.model``.
+Python path's trajectory bit for bit; ``reconstruction`` the chamber's motion between
+communication points as the BallInShell FMU (motion = 2) sees it (`ChamberReconstruction`).
+The translation-only ball model it falls back to for a `Translation` is
+``ballmill.physics.model``.
 """
 from .motions import ARRANGEMENTS, ChamberMotion, ChamberState, ConstantSpeed, Fig1Machine, Spin, Translation
 from .model import ChamberModel, ChamberOutputs, simulate_chamber, simulate_general
