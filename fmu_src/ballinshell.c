@@ -494,6 +494,34 @@ static void publish(double *v, const double o[BM_NOUT])
     v[VR_P_diss] = o[O_PDISS];
 }
 
+/* direct feedthrough (interface.BALL_FEEDTHROUGH; ballinshell_fmu.BallInShell.inputs_set): the
+ * force, moments and contact signals at the instance's time from the chamber acceleration and
+ * position just set, on the state published at that time (input modes 1, 3, 4; with positions
+ * alone the acceleration is reconstructed at the next step) */
+static fmi2Status inputs_set(fmu_instance *fi, const void *data, double *v, double t)
+{
+    const ball_in_shell *b = data;
+    (void)fi;
+    (void)t;
+    double x = v[VR_x1O], y = v[VR_y1O], ax = v[VR_ax1O], ay = v[VR_ay1O];
+    if (b->mode == 2 || !(isfinite(x) && isfinite(y) && isfinite(ax) && isfinite(ay))) return fmi2OK;
+    double nw[BM_NY], o[BM_NOUT];
+    to_n(b, b->state.y, nw);
+    memcpy(nw + 3, b->state.y + b->P.ny - 3, 3 * sizeof(double));
+    bm_outputs(&b->P, nw, ax, ay, x, y, o);
+    static const int vr[] = {VR_N, VR_Fx, VR_Fy, VR_Fz, VR_M_reaction, VR_MAx, VR_MAy, VR_MAz, VR_Ft};
+    static const int oi[] = {O_N, O_FX, O_FY, O_FZ, O_MR, O_MAX, O_MAY, O_MAZ, O_FT};
+    for (int i = 0; i < (int)(sizeof oi / sizeof oi[0]); i++)
+        if (!isfinite(o[oi[i]])) return fmi2OK;
+    if (!isfinite(o[O_PDISS]) || isnan(o[O_RATIO])) return fmi2OK;
+    for (int i = 0; i < (int)(sizeof vr / sizeof vr[0]); i++) v[vr[i]] = o[oi[i]];
+    v[VR_friction_ratio] = isinf(o[O_RATIO]) ? copysign(FMU_BIG, o[O_RATIO]) : o[O_RATIO];
+    v[VR_contact] = o[O_CONTACT] != 0.0;
+    v[VR_rolling] = o[O_ROLLING] != 0.0;
+    v[VR_P_diss] = o[O_PDISS];
+    return fmi2OK;
+}
+
 /* ===================================================================== validity signals
  * the latch (Slave.invalidate): valid = false from the first loss of contact, onset of
  * slip or flagged input inconsistency, until reset; t_invalid says when */
@@ -924,5 +952,5 @@ static fmi2Status check(fmu_instance *fi, const void *data, const double *v)
 const fmu_model FMU_MODEL = {
     FMU_IDENTIFIER, FMU_GUID, FMU_N_VARS, FMU_VARIABLES,
     sizeof(ball_in_shell), offsetof(ball_in_shell, state),
-    setup, step, check,
+    setup, step, check, inputs_set,
 };

@@ -38,7 +38,7 @@ import math
 
 import numpy as np
 
-from ballmill.fmi.interface import BALL_IN_SHELL, BALL_INPUTS, BALL_OUTPUTS
+from ballmill.fmi.interface import BALL_FEEDTHROUGH, BALL_IN_SHELL, BALL_INPUTS, BALL_OUTPUTS
 from ballmill.fmi.slave import NEVER, Slave
 from ballmill.physics import Ball, BallModel, BallState, InputReconstruction
 
@@ -49,6 +49,7 @@ MAX_INTERNAL_STEPS = 20000  # work bound: internal steps of one integration in a
 DRAG_LIMIT = 1e4  # c_drag <= DRAG_LIMIT m omega0 (drag time m/c_drag >= 1e-4 / omega0)
 OUTPUTS = BALL_OUTPUTS
 INPUTS = BALL_INPUTS
+FEEDTHROUGH = frozenset(BALL_FEEDTHROUGH)
 
 
 class BallInShell(Slave):
@@ -230,6 +231,24 @@ class BallInShell(Slave):
     _confirmed = (True, True)
 
     # -- outputs -------------------------------------------------------------
+    def inputs_set(self):
+        """Direct feedthrough (interface.BALL_FEEDTHROUGH): the force, moments and contact
+        signals at the FMU's time from the chamber acceleration and position just set, on the
+        state published at that time (input modes 1, 3 and 4; with positions alone the
+        acceleration is reconstructed at the next step). A master that iterates the algebraic
+        loop of a structure feeling the ball reads them without stepping."""
+        if self._inputs is None or self._inputs.mode == "positions" or self._state is None:
+            return
+        x, y, ax, ay = self.x1O, self.y1O, self.ax1O, self.ay1O
+        if not all(math.isfinite(v) for v in (x, y, ax, ay)):
+            return  # the next step refuses them
+        try:
+            out = self._model.outputs(self._state, ax, ay, x, y)
+            values = self._values(out)
+        except (ValueError, ArithmeticError):
+            return
+        self._set_outputs([(n, v) for n, v in values if n in FEEDTHROUGH], out)
+
     def _outputs_at(self, state, t):
         """Outputs of a state at time t, with the platform motion reconstructed at t."""
         x, y, _, _, ax, ay = self._inputs.state(t)
