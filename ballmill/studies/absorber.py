@@ -703,7 +703,13 @@ def report(file, frf_rows, sweep_rows, trows, ground_summary, opt_rows, timings,
         "jobs). A compiled kernel path for the coupled model would allow finer sweep grids.",
         "",
     ]
-    file.write_text("\n".join(lines) + "\n")
+    text = "\n".join(lines) + "\n"
+    # keep the co-simulation section that ballmill.studies.absorber_cosim splices in
+    from .absorber_cosim import END, START
+    old = file.read_text() if file.exists() else ""
+    if START in old and END in old:
+        text += "\n" + old[old.index(START):old.index(END) + len(END)] + "\n"
+    file.write_text(text)
 
 
 def read_csv(path: Path):
