@@ -551,6 +551,20 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
                      [[f"{si}.{sv} -> {di}.{dv}" for si, sv, di, dv in lp] for lp in loops], loop_sweeps)
 
 
+def without(sc: _spec.Scenario, instance: str, record: list | None = None) -> _spec.Scenario:
+    """The scenario with one instance and every connection touching it removed (the bare
+    structure of an absorber scenario: the ball's force cut); ``record``: what to record
+    instead (default: the recorded variables of the instances that remain)."""
+    import dataclasses
+
+    if instance not in sc.instances:
+        raise KeyError(f"{sc.name}: no instance {instance!r} to remove")
+    keep = {n: i for n, i in sc.instances.items() if n != instance}
+    conns = [c for c in sc.connections if instance not in (c[0], c[2])]
+    rec = record if record is not None else [r for r in sc.record if r[0] != instance]
+    return dataclasses.replace(sc, instances=keep, connections=conns, record=rec, plots=[])
+
+
 def prepare(name_or_path: str, overrides=(), build_dir: Path | None = None, log=print,
             flavour: str = "native"):
     """Build the FMUs if needed, read their model descriptions, load and check the scenario.

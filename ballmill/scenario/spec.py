@@ -9,7 +9,9 @@ A scenario is a TOML file:
     [instances.NAME.parameters]   parameter = value
     connections = ["drive.x1O -> ball.x1O", ...]
     [record]                variables = ["ball.zP", ...]  (default: all outputs)
-    [summary]               ball = "ball"; after = 2.5 or "drive.t0" (statistics after the start-up)
+    [summary]               ball = "ball"; after = 2.5 or "drive.t0" (statistics after the start-up);
+                            structure = "NAME" (a Structure instance: the absorber summary, and a
+                            second run without the ball for the bare structure unless bare = false)
     [master]                algebraic_loops = "iterate" (default) or "ignore": what the master does
                             with a loop of direct feedthrough through the connections (found from
                             the FMUs' ModelStructure); loop_tol (relative, default 1e-10),
