@@ -415,7 +415,7 @@ def _mode_parameters(axis):
         mode = f"mode {j} of axis {axis}"
         rows += [
             (f"M_{axis}{j}", "parameter", 100.0, f"Modal mass M of {mode}", dict(unit="kg", min=1e-12, max=1e15)),
-            (f"f_{axis}{j}", "parameter", 0.8 * j, f"Undamped natural frequency of {mode}",
+            (f"f_{axis}{j}", "parameter", (0.8, 2.5, 4.5)[j - 1], f"Undamped natural frequency of {mode}",
              dict(unit="Hz", min=1e-9, max=1e6)),
             (f"zeta_{axis}{j}", "parameter", 0.01, f"Damping ratio of {mode}", dict(unit="1", min=0.0, max=100.0)),
             (f"phi_{axis}{j}", "parameter", 1.0, f"Shape of {mode} at the absorber (the cavity moves by "
