@@ -676,18 +676,18 @@ def report(file, frf_rows, sweep_rows, trows, ground_summary, opt_rows, timings,
         "",
         "## Interfaces for what comes next",
         "",
-        "* **A Structure FMU** wraps `ballmill.absorber.structure.StructureModel`: state and `derivative(t, z, "
-        "Fbx, Fby)` with the ball's horizontal force (BallInShell's `Fx, Fy`) as input, `cavity(...)` for the "
-        "outputs x, v (relative to the ground) and a (absolute). Its acceleration output feeds through from "
-        "the force input, a_O = a_free + G F_b (`free_acceleration`, `flexibility`): that is the algebraic "
-        "loop a Jacobi master has to break, and `simulate_absorber` (structure + ball in one ODE, with the "
-        "loop solved exactly) is the reference to measure its coupling error against.",
+        "* **The Structure FMU** (`drive_models/structure.c`, `drive_models/structure_fmu.py`) wraps "
+        "`ballmill.absorber.structure.StructureModel`, with the ball's horizontal force (BallInShell's `Fx, Fy`) "
+        "as input and the cavity's motion as output. Its acceleration output feeds through from the force "
+        "input, a_O = a_free + G F_b: the algebraic loop the scenario runner iterates, with `simulate_absorber` "
+        "(structure + ball in one ODE, the loop solved exactly) as the reference for its coupling error (the "
+        "last section, `python -m ballmill.studies.absorber_cosim`).",
         "* **A sweep layer** calls `ballmill.absorber.response.steady_state(case, frequency)` per point "
         "(`AbsorberCase` is a frozen, picklable description; `Point.row()` a flat row), asks "
         "`refine(frequencies, amplitudes)` for the next batch until it returns nothing, runs each "
         "`sweep(case, frequencies)` (up or down) as one sequential task, and takes the bare column from "
         "`bare_amplitude`.",
-        "* **A tower summary** is `ballmill.absorber.summary.structure_summary(t, data, bare, mu)`.",
+        "* **A tower summary** is `ballmill.absorber.summary.structure_summary(t, data, bare, mu)`; `ballmill run tower_absorber` writes it (with a second run of the bare structure).",
         "",
         "## Run times (2 shared cores, pure Python)",
         "",

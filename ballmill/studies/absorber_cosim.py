@@ -128,7 +128,7 @@ def section(rows, strong, figure_name: str | None = None, command: str = "", t_e
     gain = [by[(H, "iterate")]["x_err"] / by[(H, "ignore")]["x_err"] for H in sorted({r["H"] for r in rows})]
     lines = ["## The absorber as a co-simulation: coupling error against the communication step", "",
              "Structure FMU + BallInShell FMU (`scenarios/absorber_frf.toml`: 100 kg, 0.8 Hz, 1 % damping, "
-             "a 2 kg ball tuned to 0.8 Hz, 0.05 N at 0.8 Hz) under the scenario runner's Jacobi master, "
+             "a 2 kg ball tuned to 0.8 Hz, 0.05 N, here at 0.8 Hz) under the scenario runner's Jacobi master, "
              f"native flavour, {t_end:g} s from rest, against the monolithic structure + ball model "
              "(`simulate_absorber`, DOP853 at 1e-12). The ball takes the cavity's position, velocity "
              "and acceleration (input_mode 1); the structure takes the ball's force, extrapolated "
