@@ -50,9 +50,17 @@ def _run(args) -> int:
     out = Path(args.out or Path("out") / sc.name)
     print(f"running {sc.name}: {sc.description}", file=sys.stderr)
     res = runner.run(sc, models, paths, progress=not args.quiet)
-    summary = report.write_all(res, models, out)
+    bare = None
+    structure = sc.summary.get("structure")
+    if structure and sc.summary.get("bare", True) and res.success:
+        ball = report._ball_instance(res)
+        print(f"running {sc.name} again without {ball!r}: the bare structure", file=sys.stderr)
+        bare = runner.run(runner.without(sc, ball, [(structure, v) for v in report.STRUCTURE_RECORD]),
+                          models, paths, progress=not args.quiet)
+    summary = report.write_all(res, models, out, bare)
     brief = {k: summary.get(k) for k in ("success", "message", "wall_time_s", "statistics_over", "N", "ring",
-                                         "zP_max_m", "M_reaction_peak_abs_Nm", "validity", "t_invalid_s")
+                                         "zP_max_m", "M_reaction_peak_abs_Nm", "structure", "validity",
+                                         "t_invalid_s")
              if k in summary}
     print(json.dumps(brief, indent=2))
     print(f"results: {out / 'results.csv'}, {out / 'summary.json'}, plots: "

@@ -742,6 +742,19 @@ static void general_outputs(const ball_in_shell *b, const double *y, const doubl
     o[O_MO1X] = mo[0]; o[O_MO1Y] = mo[1]; o[O_MO1Z] = mo[2];
 }
 
+/* motion = 1: the chamber does not turn, its axes are the frame's. The moment about O1 is
+ * A x F + M_A, A = (x1O, y1O, R) (with losses M_A holds the material's moments too), so MO1z is
+ * the crank's torque M_reaction plus MAz */
+static void translation_extras(double R, double xo, double yo, double o[N_OUT])
+{
+    double sx = o[O_FX], sy = o[O_FY], sz = o[O_FZ];
+    o[O_XPCH] = o[O_XP]; o[O_YPCH] = o[O_YP]; o[O_ZPCH] = o[O_ZP];
+    o[O_FXCH] = sx; o[O_FYCH] = sy; o[O_FZCH] = sz;
+    o[O_MO1X] = (yo * sz - R * sy) + o[O_MAX];
+    o[O_MO1Y] = (R * sx - xo * sz) + o[O_MAY];
+    o[O_MO1Z] = o[O_MR] + o[O_MAZ];
+}
+
 /* outputs.evaluate of a state at t, with the platform motion reconstructed at t (motion = 2:
  * turning.model.evaluate_c at the reconstructed chamber state) */
 static void outputs_at(ball_in_shell *b, const ball_state *s, const fit *f, double t, double o[N_OUT])
@@ -758,16 +771,7 @@ static void outputs_at(ball_in_shell *b, const ball_state *s, const fit *f, doub
     to_n(b, s->y, nw);
     memcpy(nw + 3, s->y + b->P.ny - 3, 3 * sizeof(double));
     bm_outputs(&b->P, nw, m[4], m[5], m[0], m[1], o);
-    /* the chamber does not turn: its axes are the frame's. The moment about O1 is A x F + M_A,
-     * A = (x1O, y1O, R) (with losses M_A holds the material's moments too), so MO1z is the crank's
-     * torque M_reaction plus MAz */
-    double xo = m[0], yo = m[1], R = b->R;
-    double sx = o[O_FX], sy = o[O_FY], sz = o[O_FZ];
-    o[O_XPCH] = o[O_XP]; o[O_YPCH] = o[O_YP]; o[O_ZPCH] = o[O_ZP];
-    o[O_FXCH] = sx; o[O_FYCH] = sy; o[O_FZCH] = sz;
-    o[O_MO1X] = (yo * sz - R * sy) + o[O_MAX];
-    o[O_MO1Y] = (R * sx - xo * sz) + o[O_MAY];
-    o[O_MO1Z] = o[O_MR] + o[O_MAZ];
+    translation_extras(b->R, m[0], m[1], o);
 }
 
 static void publish(double *v, const double o[N_OUT])
@@ -781,6 +785,39 @@ static void publish(double *v, const double o[N_OUT])
     v[VR_rolling] = o[O_ROLLING] != 0.0;
     v[VR_P_diss] = o[O_PDISS];
     for (int i = 0; i < 9; i++) v[vr_more[i]] = o[O_XPCH + i];
+}
+
+/* direct feedthrough (interface.BALL_FEEDTHROUGH; ballinshell_fmu.BallInShell.inputs_set): the
+ * force, moments and contact signals at the instance's time from the chamber acceleration and
+ * position just set, on the state published at that time (input modes 1, 3, 4; with positions
+ * alone the acceleration is reconstructed at the next step) */
+static fmi2Status inputs_set(fmu_instance *fi, const void *data, double *v, double t)
+{
+    const ball_in_shell *b = data;
+    (void)fi;
+    (void)t;
+    double x = v[VR_x1O], y = v[VR_y1O], ax = v[VR_ax1O], ay = v[VR_ay1O];
+    /* motion = 2 (a prescribed turning chamber): not refreshed, the next step computes them */
+    if (b->mode == 2 || b->motion == 2 || !(isfinite(x) && isfinite(y) && isfinite(ax) && isfinite(ay)))
+        return fmi2OK;
+    double nw[BM_NY], o[N_OUT];
+    to_n(b, b->state.y, nw);
+    memcpy(nw + 3, b->state.y + b->P.ny - 3, 3 * sizeof(double));
+    bm_outputs(&b->P, nw, ax, ay, x, y, o);
+    translation_extras(b->R, x, y, o);
+    static const int vr[] = {VR_N, VR_Fx, VR_Fy, VR_Fz, VR_M_reaction, VR_MAx, VR_MAy, VR_MAz, VR_Ft,
+                             VR_Fx_ch, VR_Fy_ch, VR_Fz_ch, VR_MO1x, VR_MO1y, VR_MO1z};
+    static const int oi[] = {O_N, O_FX, O_FY, O_FZ, O_MR, O_MAX, O_MAY, O_MAZ, O_FT,
+                             O_FXCH, O_FYCH, O_FZCH, O_MO1X, O_MO1Y, O_MO1Z};
+    for (int i = 0; i < (int)(sizeof oi / sizeof oi[0]); i++)
+        if (!isfinite(o[oi[i]])) return fmi2OK;
+    if (!isfinite(o[O_PDISS]) || isnan(o[O_RATIO])) return fmi2OK;
+    for (int i = 0; i < (int)(sizeof vr / sizeof vr[0]); i++) v[vr[i]] = o[oi[i]];
+    v[VR_friction_ratio] = isinf(o[O_RATIO]) ? copysign(FMU_BIG, o[O_RATIO]) : o[O_RATIO];
+    v[VR_contact] = o[O_CONTACT] != 0.0;
+    v[VR_rolling] = o[O_ROLLING] != 0.0;
+    v[VR_P_diss] = o[O_PDISS];
+    return fmi2OK;
 }
 
 /* ===================================================================== validity signals
@@ -1269,5 +1306,5 @@ static fmi2Status check(fmu_instance *fi, const void *data, const double *v)
 const fmu_model FMU_MODEL = {
     FMU_IDENTIFIER, FMU_GUID, FMU_N_VARS, FMU_VARIABLES,
     sizeof(ball_in_shell), offsetof(ball_in_shell, state),
-    setup, step, check,
+    setup, step, check, inputs_set,
 };

@@ -42,8 +42,8 @@ import operator
 
 import numpy as np
 
-from ballmill.fmi.interface import (BALL_ALL_INPUTS, BALL_IN_SHELL, BALL_INPUTS, BALL_MOTION_INPUTS,
-                                    BALL_MOTION_START, BALL_OUTPUTS)
+from ballmill.fmi.interface import (BALL_ALL_INPUTS, BALL_FEEDTHROUGH, BALL_IN_SHELL, BALL_INPUTS,
+                                    BALL_MOTION_INPUTS, BALL_MOTION_START, BALL_OUTPUTS)
 from ballmill.fmi.slave import NEVER, Slave
 from ballmill.physics import Ball, BallModel, BallState, InputReconstruction
 from ballmill.physics.turning.model import ChamberModel, evaluate_c
@@ -61,6 +61,7 @@ GENERAL_MODES = {1: "derivatives", 3: "hold"}  # input modes of motion = 2
 _UNITS = {v.name: v.unit for v in BALL_IN_SHELL.variables}
 _MOTION_VALUES = operator.attrgetter(*BALL_MOTION_INPUTS)
 _MOTION_DEFAULTS = tuple(BALL_MOTION_START[name] for name in BALL_MOTION_INPUTS)
+FEEDTHROUGH = frozenset(BALL_FEEDTHROUGH)
 
 
 class BallInShell(Slave):
@@ -298,6 +299,24 @@ class BallInShell(Slave):
 
     def _n(self, state):
         return tuple(state.y[:3]) if self._general else self._model.nw(state)[0]
+
+    def inputs_set(self):
+        """Direct feedthrough (interface.BALL_FEEDTHROUGH): the force, moments and contact
+        signals at the FMU's time from the chamber acceleration and position just set, on the
+        state published at that time (input modes 1, 3 and 4; with positions alone the
+        acceleration is reconstructed at the next step). A master that iterates the algebraic
+        loop of a structure feeling the ball reads them without stepping."""
+        if self._inputs is None or self._inputs.mode == "positions" or self._state is None or self._general:
+            return  # motion = 2 (a prescribed turning chamber): the next step computes them
+        x, y, ax, ay = self.x1O, self.y1O, self.ax1O, self.ay1O
+        if not all(math.isfinite(v) for v in (x, y, ax, ay)):
+            return  # the next step refuses them
+        try:
+            out = _Translated(self._model.outputs(self._state, ax, ay, x, y), x, y, self.R)
+            values = self._values(out)
+        except (ValueError, ArithmeticError):
+            return
+        self._set_outputs([(n, v) for n, v in values if n in FEEDTHROUGH], out)
 
     def _outputs_at(self, state, t):
         """Outputs of a state at time t, with the platform motion reconstructed at t."""

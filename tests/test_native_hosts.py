@@ -36,6 +36,9 @@ CASES = {
     "MotorStartup": ("psi_dot", 50, _w0 * (1.0 - (1.0 - _t / 2.5) ** 2)),
     # the motor started direct on line, unloaded: the pythonfmu reference's crank speed
     "InductionMotor": ("psi_dot", 50, None),
+    # at rest by default (no excitation): the load on the binary, its memory and its carried
+    # sources are what is checked here; the instantaneous excitation frequency is f_exc
+    "Structure": ("f_inst", 50, 0.8),
 }
 
 
@@ -167,7 +170,7 @@ def test_fmpy_builds_a_platform_binary_from_the_carried_sources(fmus_of, tmp_pat
     (tmp_path / "cmake").mkdir()
     build_platform_binary(unzip, tmp_path / "cmake")
     assert list((unzip / "binaries").rglob(f"{model}*"))
-    start = {"xC0": 0.05} if model == "BallInShell" else {}
+    start = {"xC0": 0.05} if model == "BallInShell" else {"F0_x": 1.0} if model == "Structure" else {}
     res = simulate_fmu(str(unzip), stop_time=1.0, output_interval=0.01, start_values=start)
     ref = simulate_fmu(str(src), stop_time=1.0, output_interval=0.01, start_values=start)
     for name in res.dtype.names:  # the same sources, the same compiler family: the same numbers
@@ -176,5 +179,8 @@ def test_fmpy_builds_a_platform_binary_from_the_carried_sources(fmus_of, tmp_pat
         assert res["psi_dot"][-1] == pytest.approx(2.0 * math.pi * 0.64, rel=1e-12)
     elif model == "BallInShell":  # the ball released at xC0 = 0.05 m swings through the bottom
         assert res["xC"].min() < -0.045
+    elif model == "Structure":  # 1 N at resonance on 100 kg from rest: x ~ F t sin(w t) / (2 M w)
+        assert 0.0 < res["x_rel"].max() < 1.0 / (2 * 100.0 * 2 * math.pi * 0.8)
+        assert res["W_exc"][-1] > 0.0
     else:  # the unloaded, frictionless motor runs up to its synchronous speed 2 pi 50 / 2 / i
         assert 0.95 * math.pi * 50 / 24 < res["psi_dot"][-1] <= (1 + 1e-9) * math.pi * 50 / 24

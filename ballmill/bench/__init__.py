@@ -70,9 +70,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--cc", default="gcc", help="C compiler for the compiled peer (default gcc)")
     p.add_argument("--no-compiled", action="store_true", help="skip the compiled (C) peer")
     p.add_argument("--debug", action="store_true", help="show the traceback when a benchmark fails")
-    p.add_argument("--section", choices=("all", "studies"), default="all",
-                   help="'studies': run only the design-study section (ballmill/bench/studies.py) and splice "
-                        "it into the report (default: all sections)")
+    p.add_argument("--section", choices=("all", "studies", "absorber"), default="all",
+                   help="'studies': run only the design-study section (ballmill/bench/studies.py), "
+                        "'absorber': only the absorber co-simulation section (ballmill/bench/absorber.py), and "
+                        "splice it into the report (default: all sections)")
     return p
 
 
@@ -118,8 +119,12 @@ def main(argv=None) -> int:
         if args.section == "all":
             run(cfg, root=root, out=Path(out).resolve(), figures=Path(figures).resolve(),
                 work=work, progress=progress)
-        from . import studies  # the design-study section, spliced into the same report
-        studies.run_section(Path(out).resolve(), args.quick, progress)
+        if args.section in ("all", "studies"):
+            from . import studies  # the design-study section, spliced into the same report
+            studies.run_section(Path(out).resolve(), args.quick, progress)
+        if args.section in ("all", "absorber"):
+            from . import absorber  # the absorber co-simulation section, likewise
+            absorber.run_section(Path(out).resolve(), args.quick, progress)
     except KeyboardInterrupt:
         print("ballmill bench: interrupted", file=sys.stderr)
         return 130

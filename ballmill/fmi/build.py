@@ -36,7 +36,8 @@ from . import native
 PACKAGE_DIR = Path(ballmill.__file__).resolve().parent
 ROOT = PACKAGE_DIR.parent
 SOURCE_DIRS = ("fmu_src", "drive_models")
-BUNDLED = ("__init__.py", "physics", "fmi/__init__.py", "fmi/interface.py", "fmi/slave.py")
+BUNDLED = ("__init__.py", "physics", "fmi/__init__.py", "fmi/interface.py", "fmi/slave.py",
+           "absorber/__init__.py", "absorber/structure.py")
 
 
 class BuildError(RuntimeError):

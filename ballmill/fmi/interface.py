@@ -46,6 +46,7 @@ UNITS = {
     "H": {"kg": 1, "m": 2, "s": -2, "A": -2},
     "Wb": {"kg": 1, "m": 2, "s": -2, "A": -1},
     "N.s/m": {"kg": 1, "s": -1},
+    "Hz/s": {"s": -2},
 }
 
 LOG_CATEGORIES = {
@@ -64,7 +65,8 @@ _TYPES = {float: "Real", int: "Integer", bool: "Boolean"}
 class Variable:
     """One scalar variable. The Python type of ``start`` is its FMI type (float ->
     Real, int -> Integer, bool -> Boolean). ``depends``: the inputs an output depends
-    on during initialisation (in continuous time no output has direct feedthrough)."""
+    on during initialisation; with ``feedthrough`` also while stepping (direct feedthrough:
+    a master reads the output again after setting the input, without a step)."""
 
     name: str
     causality: str
@@ -75,6 +77,9 @@ class Variable:
     max: float | int | None = None
     depends: tuple = ()
     variability: str | None = None  # None: fixed for parameters, continuous for Reals, else discrete
+    # the inputs (of ``depends``) the output depends on while stepping too (direct feedthrough,
+    # ModelStructure/Outputs): the FMU recomputes the output when one of them is set, no step
+    feedthrough: tuple = ()
 
     def __post_init__(self):
         if self.causality not in CAUSALITIES:
@@ -122,6 +127,9 @@ class Interface:
             unknown = set(v.depends) - {w.name for w in self.variables if w.causality == "input"}
             if unknown:
                 raise ValueError(f"{self.name}.{v.name} depends on non-inputs {sorted(unknown)}")
+            if set(v.feedthrough) - set(v.depends):
+                raise ValueError(f"{self.name}.{v.name}: feedthrough {sorted(v.feedthrough)} must be "
+                                 f"among its depends {sorted(v.depends)}")
 
     def __getitem__(self, name: str) -> Variable:
         for v in self.variables:
@@ -346,6 +354,13 @@ _ball = Ball()
 W0_MAX = 1e4  # rad/s: bound of the initial angular velocity components
 NEVER = 1e300  # t_invalid while the model is valid
 _out = dict(depends=BALL_ALL_INPUTS)
+# the outputs outputs.evaluate computes from the chamber's acceleration (and position, for the
+# moments) at the current instant: with input_mode 1, 3 or 4 both flavours recompute them when
+# x1O, y1O, ax1O or ay1O is set (the algebraic loop of a ball in a structure that feels it)
+# (motion = 1; with motion = 2 the chamber's motion is prescribed and they are not refreshed)
+BALL_FEEDTHROUGH = ("N", "Fx", "Fy", "Fz", "M_reaction", "MAx", "MAy", "MAz", "Ft", "friction_ratio",
+                    "contact", "rolling", "P_diss", "Fx_ch", "Fy_ch", "Fz_ch", "MO1x", "MO1y", "MO1z")
+_feed = dict(depends=BALL_ALL_INPUTS, feedthrough=("x1O", "y1O", "ax1O", "ay1O"))
 BALL_IN_SHELL = _interface(
     "BallInShell",
     "Ball rolling without slip inside a spherical chamber that translates (motion = 1, Gibbs-Appell "
@@ -394,10 +409,11 @@ BALL_IN_SHELL = _interface(
          "errors do not accumulate; costs that many extra integrations per step"),
         *[(name, "input", 0.0, _INPUT_TEXT[name][0], dict(unit=_INPUT_TEXT[name][1]))
           for name in BALL_INPUTS],
-        *[(name, "output", 0.0, desc, dict(unit=unit, **_out)) for name, unit, desc in BALL_OUTPUTS],
+        *[(name, "output", 0.0, desc, dict(unit=unit, **(_feed if name in BALL_FEEDTHROUGH else _out)))
+          for name, unit, desc in BALL_OUTPUTS],
         ("contact", "output", True, "The ball touches the wall (N > 0); the model is invalid otherwise",
-         _out),
-        ("rolling", "output", True, "Contact and |F_t| <= mu N: the ball rolls without slip", _out),
+         _feed),
+        ("rolling", "output", True, "Contact and |F_t| <= mu N: the ball rolls without slip", _feed),
         # losses to the ground material (declared after the outputs: earlier value references stay)
         ("delta", "parameter", 0.0, "Rolling-resistance length: the ground material resists the "
          "rolling with a moment delta N opposite to the rolling angular velocity (0 = none)",
@@ -406,7 +422,7 @@ BALL_IN_SHELL = _interface(
          "F_d = -c_drag v_C,rel (0 = none); Fx..Fz and M_reaction then include its reaction on the "
          "material the chamber carries", dict(unit="N.s/m", min=0.0)),
         ("P_diss", "output", 0.0, "Power dissipated by rolling resistance and drag (0 without them)",
-         dict(unit="W", **_out)),
+         dict(unit="W", **_feed)),
         ("coupling_error", "output", 0.0, "Estimated error of the contact point from the input "
          "reconstruction: the last step's predicted vs corrected contact point, combined in "
          "quadrature with the drift accumulated from the changes of the fitted acceleration that the "
@@ -431,10 +447,121 @@ BALL_IN_SHELL = _interface(
          dict(min=1, max=2)),
         *[(name, "input", BALL_MOTION_START[name], _MOTION_INPUT_TEXT[name][0],
            dict(unit=_MOTION_INPUT_TEXT[name][1])) for name in BALL_MOTION_INPUTS],
-        *[(name, "output", 0.0, desc, dict(unit=unit, **_out)) for name, unit, desc in BALL_MOTION_OUTPUTS],
+        *[(name, "output", 0.0, desc, dict(unit=unit, **(_feed if name in BALL_FEEDTHROUGH else _out)))
+          for name, unit, desc in BALL_MOTION_OUTPUTS],
     ])
 
-INTERFACES = {i.name: i for i in (BALL_IN_SHELL, MOTOR_STARTUP, INDUCTION_MOTOR)}
+# ----------------------------------------------------------------------------- the structure
+# A linear structure per horizontal axis carrying the ball's cavity (ballmill.absorber.structure,
+# DESIGN.md section 11): up to STRUCTURE_MODES modes per axis, excited by a harmonic force and/or a
+# harmonic ground acceleration (a slow linear frequency sweep allowed) plus a ground-acceleration
+# record from the master (inputs ag_x, ag_y), and by the ball's force on the cavity (inputs
+# Fx_ball, Fy_ball). Its outputs are the cavity's absolute motion under BallInShell's input names.
+STRUCTURE_MODES = 3
+AXES = ("x", "y")
+
+
+def _mode_parameters(axis):
+    rows = [(f"n_{axis}", "parameter", 1, f"Number of modes of axis {axis}" + (
+             " (at least 1)" if axis == "x" else f" (0: the cavity follows the ground in {axis})"),
+             dict(min=1 if axis == "x" else 0, max=STRUCTURE_MODES))]
+    for j in range(1, STRUCTURE_MODES + 1):
+        mode = f"mode {j} of axis {axis}"
+        rows += [
+            (f"M_{axis}{j}", "parameter", 100.0, f"Modal mass M of {mode}", dict(unit="kg", min=1e-12, max=1e15)),
+            (f"f_{axis}{j}", "parameter", (0.8, 2.5, 4.5)[j - 1], f"Undamped natural frequency of {mode}",
+             dict(unit="Hz", min=1e-9, max=1e6)),
+            (f"zeta_{axis}{j}", "parameter", 0.01, f"Damping ratio of {mode}", dict(unit="1", min=0.0, max=100.0)),
+            (f"phi_{axis}{j}", "parameter", 1.0, f"Shape of {mode} at the absorber (the cavity moves by "
+             f"phi q)", dict(unit="1", min=-1e6, max=1e6)),
+            (f"psi_{axis}{j}", "parameter", 1.0, f"Shape of {mode} where the external force acts "
+             f"(the load point: x_load = sum psi q)", dict(unit="1", min=-1e6, max=1e6)),
+            (f"L_{axis}{j}", "parameter", 100.0, f"Participation L of {mode} in a ground acceleration "
+             f"(M phi for a single mass; set it with M)", dict(unit="kg", min=-1e15, max=1e15)),
+        ]
+    return rows
+
+
+def _structure_outputs():
+    rows = []
+    for a in AXES:
+        F, ag = f"F{a}_ball", f"ag_{a}"
+        rows += [
+            (f"{a}1O", "output", 0.0, f"Cavity (absorber point) absolute position {a}: ground + sum phi q",
+             dict(unit="m")),
+            (f"v{a}1O", "output", 0.0, f"Cavity absolute velocity {a}", dict(unit="m/s")),
+            (f"a{a}1O", "output", 0.0, f"Cavity absolute acceleration {a} (depends directly on {F} and {ag})",
+             dict(unit="m/s2", depends=(F, ag), feedthrough=(F, ag))),
+        ]
+    for a in AXES:
+        F, ag = f"F{a}_ball", f"ag_{a}"
+        rows += [(f"q_{a}{j}", "output", 0.0, f"Modal coordinate of mode {j} of axis {a} (relative to "
+                  f"the ground)", dict(unit="m")) for j in range(1, STRUCTURE_MODES + 1)]
+        rows += [
+            (f"{a}_rel", "output", 0.0, f"Cavity displacement {a} relative to the ground, sum phi q",
+             dict(unit="m")),
+            (f"{a}_load", "output", 0.0, f"Structure displacement {a} at the load point relative to the "
+             f"ground, sum psi q", dict(unit="m")),
+            (f"a{a}_load", "output", 0.0, f"Absolute acceleration {a} at the load point",
+             dict(unit="m/s2", depends=(F, ag), feedthrough=(F, ag))),
+            (f"{a}g", "output", 0.0, f"Ground displacement {a} (integrated from the ground acceleration "
+             f"from rest at the start)", dict(unit="m")),
+            (f"v{a}g", "output", 0.0, f"Ground velocity {a}", dict(unit="m/s")),
+            (f"ag{a}_total", "output", 0.0, f"Ground acceleration {a}: harmonic part + input {ag}",
+             dict(unit="m/s2", depends=(ag,), feedthrough=(ag,))),
+            (f"F{a}_exc", "output", 0.0, f"External (harmonic) force on the structure, {a}", dict(unit="N")),
+        ]
+    return rows
+
+
+STRUCTURE = _interface(
+    "Structure",
+    "Linear modal structure per horizontal axis (up to 3 modes) carrying a ball absorber's cavity: "
+    "harmonic force or ground acceleration (optional slow sweep) or a ground-acceleration record as "
+    "inputs; the ball's force on the cavity as input, the cavity's absolute motion as outputs",
+    [
+        *_mode_parameters("x"),
+        *_mode_parameters("y"),
+        ("F0_x", "parameter", 0.0, "Amplitude of the harmonic force in x: F_x = F0_x sin(theta(t))",
+         dict(unit="N", min=-1e12, max=1e12)),
+        ("F0_y", "parameter", 0.0, "Amplitude of the harmonic force in y: F_y = F0_y sin(theta(t) + phase_y)",
+         dict(unit="N", min=-1e12, max=1e12)),
+        ("ag0_x", "parameter", 0.0, "Amplitude of the harmonic ground acceleration in x: a_gx = ag0_x "
+         "sin(theta(t)) (+ input ag_x)", dict(unit="m/s2", min=-1e6, max=1e6)),
+        ("ag0_y", "parameter", 0.0, "Amplitude of the harmonic ground acceleration in y: a_gy = ag0_y "
+         "sin(theta(t) + phase_y) (+ input ag_y)", dict(unit="m/s2", min=-1e6, max=1e6)),
+        ("f_exc", "parameter", 0.8, "Excitation frequency at t = 0: theta(t) = 2 pi (f_exc t + "
+         "sweep_rate t^2 / 2)", dict(unit="Hz", min=1e-9, max=1e6)),
+        ("sweep_rate", "parameter", 0.0, "Rate of a slow linear frequency sweep: the instantaneous "
+         "frequency is f_exc + sweep_rate t (0: steady harmonic)", dict(unit="Hz/s", min=-1e6, max=1e6)),
+        ("phase_y", "parameter", 0.0, "Phase of the y excitation after the x excitation",
+         dict(unit="rad", min=-1e3, max=1e3)),
+        ("h_max", "parameter", 1e-3, "Largest internal step of the fixed-step RK4 integrator (a "
+         "communication step is cut into ceil(H / h_max) equal steps)", dict(unit="s", min=1e-9, max=10.0)),
+        ("input_order", "parameter", 2, "The inputs Fx_ball..ag_y over a communication step: 0 = held "
+         "at the step's start, 1 = extrapolated linearly from the last 2 communication points, "
+         "2 = quadratically from the last 3", dict(min=0, max=2)),
+        ("Fx_ball", "input", 0.0, "Force of the ball on the cavity, x (BallInShell.Fx)", dict(unit="N")),
+        ("Fy_ball", "input", 0.0, "Force of the ball on the cavity, y (BallInShell.Fy)", dict(unit="N")),
+        ("ag_x", "input", 0.0, "Ground acceleration x from a record (added to the harmonic part)",
+         dict(unit="m/s2")),
+        ("ag_y", "input", 0.0, "Ground acceleration y from a record (added to the harmonic part)",
+         dict(unit="m/s2")),
+        *_structure_outputs(),
+        ("f_inst", "output", 0.8, "Instantaneous excitation frequency f_exc + sweep_rate t", dict(unit="Hz")),
+        ("E", "output", 0.0, "Energy of the modes relative to the ground: sum (M q'^2 + K q^2) / 2",
+         dict(unit="J")),
+        ("W_exc", "output", 0.0, "Work of the excitation on the modes since the start: integral of "
+         "sum q' (psi F - L a_g)", dict(unit="J")),
+        ("W_damp", "output", 0.0, "Energy dissipated in the modal dampers since the start: integral of "
+         "sum C q'^2", dict(unit="J")),
+        ("W_ball", "output", 0.0, "Work of the ball's force on the structure since the start: integral "
+         "of sum phi q' F_ball (relative to the ground)", dict(unit="J")),
+    ],
+    default_experiment=(0.0, 60.0, 2e-3),
+)
+
+INTERFACES = {i.name: i for i in (BALL_IN_SHELL, MOTOR_STARTUP, INDUCTION_MOTOR, STRUCTURE)}
 
 BIG = 1e300  # stands for infinity in outputs (FMI tools choke on inf)
 assert math.isfinite(BIG)

@@ -41,6 +41,7 @@ MODEL_SOURCES = {
     "BallInShell": ROOT / "fmu_src" / "ballinshell.c",
     "MotorStartup": ROOT / "drive_models" / "motorstartup.c",
     "InductionMotor": ROOT / "drive_models" / "inductionmotor.c",
+    "Structure": ROOT / "drive_models" / "structure.c",
 }
 # model -> the headers its C file includes besides the plumbing's, the kernel and the generated ones
 MODEL_HEADERS = {
@@ -207,7 +208,8 @@ def model_description(interface: Interface, guid_: str, sources: list[str]) -> s
     if outputs:
         out_el = SubElement(structure, "Outputs")
         for v in outputs:
-            SubElement(out_el, "Unknown", index=str(index[v.name]), dependencies="")
+            SubElement(out_el, "Unknown", index=str(index[v.name]),  # direct feedthrough only
+                       dependencies=" ".join(str(index[d]) for d in v.feedthrough))
         init = SubElement(structure, "InitialUnknowns")
         for v in outputs:
             SubElement(init, "Unknown", index=str(index[v.name]),

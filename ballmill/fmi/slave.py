@@ -85,18 +85,19 @@ class Slave(Fmi2Slave):
         in its value-reference order, and its DefaultExperiment."""
         for v in interface.variables:
             self.add(v.name, v.causality, v.start, v.description, v.unit, v.min, v.max, v.depends,
-                     variability=v.fmi_variability)
+                     variability=v.fmi_variability, feedthrough=v.feedthrough)
         self.set_default_experiment(*interface.default_experiment)
 
     def add(self, name: str, causality: str, start, description: str, unit: str | None = None,
             vmin: float | None = None, vmax: float | None = None, depends=None, tunable: bool = False,
-            variability=None):
+            variability=None, feedthrough=()):
         """Declare a variable and set its start value as an attribute.
 
         The Python type of ``start`` chooses the FMI type (float -> Real,
         int -> Integer, bool -> Boolean). ``depends`` lists the input names an
-        output depends on during initialisation (InitialUnknowns); in
-        continuous time the outputs here have no direct feedthrough. A parameter
+        output depends on during initialisation (InitialUnknowns); ``feedthrough``
+        those it depends on while stepping too (ModelStructure/Outputs: the subclass
+        recomputes the output when one of them is set, see `inputs_set`). A parameter
         is fixed unless ``tunable`` (then it may be set between steps and takes
         effect at the next one).
         """
@@ -118,6 +119,7 @@ class Slave(Fmi2Slave):
         self.register_variable(kind(name, causality=_CAUSALITY[causality], description=description,
                                     variability=variability))
         self._meta[name] = {"unit": unit, "min": vmin, "max": vmax, "depends": depends or (),
+                            "feedthrough": tuple(feedthrough or ()),
                             "causality": causality, "tunable": tunable, "type": type(start)}
 
     def choice(self, name: str, table: dict):
@@ -195,7 +197,9 @@ class Slave(Fmi2Slave):
         if outputs is not None:
             for unknown in outputs:
                 name = root.find("ModelVariables")[int(unknown.get("index")) - 1].get("name")
-                unknown.set("dependencies", "")  # outputs at t_k come from the state only
+                # outputs at t_k come from the state, and the inputs of direct feedthrough
+                unknown.set("dependencies", " ".join(
+                    str(index[d]) for d in self._meta.get(name, {}).get("feedthrough", ())))
                 deps = " ".join(str(index[d]) for d in self._meta.get(name, {}).get("depends", ()))
                 SubElement(init, "Unknown", index=unknown.get("index"), dependencies=deps)
         if not len(init):
@@ -342,6 +346,14 @@ class Slave(Fmi2Slave):
     def set_real(self, vrs, values):
         self._check_set(vrs, values)
         super().set_real(vrs, values)
+        if self._phase == "stepping" and any(self._meta.get(self.vars[vr].name, {}).get("causality") == "input"
+                                             for vr in vrs):
+            self.inputs_set()
+
+    def inputs_set(self) -> None:
+        """Subclasses with direct feedthrough: recompute those outputs at the FMU's time from
+        the inputs just set (fmi2SetReal between steps), without stepping. Leave the outputs
+        as they are when the inputs are unusable (the next step refuses them)."""
 
     def set_integer(self, vrs, values):
         self._check_set(vrs, values)

@@ -4,7 +4,13 @@ The summary holds what a mill engineer reads first: the ball's pressure N
 (over the run and after the start-up), the ring of the contact point in the
 Oxy plane, the highest contact point, the peak reaction torque, whether the
 model stayed valid (contact, rolling) and when it first failed, and the
-wall time.
+wall time. A ball absorber scenario (``[summary] structure = "NAME"``, a
+Structure instance) gets instead what a tower engineer reads
+(ballmill.absorber.summary.structure_summary): peak and RMS displacement and
+acceleration of the structure at the absorber, their reduction against the
+bare structure (the same scenario without the ball, run by `ballmill run`),
+the ball's largest excursion and whether it kept rolling; and a plot of the
+structure's displacement with and without the ball.
 """
 from __future__ import annotations
 
@@ -45,7 +51,48 @@ def _stats(x):
     return {"min": float(np.min(x)), "max": float(np.max(x)), "range": float(np.ptp(x))} if len(x) else None
 
 
-def summarise(res: RunResult, models) -> dict:
+def _structure_data(res: RunResult, st: str) -> dict:
+    c = res.column
+    return {"xO": c(f"{st}.x_rel"), "yO": c(f"{st}.y_rel"), "axO": c(f"{st}.ax1O"), "ayO": c(f"{st}.ay1O")}
+
+
+STRUCTURE_RECORD = ("x_rel", "y_rel", "ax1O", "ay1O")  # what an absorber summary needs of the structure
+
+
+def _ball_parameter(res: RunResult, models, ball: str, name: str) -> float:
+    inst = res.scenario.instances[ball]
+    if name in inst.parameters:
+        return float(inst.parameters[name])
+    return float(next(v.start for v in models[inst.fmu].modelVariables if v.name == name))
+
+
+def absorber_summary(res: RunResult, models, bare: RunResult | None = None) -> dict:
+    """structure_summary of an absorber run (statistics after [summary] after), with the
+    bare structure's run when given."""
+    from ballmill.absorber.summary import structure_summary
+
+    sc = res.scenario
+    st = sc.summary["structure"]
+    ball = _ball_instance(res)
+    data = _structure_data(res, st)
+    t = res.column("time")
+    if ball:
+        R = _ball_parameter(res, models, ball, "R")
+        zP = res.column(f"{ball}.zP")
+        data.update({"xP": res.column(f"{ball}.xP"), "yP": res.column(f"{ball}.yP"), "N": res.column(f"{ball}.N"),
+                     "friction_ratio": res.column(f"{ball}.friction_ratio"),
+                     "theta": np.arccos(np.clip(1.0 - zP / R, -1.0, 1.0))})
+    base = None
+    if bare is not None and bare.success and len(bare.data) == len(res.data):
+        base = _structure_data(bare, st)
+    mu = _ball_parameter(res, models, ball, "mu") if ball else None
+    out = structure_summary(t, data, base, mu=mu, after=_after_time(res, models))
+    if bare is not None and base is None:
+        out["bare_structure"] = f"the bare run did not complete: {bare.message}"
+    return out
+
+
+def summarise(res: RunResult, models, bare: RunResult | None = None) -> dict:
     sc = res.scenario
     out = {"scenario": sc.name, "description": sc.description, "success": res.success,
            "message": res.message, "steps": res.steps, "wall_time_s": round(res.wall_time, 4),
@@ -53,6 +100,9 @@ def summarise(res: RunResult, models) -> dict:
            "parameters": {n: i.parameters for n, i in sc.instances.items()}}
     ball = _ball_instance(res)
     cols = set(res.columns)
+    absorber = bool(sc.summary.get("structure"))
+    if absorber and len(res.data):
+        out["structure"] = absorber_summary(res, models, bare)
     if ball and f"{ball}.N" in cols and len(res.data):
         t_all = res.column("time")
         # statistics over the model's valid span only (the rows before BallInShell's
@@ -81,7 +131,7 @@ def summarise(res: RunResult, models) -> dict:
         out["valid_span_s"] = [float(t[0]), float(t[-1])] if t.size else None
         out["N"] = {"all": _stats(col("N")) if t.size else None,
                     "after": _stats(col("N")[late]) if late.any() else None}
-        if {f"{ball}.xP", f"{ball}.yP"} <= cols:
+        if {f"{ball}.xP", f"{ball}.yP"} <= cols and not absorber:
             rho = np.hypot(col("xP"), col("yP"))
             out["ring"] = {"inner_radius_m": float(rho[late].min()) if late.any() else None,
                            "outer_radius_m": float(rho[late].max()) if late.any() else None}
@@ -89,7 +139,7 @@ def summarise(res: RunResult, models) -> dict:
                                       if late.any() else None)
         if f"{ball}.zP" in cols:
             out["zP_max_m"] = float(col("zP").max()) if t.size else None
-        if f"{ball}.M_reaction" in cols:
+        if f"{ball}.M_reaction" in cols and not absorber:  # a crank's torque: the mill's, not a tower's
             out["M_reaction_peak_abs_Nm"] = float(np.abs(col("M_reaction")).max()) if t.size else None
         t = t_all
         col = lambda v: res.column(f"{ball}.{v}")  # noqa: E731
@@ -146,11 +196,42 @@ def plot(res: RunResult, out_dir: Path) -> list[Path]:
     return files
 
 
-def write_all(res: RunResult, models, out_dir: Path) -> dict:
+def plot_bare(res: RunResult, bare: RunResult, out_dir: Path) -> list[Path]:
+    """The structure's displacement at the absorber with and without the ball."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    st = res.scenario.summary["structure"]
+    files = []
+    for axis in ("x", "y"):
+        name = f"{st}.{axis}_rel"
+        if name not in bare.columns or not np.any(bare.column(name)):
+            continue
+        fig, ax = plt.subplots(figsize=(7.5, 4.8))
+        ax.plot(bare.column("time"), bare.column(name), lw=0.8, color="tab:red", label="bare structure")
+        ax.plot(res.column("time"), res.column(name), lw=0.8, color="tab:blue", label="with the ball absorber")
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel(f"displacement {axis} at the absorber [m]")
+        ax.set_title(f"Structure displacement {axis}, with and without the ball")
+        ax.legend()
+        ax.grid(alpha=0.3)
+        fig.tight_layout()
+        path = out_dir / f"structure_{axis}_with_without_ball.png"
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        files.append(path)
+    return files
+
+
+def write_all(res: RunResult, models, out_dir: Path, bare: RunResult | None = None) -> dict:
     out_dir.mkdir(parents=True, exist_ok=True)
     write_csv(res, out_dir / "results.csv")
-    summary = summarise(res, models)
+    summary = summarise(res, models, bare)
     summary["plots"] = [p.name for p in plot(res, out_dir)] if len(res.data) > 1 else []
+    if bare is not None and bare.success and len(bare.data) > 1:
+        write_csv(bare, out_dir / "bare.csv")
+        summary["plots"] += [p.name for p in plot_bare(res, bare, out_dir)]
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=_json_default))
     return summary
 

@@ -7,6 +7,20 @@ the outputs recorded at the start time already see their inputs; feedback
 loops are iterated to a fixed point in initialisation mode. Table
 sources (CSV) are interpolated with a cubic spline at each point.
 
+Algebraic loops: an output with direct feedthrough (the FMU declares it in
+ModelStructure/Outputs and recomputes it when the input is set, without a
+step) that reaches its own input through the connections, e.g. the structure's
+acceleration -> the ball's force -> the structure's acceleration. The master
+finds such loops from the model descriptions (`algebraic_loops`, not by
+name) and, with ``[master] algebraic_loops = "iterate"`` (the default),
+iterates at every communication point: Gauss-Seidel sweeps over the loop's
+instances (set the inputs from the freshest values, read the outputs again)
+until the values exchanged through the loop change by at most loop_tol
+relative + loop_atol absolute, or stops the run with an error naming the
+loop's variables and the residual after loop_max_iter sweeps. "ignore"
+leaves the loop to the plain Jacobi exchange (values one step old on one
+side).
+
 A step an FMU refuses (fmi2Discard, e.g. a non-finite input or the paper
 formulation at the equator) ends the run cleanly: everything recorded up to
 the last good point is kept, and the reason is in the result's messages.
@@ -47,6 +61,8 @@ class RunResult:
     wall_time: float = 0.0
     init_time: float = 0.0
     steps: int = 0
+    loops: list = field(default_factory=list)  # each a list of "a.x -> b.y" connections
+    loop_sweeps: int = 0  # Gauss-Seidel sweeps over the loops, all communication points together
 
     def column(self, name: str) -> np.ndarray:
         return self.data[:, self.columns.index(name)]
@@ -133,6 +149,79 @@ def _order(sc: _spec.Scenario) -> list[str]:
         ordered.append(pick)
         placed.add(pick)
     return ordered
+
+
+def algebraic_loops(sc: _spec.Scenario, models: dict) -> list[list[tuple]]:
+    """The scenario's algebraic loops: cycles through connections and direct feedthrough
+    (ModelStructure/Outputs dependencies of the FMUs' model descriptions; an output without
+    the attribute depends on every input, as FMI 2.0 says). Each loop is the list of its
+    connections (src inst, src var, dst inst, dst var), in the scenario's order."""
+    graph: dict[tuple, set] = {}
+
+    def edge(a, b):
+        graph.setdefault(a, set()).add(b)
+        graph.setdefault(b, set())
+
+    for si, sv, di, dv in sc.connections:
+        edge((si, sv), (di, dv))
+    for name, inst in sc.instances.items():
+        md = models.get(inst.fmu) if inst.fmu else None
+        if md is None:
+            continue
+        inputs = [v.name for v in md.modelVariables if v.causality == "input"]
+        for unknown in md.outputs:
+            deps = unknown.dependencies
+            names = inputs if deps is None else [d.name for d in deps]
+            for d in names:
+                edge((name, d), (name, unknown.variable.name))
+    # strongly connected components (Tarjan, iterative)
+    index, low, on, stack, comp, counter = {}, {}, set(), [], {}, [0]
+    for root in graph:
+        if root in index:
+            continue
+        work = [(root, iter(sorted(graph[root])))]
+        index[root] = low[root] = counter[0]
+        counter[0] += 1
+        stack.append(root)
+        on.add(root)
+        while work:
+            node, it = work[-1]
+            for nxt in it:
+                if nxt not in index:
+                    index[nxt] = low[nxt] = counter[0]
+                    counter[0] += 1
+                    stack.append(nxt)
+                    on.add(nxt)
+                    work.append((nxt, iter(sorted(graph[nxt]))))
+                    break
+                if nxt in on:
+                    low[node] = min(low[node], index[nxt])
+            else:
+                work.pop()
+                if work:
+                    low[work[-1][0]] = min(low[work[-1][0]], low[node])
+                if low[node] == index[node]:
+                    while True:
+                        w = stack.pop()
+                        on.discard(w)
+                        comp[w] = node
+                        if w == node:
+                            break
+    loops: dict = {}
+    for c in sc.connections:
+        si, sv, di, dv = c
+        a, b = comp.get((si, sv)), comp.get((di, dv))
+        if a is not None and a == b:
+            loops.setdefault(a, []).append(c)
+    return list(loops.values())
+
+
+def _loop_text(loop) -> str:
+    return ", ".join(f"{si}.{sv} -> {di}.{dv}" for si, sv, di, dv in loop)
+
+
+class AlgebraicLoopError(RuntimeError):
+    """The fixed-point iteration of an algebraic loop did not converge."""
 
 
 class _TableSource:
@@ -264,6 +353,10 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
     from fmpy.fmi1 import FMICallException
 
     wall0 = time.perf_counter()
+    master = {**_spec.MASTER_DEFAULTS, **(getattr(sc, "master", None) or {})}
+    loops = algebraic_loops(sc, models)
+    iterate = bool(loops) and master["algebraic_loops"] == "iterate"
+    loop_sweeps = 0
     logger = _Logger(echo)
     fmus: dict[str, _FmuInstance] = {}
     tables: dict[str, _TableSource] = {}
@@ -303,7 +396,7 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
         for si, sv, di, dv in sc.connections:
             setters[di][0].append(fmus[di].vars[dv].valueReference)
             setters[di][1].append(offset[si] + wanted[si].index(sv))
-        gathers, writes = [], {}
+        gathers, writes, gather_of = [], {}, {}
         for n, (vrs, slots) in setters.items():
             if not vrs:
                 continue
@@ -312,8 +405,49 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
             else:
                 staged = (ctypes.c_double * len(slots))()
                 gathers.append((np.array(slots, dtype=np.intp), np.ctypeslib.as_array(staged)))
+                gather_of[n] = gathers[-1]
                 ptr = staged
             writes[n] = fmus[n].writer(vrs, ptr)
+        # the algebraic loops: Gauss-Seidel sweeps over their destination instances (in the
+        # initialisation order), the residual on the values that travel through them
+        in_loop = [c for loop in loops for c in loop]
+        loop_insts = [n for n in order if any(di == n for _, _, di, _ in in_loop)]
+        loop_slots = np.array(sorted({offset[si] + wanted[si].index(sv) for si, sv, _, _ in in_loop}), dtype=np.intp)
+        slot_names = {offset[si] + wanted[si].index(sv): f"{si}.{sv}" for si, sv, _, _ in in_loop}
+        if loops and not iterate:
+            logger.messages.append({"time": sc.start, "instance": "", "status": "warning", "category": "master",
+                                    "message": f"algebraic loop(s) not iterated (master.algebraic_loops = "
+                                               f"'ignore'): " + "; ".join(_loop_text(lp) for lp in loops)})
+        tol, atol, max_iter = float(master["loop_tol"]), float(master["loop_atol"]), int(master["loop_max_iter"])
+
+        def solve_loops(t):
+            """Sweep until the loop values settle (sweeps done), or AlgebraicLoopError."""
+            previous = bus_np[loop_slots].copy()
+            for sweep in range(1, max_iter + 1):
+                for n in loop_insts:
+                    g = gather_of.get(n)
+                    if g is not None:
+                        np.take(bus_np, g[0], out=g[1])
+                    fun, args, fname = writes[n]
+                    status = fun(*args)
+                    if status > 1:
+                        raise FMICallException(function=fname, status=status)
+                    for fun, args, fname in reads[n]:
+                        status = fun(*args)
+                        if status > 1:
+                            raise FMICallException(function=fname, status=status)
+                current = bus_np[loop_slots]
+                residual = np.abs(current - previous)
+                if np.all(residual <= tol * np.abs(current) + atol):
+                    return sweep
+                previous = current.copy()
+            worst = int(np.argmax(residual / (tol * np.abs(current) + atol)))
+            raise AlgebraicLoopError(
+                f"algebraic loop {'; '.join(_loop_text(lp) for lp in loops)} did not converge at t = {t:.9g} s "
+                f"after loop_max_iter = {max_iter} sweeps: {slot_names[int(loop_slots[worst])]} still changed by "
+                f"{residual[worst]:.3g} (accepted: loop_tol = {tol:g} relative + loop_atol = {atol:g}); "
+                f"the loop's gain is too large for a fixed-point iteration, or an FMU does not recompute its "
+                f"outputs when its inputs are set")
         step_ops = [op for n in sc.instances for op in reads[n]]
         set_ops = list(writes.values())
         columns_at = [0] + [offset[a] + wanted[a].index(b) for a, b in sc.record]
@@ -373,6 +507,8 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
                 status = fun(*args)
                 if status > 1:
                     raise FMICallException(function=fname, status=status)
+            if iterate:
+                loop_sweeps += solve_loops(t)
             memmove(record_at + k * row_bytes, bus_at, row_bytes)
             rows = k + 1
             if k == n_steps:
@@ -411,7 +547,22 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
             f.close()
     data = record[:rows, columns_at] if rows else np.empty((0, len(columns)))
     return RunResult(sc, columns, data, success, message, logger.messages,
-                     time.perf_counter() - wall0, init_time, steps)
+                     time.perf_counter() - wall0, init_time, steps,
+                     [[f"{si}.{sv} -> {di}.{dv}" for si, sv, di, dv in lp] for lp in loops], loop_sweeps)
+
+
+def without(sc: _spec.Scenario, instance: str, record: list | None = None) -> _spec.Scenario:
+    """The scenario with one instance and every connection touching it removed (the bare
+    structure of an absorber scenario: the ball's force cut); ``record``: what to record
+    instead (default: the recorded variables of the instances that remain)."""
+    import dataclasses
+
+    if instance not in sc.instances:
+        raise KeyError(f"{sc.name}: no instance {instance!r} to remove")
+    keep = {n: i for n, i in sc.instances.items() if n != instance}
+    conns = [c for c in sc.connections if instance not in (c[0], c[2])]
+    rec = record if record is not None else [r for r in sc.record if r[0] != instance]
+    return dataclasses.replace(sc, instances=keep, connections=conns, record=rec, plots=[])
 
 
 def prepare(name_or_path: str, overrides=(), build_dir: Path | None = None, log=print,

@@ -9,7 +9,13 @@ A scenario is a TOML file:
     [instances.NAME.parameters]   parameter = value
     connections = ["drive.x1O -> ball.x1O", ...]
     [record]                variables = ["ball.zP", ...]  (default: all outputs)
-    [summary]               ball = "ball"; after = 2.5 or "drive.t0" (statistics after the start-up)
+    [summary]               ball = "ball"; after = 2.5 or "drive.t0" (statistics after the start-up);
+                            structure = "NAME" (a Structure instance: the absorber summary, and a
+                            second run without the ball for the bare structure unless bare = false)
+    [master]                algebraic_loops = "iterate" (default) or "ignore": what the master does
+                            with a loop of direct feedthrough through the connections (found from
+                            the FMUs' ModelStructure); loop_tol (relative, default 1e-10),
+                            loop_atol (absolute, default 1e-14), loop_max_iter (default 50)
     [[plots]]               title, x = "time" or a variable, y = [variables], file = "name.png",
                             aspect = "equal" (optional), ylabel, xlabel (optional)
 
@@ -59,6 +65,11 @@ class Scenario:
     record: list[tuple[str, str]]
     plots: list[dict]
     summary: dict
+    master: dict = field(default_factory=lambda: dict(MASTER_DEFAULTS))
+
+
+MASTER_DEFAULTS = {"algebraic_loops": "iterate", "loop_tol": 1e-10, "loop_atol": 1e-14, "loop_max_iter": 50}
+LOOP_MODES = ("iterate", "ignore")
 
 
 def resolve(name_or_path: str) -> Path:
@@ -162,10 +173,24 @@ def load(name_or_path: str, overrides: list[str] = (), models: dict | None = Non
             continue
         record.append(tuple(str(text).split(".", 1)))
 
+    master = dict(MASTER_DEFAULTS)
+    for key, v in dict(doc.get("master") or {}).items():
+        if key not in MASTER_DEFAULTS:
+            bad(f"master.{key}", f"unknown key; expected one of {sorted(MASTER_DEFAULTS)}")
+        elif key == "algebraic_loops" and v not in LOOP_MODES:
+            bad("master.algebraic_loops", f"expected one of {list(LOOP_MODES)}, got {v!r}")
+        elif key == "loop_max_iter" and not (isinstance(v, int) and not isinstance(v, bool) and v >= 1):
+            bad("master.loop_max_iter", f"expected an integer >= 1, got {v!r}")
+        elif key in ("loop_tol", "loop_atol") and not (isinstance(v, (int, float)) and not isinstance(v, bool)
+                                                        and math.isfinite(v) and v >= 0):
+            bad(f"master.{key}", f"expected a finite number >= 0, got {v!r}")
+        else:
+            master[key] = v
     scenario = Scenario(path=path, name=path.stem, description=str(doc.get("description", "")),
                         start=_seconds(start), stop=_seconds(stop), step=_seconds(step),
                         instances=instances, connections=connections, record=record,
-                        plots=list(doc.get("plots", [])), summary=dict(doc.get("summary", {})))
+                        plots=list(doc.get("plots", [])), summary=dict(doc.get("summary", {})),
+                        master=master)
     if models is not None:  # check even when other sections have problems: report them all at once
         problems += check(scenario, models, record_spec is None)
     if problems:

@@ -676,19 +676,19 @@ def report(file, frf_rows, sweep_rows, trows, ground_summary, opt_rows, timings,
         "",
         "## Interfaces for what comes next",
         "",
-        "* **A Structure FMU** wraps `ballmill.absorber.structure.StructureModel`: state and `derivative(t, z, "
-        "Fbx, Fby)` with the ball's horizontal force (BallInShell's `Fx, Fy`) as input, `cavity(...)` for the "
-        "outputs x, v (relative to the ground) and a (absolute). Its acceleration output feeds through from "
-        "the force input, a_O = a_free + G F_b (`free_acceleration`, `flexibility`): that is the algebraic "
-        "loop a Jacobi master has to break, and `simulate_absorber` (structure + ball in one ODE, with the "
-        "loop solved exactly) is the reference to measure its coupling error against.",
+        "* **The Structure FMU** (`drive_models/structure.c`, `drive_models/structure_fmu.py`) wraps "
+        "`ballmill.absorber.structure.StructureModel`, with the ball's horizontal force (BallInShell's `Fx, Fy`) "
+        "as input and the cavity's motion as output. Its acceleration output feeds through from the force "
+        "input, a_O = a_free + G F_b: the algebraic loop the scenario runner iterates, with `simulate_absorber` "
+        "(structure + ball in one ODE, the loop solved exactly) as the reference for its coupling error (the "
+        "last section, `python -m ballmill.studies.absorber_cosim`).",
         "* **The sweep layer** runs these curves as design studies: `ballmill sweep absorber_frf --out DIR` "
         "(this page's FRF at 0.05 N: independent steady states, the grid refined around every peak in rounds, "
         "each round one batch of tasks on Dask) and `ballmill sweep absorber_frf_nonlinear --out DIR` (the "
         "sweeps up and down at 1 N and 5 N, each sweep one task) write `DIR/frf.csv` (`frequency_Hz`, "
         "`amplitude_m`, `amplitude_bare_m`, the linear theory, validity) and `DIR/frf.png` "
         "(`ballmill.sweep.absorber`; the study files are in scenarios/studies/).",
-        "* **A tower summary** is `ballmill.absorber.summary.structure_summary(t, data, bare, mu)`.",
+        "* **A tower summary** is `ballmill.absorber.summary.structure_summary(t, data, bare, mu)`; `ballmill run tower_absorber` writes it (with a second run of the bare structure).",
         "",
         "## Run times (2 shared cores)",
         "",
@@ -707,7 +707,13 @@ def report(file, frf_rows, sweep_rows, trows, ground_summary, opt_rows, timings,
         "resistance 439 s).",
         "",
     ]
-    file.write_text("\n".join(lines) + "\n")
+    text = "\n".join(lines) + "\n"
+    # keep the co-simulation section that ballmill.studies.absorber_cosim splices in
+    from .absorber_cosim import END, START
+    old = file.read_text() if file.exists() else ""
+    if START in old and END in old:
+        text += "\n" + old[old.index(START):old.index(END) + len(END)] + "\n"
+    file.write_text(text)
 
 
 def read_csv(path: Path):

@@ -442,7 +442,15 @@ static fmi2Status set_values(fmu_instance *fi, const char *function, const fmi2V
     for (size_t i = 0; i < nvr; i++) /* all or nothing */
         if (check_vr(fi, function, vr[i], type) != fmi2OK || settable(fi, function, vr[i], in[i]) != fmi2OK)
             return fmi2Error;
-    for (size_t i = 0; i < nvr; i++) fi->v[vr[i]] = in[i];
+    int input = 0;
+    for (size_t i = 0; i < nvr; i++) {
+        fi->v[vr[i]] = in[i];
+        input |= FMU_MODEL.vars[vr[i]].causality == FMU_INPUT;
+    }
+    /* direct feedthrough: outputs that depend on the inputs follow them between steps (in
+     * initialisation mode every read rebuilds them anyway) */
+    if (input && fi->state == S_STEP_COMPLETE && FMU_MODEL.inputs_set)
+        return FMU_MODEL.inputs_set(fi, fi->data, fi->v, fi->t);
     return fmi2OK;
 }
 

@@ -26,7 +26,7 @@ import pythonfmu.builder  # noqa: F401
 
 ROOT = Path(__file__).resolve().parents[2]
 OK, WARNING, DISCARD, ERROR, FATAL = 0, 1, 2, 3, 4
-MODELS = ("BallInShell", "MotorStartup", "InductionMotor")
+MODELS = ("BallInShell", "MotorStartup", "InductionMotor", "Structure")
 
 
 @dataclass(frozen=True)

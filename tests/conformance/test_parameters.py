@@ -9,7 +9,8 @@ import pytest
 from .conftest import MODELS, OK
 from .inputs import feed, run_ball
 
-FIXED = {"BallInShell": ("m", 2.0), "MotorStartup": ("l", 0.7), "InductionMotor": ("i", 30.0)}
+FIXED = {"BallInShell": ("m", 2.0), "MotorStartup": ("l", 0.7), "InductionMotor": ("i", 30.0),
+         "Structure": ("M_x1", 50.0)}
 
 
 def _initialised(open_fmu, model, **parameters):
@@ -67,6 +68,9 @@ def test_a_tunable_parameter_takes_effect_at_the_next_step(open_fmu, flavour):
     ("BallInShell", "R", float("nan"), "parameter R = nan m is outside its accepted range"),
     ("MotorStartup", "l", 1e300, "parameter l = 1e+300 m is outside its accepted range [0, 1000] m"),
     ("MotorStartup", "t0", 1e300, "parameter t0 = 1e+300 s is outside its accepted range [0.001, 1e+06] s"),
+    ("Structure", "zeta_x1", -0.1, "parameter zeta_x1 = -0.1 is outside its accepted range [0, 100]"),
+    ("Structure", "n_x", 0, "parameter n_x = 0 is outside its accepted range [1, 3]"),
+    ("Structure", "M_y2", 0.0, "parameter M_y2 = 0.0 kg is outside its accepted range [1e-12, 1e+15] kg"),
     ("MotorStartup", "t0", 1e-300, "parameter t0 = 1e-300 s is outside its accepted range [0.001, 1e+06] s"),
     ("InductionMotor", "i", 1e300, "parameter i = 1e+300 is outside its accepted range [0.001, 10000]"),
     ("InductionMotor", "i", 1e-300, "parameter i = 1e-300 is outside its accepted range [0.001, 10000]"),
@@ -86,7 +90,8 @@ def test_refused_initialisation_names_variable_value_and_range(open_fmu, flavour
 def test_reset_after_a_refused_initialisation_works(open_fmu, flavour, model):
     if not flavour.usable_after_refusal:
         pytest.skip(f"{flavour}: an instance is gone after a refused initialisation (fmi2Fatal)")
-    bad = {"BallInShell": {"m": -1.0}, "MotorStartup": {"t0": 0.0}, "InductionMotor": {"i": 0.0}}[model]
+    bad = {"BallInShell": {"m": -1.0}, "MotorStartup": {"t0": 0.0}, "InductionMotor": {"i": 0.0},
+           "Structure": {"f_x1": 0.0}}[model]
     fmu = open_fmu(model, **bad)
     if model == "BallInShell":
         feed(fmu, 0.0)

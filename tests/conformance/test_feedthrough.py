@@ -1,0 +1,92 @@
+"""Direct feedthrough (docs/conformance.md): Structure's accelerations and BallInShell's force
+follow an input set between steps, at once and without a step, state untouched; what a master
+needs to iterate the algebraic loop of a ball in a structure that feels it. Also the Structure
+FMU's refused steps and its FMU state with the input history."""
+from __future__ import annotations
+
+import math
+
+import pytest
+
+PARAMS = dict(n_x=2, M_x1=120.0, f_x1=0.6, zeta_x1=0.02, phi_x1=1.0, psi_x1=0.7, L_x1=90.0,
+              M_x2=80.0, f_x2=2.1, zeta_x2=0.03, phi_x2=-0.6, psi_x2=0.4, L_x2=-20.0,
+              n_y=1, M_y1=150.0, f_y1=0.9, zeta_y1=0.01, phi_y1=1.0, psi_y1=1.0, L_y1=150.0,
+              F0_x=3.0, F0_y=2.0, ag0_x=0.05, ag0_y=0.04, f_exc=0.7, sweep_rate=0.01, phase_y=0.5, h_max=1e-3)
+
+
+def test_structure_accelerations_follow_the_ball_force_without_a_step(open_fmu):
+    """ax1O = a_g + sum phi_j q_j'': setting Fx_ball by dF changes ax1O by G dF with
+    G = sum phi_j^2 / M_j (and ax_load by sum phi psi / M dF), at once, state untouched."""
+    fmu = open_fmu("Structure", **PARAMS)
+    assert fmu.init() == 0
+    for _ in range(50):
+        assert fmu.step(0.01) == 0
+    before = fmu.outputs()
+    dF = 2.5
+    assert fmu.set(Fx_ball=dF) == 0
+    after = fmu.outputs()
+    G = 1.0 ** 2 / 120.0 + 0.6 ** 2 / 80.0
+    assert after["ax1O"] - before["ax1O"] == pytest.approx(G * dF, rel=1e-9)
+    assert after["ax_load"] - before["ax_load"] == pytest.approx((0.7 / 120.0 - 0.6 * 0.4 / 80.0) * dF, rel=1e-9)
+    assert after["ay1O"] == before["ay1O"]
+    for name in ("x1O", "vx1O", "x_rel", "q_x1", "E", "W_exc"):  # the state is untouched
+        assert after[name] == before[name], name
+    # reading between set and step changes nothing: a twin that never read gives the same step
+    twin = open_fmu("Structure", **PARAMS)
+    assert twin.init() == 0
+    for _ in range(50):
+        assert twin.step(0.01) == 0
+    assert twin.set(Fx_ball=dF) == 0
+    assert fmu.step(0.01) == 0 and twin.step(0.01) == 0
+    assert fmu.outputs() == twin.outputs()
+
+
+def test_ball_force_follows_the_chamber_acceleration_without_a_step(open_fmu):
+    """At rest at the bottom the rolling ball's load on the chamber is F = -(2/7) m a_O
+    (its instantaneous effective mass): setting ax1O recomputes Fx at once (input_mode 1)."""
+    m = 2.0
+    fmu = open_fmu("BallInShell", m=m, r=0.025, R=0.3)
+    assert fmu.init() == 0
+    assert fmu.step(0.002) == 0
+    fx0 = fmu.get("Fx")
+    assert fmu.set(ax1O=0.1) == 0
+    assert fmu.get("Fx") - fx0 == pytest.approx(-2.0 / 7.0 * m * 0.1, rel=1e-9)
+    assert fmu.set(ay1O=-0.3) == 0
+    assert fmu.get("Fy") == pytest.approx(-2.0 / 7.0 * m * -0.3, rel=1e-9)
+    assert fmu.get("N") == pytest.approx(m * 9.81, rel=1e-9)
+
+
+def test_a_non_finite_input_refuses_the_step_and_keeps_the_state(open_fmu, flavour):
+    fmu = open_fmu("Structure", F0_x=1.0)
+    assert fmu.init() == 0
+    for _ in range(10):
+        assert fmu.step(0.01) == 0
+    before = fmu.outputs()
+    assert fmu.set(Fx_ball=math.nan) == 0
+    n = len(fmu.log)
+    assert fmu.step(0.01) == 2  # fmi2Discard in both flavours
+    assert "input Fx_ball must be finite, got nan" in fmu.messages(n)
+    if flavour.usable_after_refusal:
+        assert fmu.outputs() == {k: v for k, v in before.items()}
+    assert fmu.set(Fx_ball=0.0) == 0
+    assert fmu.step(0.01) == 0
+
+
+def test_fmu_state_restores_the_input_history(open_fmu):
+    """A state saved mid-run and restored gives the same next steps (the extrapolation's
+    samples are part of the state)."""
+    fmu = open_fmu("Structure", F0_x=1.0)
+    assert fmu.init() == 0
+    for k in range(10):
+        fmu.set(Fx_ball=0.1 * k)
+        assert fmu.step(0.01) == 0
+    saved, t_saved = fmu.get_state(), fmu.time
+    runs = []
+    for _ in range(2):
+        assert fmu.set_state(saved) == 0
+        fmu.time = t_saved
+        for k in range(10, 15):
+            fmu.set(Fx_ball=0.1 * k * k)
+            assert fmu.step(0.01) == 0
+        runs.append(fmu.outputs())
+    assert runs[0] == runs[1]
