@@ -9,10 +9,12 @@ model's compiled bmg_* functions of ``../_kernel.c`` (ctypes), which give the
 Python path's trajectory bit for bit. The translation-only ball model it falls
 back to for a `Translation` is ``ballmill.physics.model``.
 """
-from .motions import ARRANGEMENTS, ChamberMotion, ChamberState, ConstantSpeed, Fig1Machine, Spin, Translation
+from .motions import (ARRANGEMENTS, SHAFTS, ChamberMotion, ChamberState, ConstantSpeed, Fig1Machine, SpeedRise,
+                      Spin, Translation)
 from .model import ChamberModel, ChamberOutputs, simulate_chamber, simulate_general
 
 __all__ = [
-    "ARRANGEMENTS", "ChamberMotion", "ChamberState", "ConstantSpeed", "Fig1Machine", "Spin", "Translation",
+    "ARRANGEMENTS", "SHAFTS", "ChamberMotion", "ChamberState", "ConstantSpeed", "Fig1Machine", "SpeedRise", "Spin",
+    "Translation",
     "ChamberModel", "ChamberOutputs", "simulate_chamber", "simulate_general",
 ]
