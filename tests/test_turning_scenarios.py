@@ -116,50 +116,75 @@ def _results(out: Path):
     return {h: data[:, i] for i, h in enumerate(header)}
 
 
+# largest differences from the library accepted while the model is valid: contact point [m], N [N].
+# Bowl and drum turn at a constant Omega about a fixed A: the ball's input reconstruction is exact
+# (measured 2.5e-13 m, 6e-12 N; 5.8e-13 m, 5.4e-12 N). The Fig. 1 machine: the contact point to
+# 1.1e-9 m; N (a predictor output, README's known limits) is off at the first step, where the
+# reconstruction has one sample only (3.8e-3 N at 2 ms), and one step after the crank law's kink
+# at t0 (1.0e-3 N at 2.502 s), both in proportion to the 2 ms step; 1.5e-8 N elsewhere.
+TOLERANCE = {"spinning_bowl": (1e-11, 1e-10, 1e-10), "tumbling_drum": (1e-11, 1e-10, 1e-10),
+             "fig1_machine": (1e-8, 1e-2, 1e-6)}  # (P, N anywhere, N away from t = 0 and t0)
+
+
 @pytest.mark.parametrize("name", TURNING)
 def test_scenario_runs_as_the_library(turning_runs, name):
     """The co-simulated contact point (chamber axes) and N against the monolithic library run
-    (DOP853 at 1e-11), while the model is valid."""
+    (DOP853 at 1e-11), while the model is valid, within TOLERANCE (justified there)."""
     rc, out = turning_runs[name]
     summary = json.loads((out / "summary.json").read_text())
     r = _results(out)
     tr = _library(name)
     n = min(len(tr.t), len(r["time"]))
-    assert np.allclose(r["time"][:n], tr.t[:n], atol=1e-9)
+    t = r["time"][:n]
+    assert np.allclose(t, tr.t[:n], atol=1e-9)
     valid = r["ball.valid"][:n] > 0.5
     dP = max(float(np.max(np.abs(r[f"ball.{c}P_ch"][:n][valid] - tr[f"Pch_{c}"][:n][valid]))) for c in "xyz")
-    dN = float(np.max(np.abs(r["ball.N"][:n][valid] - tr["N"][:n][valid])))
-    print(f"{name}: rc {rc}, contact point within {dP:.2e} m, N within {dN:.2e} N over {valid.sum()} samples")
-    assert dP < 1e-6 and dN < 1e-3, (dP, dN)
+    eN = np.abs(r["ball.N"][:n] - tr["N"][:n])
+    dN = float(np.max(eN[valid]))
+    smooth = valid & (t > 0.0021) & ((t < 2.4999) | (t > 2.5021))
+    dN_smooth = float(np.max(eN[smooth]))
+    tol_P, tol_N, tol_N_smooth = TOLERANCE[name]
+    assert dP < tol_P and dN < tol_N and dN_smooth < tol_N_smooth, (dP, dN, dN_smooth)
     for plot in ("shell.png", "N.png", "slip_margin.png", "torques.png"):
         assert (out / plot).stat().st_size > 10000
-    assert summary["shell"]["visited_fraction_all"] > 0
+    assert 0.0 < summary["shell"]["visited_fraction_valid"] <= summary["shell"]["visited_fraction_all"]
     if name != "fig1_machine":
         assert rc == 0 and summary["left_validity"] is False
+    # the drive reads the ball's wrench at the communication points (Jacobi exchange): its moments
+    # at t_k are those of the ball's outputs at t_(k-1), exactly (as MotorStartup's T_drive)
+    e = "MO1z" if name == "spinning_bowl" else "MO1x"
+    assert np.array_equal(r["drive.M_frame"][1:], r[f"ball.{e}"][:-1])
+    assert np.array_equal(r["drive.T_frame"][1:], -r[f"ball.{e}"][:-1])  # no inertias in the scenario
+    if name != "fig1_machine":  # a constant spin: the drive's power is the library's P_ball one step late
+        P = -(r["drive.T_frame"] * r["drive.phi_dot"])[1:n]
+        assert np.allclose(P, -tr["P_ball"][:n - 1], rtol=0, atol=1e-9 * np.abs(tr["P_ball"]).max())
 
 
-def test_bowl_oscillates_at_the_closed_form_frequencies(turning_runs):
-    """n = (C - A)/d in the fixed frame, from the FMU run's contact point and the drive's Q: the fit
-    of A+ exp(i s+ t) + A- exp(i s- t) to n_x + i n_y over the first 2 s gives the closed form's
-    s+- = beta/2 +- sqrt(beta^2/4 + w0^2), beta = 2 Omega/7; the run's amplitude (0.2 rad) is not
-    small, so the fit is held to the library run's own fit, and both to the closed form within
-    the nonlinearity's shift measured there."""
+def test_bowl_oscillates_at_the_closed_form_frequencies(fmu_build_dir):
+    """The spinning bowl from xC0 = 1 mm (small oscillations): n = (C - A)/d in the fixed frame,
+    from the FMU run's contact point and the drive's Q; the fit of A+ exp(i s+ t) +
+    A- exp(i s- t) to n_x + i n_y over 4 s gives the closed form's s+- = beta/2 +-
+    sqrt(beta^2/4 + w0^2), beta = 2 Omega/7 (the nonlinear shift ~ amplitude^2 = 2e-5 rad^2)."""
+    from ballmill.scenario import runner
     from ballmill.studies import fig1
 
-    rc, out = turning_runs["spinning_bowl"]
-    r = _results(out)
-    k = int(round(2.0 / 0.002)) + 1
-    Q = np.stack([r[f"drive.Q{i}{j}"] for i in (1, 2, 3) for j in (1, 2, 3)], axis=1).reshape(-1, 3, 3)
-    u = shell.unit_vectors(r["ball.xP_ch"], r["ball.yP_ch"], r["ball.zP_ch"], BALL.R)
+    if missing(fmu_build_dir):
+        pytest.skip(missing(fmu_build_dir))
+    sc, models, paths = runner.prepare("spinning_bowl", ["ball.xC0=0.001"], fmu_build_dir, log=lambda m: None)
+    sc.stop = 4.0
+    res = runner.run(sc, models, paths, progress=False, echo=False)
+    assert res.success, res.message
+    col = res.column
+    Q = np.stack([col(f"drive.Q{i}{j}") for i in (1, 2, 3) for j in (1, 2, 3)], axis=1).reshape(-1, 3, 3)
+    u = shell.unit_vectors(col("ball.xP_ch"), col("ball.yP_ch"), col("ball.zP_ch"), BALL.R)
     nvec = np.einsum("kij,kj->ki", Q, u)
-    sp, sm, misfit = fig1.measured_bowl_frequencies(r["time"][:k], nvec[:k])
-    tr = _library("spinning_bowl", t_end=2.0)
-    lp, lm, _ = fig1.measured_bowl_frequencies(tr.t, tr.y)
+    sp, sm, misfit = fig1.measured_bowl_frequencies(col("time"), nvec)
     cp, cm = fig1.bowl_frequencies(3.0)
-    assert cp == pytest.approx(3.0 / 7.0 + math.sqrt((3.0 / 7.0) ** 2 + BALL.omega_small ** 2), rel=1e-12)
-    print(f"s+ fmu {sp:.6f} lib {lp:.6f} closed {cp:.6f}; s- fmu {sm:.6f} lib {lm:.6f} closed {cm:.6f}")
-    assert sp == pytest.approx(lp, abs=1e-6) and sm == pytest.approx(lm, abs=1e-6)
-    assert sp == pytest.approx(cp, rel=0.01) and sm == pytest.approx(cm, rel=0.01)
+    beta = 2.0 * 3.0 / 7.0
+    assert cp == pytest.approx(beta / 2 + math.sqrt(beta ** 2 / 4 + BALL.omega_small ** 2), rel=1e-12)
+    assert cm == pytest.approx(beta / 2 - math.sqrt(beta ** 2 / 4 + BALL.omega_small ** 2), rel=1e-12)
+    print(f"s+ {sp:.7f} closed {cp:.7f}; s- {sm:.7f} closed {cm:.7f}; misfit {misfit:.1e}")
+    assert sp == pytest.approx(cp, rel=1e-4) and sm == pytest.approx(cm, rel=1e-4) and misfit < 1e-3
 
 
 def test_fig1_machine_fails_when_the_library_says(turning_runs):
