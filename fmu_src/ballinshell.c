@@ -45,9 +45,13 @@
 #define GAIN_POSITIONS 187.0 /* max sum |l_i''| of the 6-node quintic (unit spacing) */
 #define NEVER 1e300         /* t_invalid while the model is valid */
 
+/* one sample of the inputs (in the order of turning/reconstruction.py's NAMES after t); the
+ * fields after ay are used with motion = 2 only (0 with motion = 1) */
 typedef struct {
     double t, x, y, vx, vy, ax, ay;
+    double z, vz, az, om[3], omd[3], q[9];
 } sample;
+#define SAMPLE_VALUES 25 /* doubles in a sample */
 
 typedef struct {
     double t;
@@ -63,12 +67,17 @@ typedef struct {
     int dropped;                 /* mode 1: the positions were left out (X, w below) */
     double X, w;
     double mp[BM_NMP];           /* a(t) as the kernel's BM_POLY cubic: t0, x0..x3, y0..y3 */
+    /* motion = 2 (ChamberReconstruction._fit): A(s) quintics, Omega(s) cubics in s = t - t0,
+     * the newest Q, and kin(t)'s coefficients for the kernel (bmg_poly_kin) */
+    double pos[3][6], om[3][4], Q[9], poly[BMG_NPOLY];
 } fit;
 
 typedef struct {
     /* configuration: built by setup from the parameters */
     bm_problem P;
     bm_tab T;
+    int motion;      /* 1 translation (the kernel's bm_* functions), 2 general (bmg_*) */
+    bmg_problem G;   /* motion = 2: the integrator settings (G.base) and the general model's constants */
     int mode, points, correct;
     double max_step, R, d, mu, omega_small, a_tol;
     /* a cache, not state: the last fit matrix and its inverse (invert_memo); 0: empty */
@@ -90,7 +99,14 @@ typedef struct {
     double a_mid[3]; /* (t, ax, ay) of the previous fit mid-way through its interval */
 } ball_in_shell;
 
-static const char *const INPUT_NAMES[6] = {"x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O"};
+static const char *const INPUT_NAMES[SAMPLE_VALUES - 1] = {
+    "x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O", "z1O", "vz1O", "az1O", "Omega_x", "Omega_y", "Omega_z",
+    "Omega_dot_x", "Omega_dot_y", "Omega_dot_z", "Q11", "Q12", "Q13", "Q21", "Q22", "Q23", "Q31", "Q32", "Q33"};
+/* the inputs of motion = 2 (after the first six) with their defaults, by value reference */
+static const int MOTION_VR[SAMPLE_VALUES - 7] = {
+    VR_z1O, VR_vz1O, VR_az1O, VR_Omega_x, VR_Omega_y, VR_Omega_z, VR_Omega_dot_x, VR_Omega_dot_y,
+    VR_Omega_dot_z, VR_Q11, VR_Q12, VR_Q13, VR_Q21, VR_Q22, VR_Q23, VR_Q31, VR_Q32, VR_Q33};
+#define Q_TOL 1e-6 /* orthonormality of the orientation input (reconstruction.Q_TOL) */
 
 /* ===================================================================== input reconstruction
  * platform.InputReconstruction: the samples of the window, the polynomial fit through
@@ -141,23 +157,78 @@ static int recon_inconsistency(const ball_in_shell *b, const sample *p, const sa
 /* push the inputs seen at t; a second sample at the same t replaces the first.
  * -1 and why when the sample is refused (state unchanged); 1 and why when it is
  * inconsistent with the one before (mode 1; the history then restarts on a jump); 0 */
+/* reconstruction.rotation_problem: 0 when q (row-major) is a rotation within Q_TOL, else 1
+ * and what is wrong in why */
+static int rotation_problem(const double *q, char *why, size_t size)
+{
+    double worst = -1.0, wv = 0.0;
+    int wi = 0, wj = 0;
+    char a[32], e[6][32];
+    for (int i = 0; i < 3; i++)
+        for (int j = i; j < 3; j++) {
+            double v = (q[3 * i] * q[3 * j] + q[3 * i + 1] * q[3 * j + 1]) + q[3 * i + 2] * q[3 * j + 2];
+            double err = fabs(v - (i == j ? 1.0 : 0.0));
+            if (err > worst) {
+                worst = err; wi = i; wj = j; wv = v;
+            }
+        }
+    if (worst > Q_TOL) {
+        int lo = wi < wj ? wi : wj, hi = wi < wj ? wj : wi;
+        char rows[400];
+        snprintf(rows, sizeof rows, "Q%d1 = %s, Q%d2 = %s, Q%d3 = %s", lo + 1, fmu_repr(q[3 * lo], e[0]), lo + 1,
+                 fmu_repr(q[3 * lo + 1], e[1]), lo + 1, fmu_repr(q[3 * lo + 2], e[2]));
+        if (hi != lo) {
+            size_t used = strlen(rows);
+            snprintf(rows + used, sizeof rows - used, ", Q%d1 = %s, Q%d2 = %s, Q%d3 = %s", hi + 1,
+                     fmu_repr(q[3 * hi], e[3]), hi + 1, fmu_repr(q[3 * hi + 1], e[4]), hi + 1,
+                     fmu_repr(q[3 * hi + 2], e[5]));
+        }
+        snprintf(why, size, "input Q is not a rotation matrix: row %d . row %d = %s, expected %s within %g (%s)",
+                 wi + 1, wj + 1, fmu_repr(wv, a), wi == wj ? "1.0" : "0.0", Q_TOL, rows);
+        return 1;
+    }
+    double det = (q[0] * (q[4] * q[8] - q[5] * q[7]) - q[1] * (q[3] * q[8] - q[5] * q[6]))
+                 + q[2] * (q[3] * q[7] - q[4] * q[6]);
+    if (!(det > 0.0)) {
+        snprintf(why, size, "input Q is not a rotation matrix: det Q = %s, expected +1 (a reflection)",
+                 fmu_repr(det, a));
+        return 1;
+    }
+    return 0;
+}
+
 static int recon_push(ball_in_shell *b, const double *v, double t, char *why, size_t size)
 {
-    sample s = {t, v[VR_x1O], v[VR_y1O], v[VR_vx1O], v[VR_vy1O], v[VR_ax1O], v[VR_ay1O]};
+    sample s = {t, v[VR_x1O], v[VR_y1O], v[VR_vx1O], v[VR_vy1O], v[VR_ax1O], v[VR_ay1O],
+                0.0, 0.0, 0.0, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0}};
     const double *vals = &s.x;
     char a[32], c[32];
-    for (int i = 0; i < 6; i++)
+    int n_values = 6;
+    if (b->motion == 2) {
+        double *extra = &s.z;
+        for (int i = 0; i < SAMPLE_VALUES - 7; i++) extra[i] = v[MOTION_VR[i]];
+        n_values = SAMPLE_VALUES - 1;
+    }
+    for (int i = 0; i < n_values; i++)
         if (!isfinite(vals[i])) {
             snprintf(why, size, "input %s must be finite, got %s at t = %s s", INPUT_NAMES[i],
                      fmu_repr(vals[i], a), fmu_repr(t, c));
             return -1;
         }
+    if (b->motion == 2) {
+        char problem[700];
+        if (rotation_problem(s.q, problem, sizeof problem)) {
+            snprintf(why, size, "%s at t = %s s", problem, fmu_repr(t, c));
+            return -1;
+        }
+    }
     if (b->n_samples && t < b->samples[b->n_samples - 1].t) {
         snprintf(why, size, "inputs must come in time order: got t = %s s after t = %s s", fmu_repr(t, a),
                  fmu_repr(b->samples[b->n_samples - 1].t, c));
         return -1;
     }
-    sample prev = {0, 0, 0, 0, 0, 0, 0};
+    sample prev;
+    memset(&prev, 0, sizeof prev);
     int has_prev = 0;
     if (b->n_samples && t == b->samples[b->n_samples - 1].t) {
         b->samples[b->n_samples - 1] = s;
@@ -183,7 +254,7 @@ static int recon_push(ball_in_shell *b, const double *v, double t, char *why, si
         }
         b->samples[b->n_samples++] = s;
     }
-    if (b->mode == 1 && has_prev && b->n_samples > 1) {
+    if (b->motion == 1 && b->mode == 1 && has_prev && b->n_samples > 1) {
         int jump;
         if (recon_inconsistency(b, &prev, &b->samples[b->n_samples - 1], &jump, why, size)) {
             if (jump) {
@@ -323,9 +394,122 @@ static double horner(const double *c, int n, double tau)
     return acc;
 }
 
+/* ===================================================================== motion = 2
+ * turning/reconstruction.py: the chamber centre A = O + Q (0, 0, R) with v_A, a_A from each
+ * sample, fitted per axis (Hermite quintic through two nodes, or the newest sample's Taylor
+ * polynomial), Omega (Hermite cubic through Omega, Omega'), Q over the step by Rodrigues. */
+
+/* reconstruction.centre: A, v_A, a_A of a sample */
+static void chamber_centre(const sample *p, double R, double A[3], double vA[3], double aA[3])
+{
+    double ex = R * p->q[2], ey = R * p->q[5], ez = R * p->q[8];
+    double ox = p->om[0], oy = p->om[1], oz = p->om[2], px = p->omd[0], py = p->omd[1], pz = p->omd[2];
+    double cx = oy * ez - oz * ey, cy = oz * ex - ox * ez, cz = ox * ey - oy * ex;
+    A[0] = p->x + ex; A[1] = p->y + ey; A[2] = p->z + ez;
+    vA[0] = p->vx + cx; vA[1] = p->vy + cy; vA[2] = p->vz + cz;
+    aA[0] = p->ax + ((py * ez - pz * ey) + (oy * cz - oz * cy));
+    aA[1] = p->ay + ((pz * ex - px * ez) + (oz * cx - ox * cz));
+    aA[2] = p->az + ((px * ey - py * ex) + (ox * cy - oy * cx));
+}
+
+/* ChamberReconstruction._fit and _compile (coefficients in s = t - t0) */
+static void general_fit(const ball_in_shell *b, const int *idx, int nn, fit *f)
+{
+    const sample *nw = &b->samples[idx[nn - 1]];
+    double A1[3], v1[3], a1[3];
+    chamber_centre(nw, b->R, A1, v1, a1);
+    if (b->mode == 3 || nn == 1) {
+        for (int k = 0; k < 3; k++) {
+            f->pos[k][0] = A1[k]; f->pos[k][1] = v1[k]; f->pos[k][2] = 0.5 * a1[k];
+            f->pos[k][3] = 0.0; f->pos[k][4] = 0.0; f->pos[k][5] = 0.0;
+            f->om[k][0] = nw->om[k]; f->om[k][1] = nw->omd[k]; f->om[k][2] = 0.0; f->om[k][3] = 0.0;
+        }
+    } else {
+        const sample *old = &b->samples[idx[0]];
+        double A0[3], v0[3], a0[3];
+        chamber_centre(old, b->R, A0, v0, a0);
+        double H = nw->t - old->t;
+        double H2 = H * H;
+        double H3 = H2 * H;
+        double H4 = H3 * H;
+        double H5 = H4 * H;
+        for (int k = 0; k < 3; k++) {
+            double c1 = H * v1[k];
+            double c2 = 0.5 * H2 * a1[k];
+            double P = ((A0[k] - A1[k]) + c1) - c2;
+            double V = (H * v0[k] - c1) + 2.0 * c2;
+            double Acc = H2 * a0[k] - 2.0 * c2;
+            double c3 = (-10.0 * P - 4.0 * V) - 0.5 * Acc;
+            double c4 = (-15.0 * P - 7.0 * V) - Acc;
+            double c5 = (-6.0 * P - 3.0 * V) - 0.5 * Acc;
+            f->pos[k][0] = A1[k]; f->pos[k][1] = v1[k]; f->pos[k][2] = 0.5 * a1[k];
+            f->pos[k][3] = c3 / H3; f->pos[k][4] = c4 / H4; f->pos[k][5] = c5 / H5;
+            double e1 = H * nw->omd[k];
+            double p = (old->om[k] - nw->om[k]) + e1;
+            double q = H * old->omd[k] - e1;
+            double e2 = 3.0 * p + q;
+            double e3 = 2.0 * p + q;
+            f->om[k][0] = nw->om[k]; f->om[k][1] = nw->omd[k]; f->om[k][2] = e2 / H2; f->om[k][3] = e3 / H3;
+        }
+    }
+    f->t0 = nw->t;
+    f->hs = 1.0;
+    f->n = 0;
+    f->dropped = 0;
+    memcpy(f->Q, nw->q, sizeof f->Q);
+    f->poly[0] = nw->t;
+    for (int k = 0; k < 3; k++) {
+        const double *p = f->pos[k], *o = f->om[k];
+        double *a = f->poly + 1 + 4 * k, *w = f->poly + 13 + 4 * k, *d = f->poly + 25 + 3 * k;
+        a[0] = 2.0 * p[2]; a[1] = 6.0 * p[3]; a[2] = 12.0 * p[4]; a[3] = 20.0 * p[5];
+        w[0] = o[0]; w[1] = o[1]; w[2] = o[2]; w[3] = o[3];
+        d[0] = o[1]; d[1] = 2.0 * o[2]; d[2] = 3.0 * o[3];
+    }
+}
+
+/* reconstruction.rotate: the rotation by theta (Rodrigues) times q, row-major */
+static void rotate(const double th3[3], const double *q, double *out)
+{
+    double tx = th3[0], ty = th3[1], tz = th3[2];
+    double th = sqrt(tx * tx + ty * ty + tz * tz);
+    if (th == 0.0) {
+        memcpy(out, q, 9 * sizeof(double));
+        return;
+    }
+    double ex = tx / th, ey = ty / th, ez = tz / th;
+    double c = cos(th), s = sin(th);
+    double u = 1.0 - c;
+    double m[9] = {c + u * ex * ex, u * ex * ey - s * ez, u * ex * ez + s * ey,
+                   u * ey * ex + s * ez, c + u * ey * ey, u * ey * ez - s * ex,
+                   u * ez * ex - s * ey, u * ez * ey + s * ex, c + u * ez * ez};
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) out[3 * i + j] = (m[3 * i] * q[j] + m[3 * i + 1] * q[3 + j]) + m[3 * i + 2] * q[6 + j];
+}
+
+/* ChamberReconstruction.state: the 38 fields of a ChamberState at t (drive fields 0) */
+static void general_state(const fit *f, double t, double cs[BMG_NCS])
+{
+    double s = t - f->t0, th[3];
+    memset(cs, 0, BMG_NCS * sizeof(double));
+    for (int k = 0; k < 3; k++) {
+        const double *p = f->pos[k], *o = f->om[k];
+        cs[k] = p[0] + s * (p[1] + s * (p[2] + s * (p[3] + s * (p[4] + s * p[5]))));
+        cs[3 + k] = p[1] + s * (2.0 * p[2] + s * (3.0 * p[3] + s * (4.0 * p[4] + s * (5.0 * p[5]))));
+        cs[6 + k] = 2.0 * p[2] + s * (6.0 * p[3] + s * (12.0 * p[4] + s * (20.0 * p[5])));
+        cs[9 + k] = o[0] + s * (o[1] + s * (o[2] + s * o[3]));
+        cs[12 + k] = o[1] + s * (2.0 * o[2] + s * (3.0 * o[3]));
+        th[k] = s * (o[0] + s * (0.5 * o[1] + s * (o[2] / 3.0 + s * (0.25 * o[3]))));
+    }
+    rotate(th, f->Q, cs + 15);
+}
+
 static int recon_fit(ball_in_shell *b, fit *f)
 {
     int idx[MAX_POINTS], nn = recon_nodes(b, idx);
+    if (b->motion == 2) {
+        general_fit(b, idx, nn, f);
+        return 1;
+    }
     const sample *newest = &b->samples[idx[nn - 1]];
     double tk = newest->t, x_ref = newest->x, y_ref = newest->y;
     f->t0 = tk;
@@ -450,48 +634,101 @@ static void to_n(const ball_in_shell *b, const double *y, double n[3])
 }
 
 /* BallModel.advance along the fit's a(t): 1 and *out, or 0 when the integrator fails */
+/* (motion = 2: ChamberModel.advance along the fit's kin(t), the kernel's bmg_poly_rhs) */
 static int advance(ball_in_shell *b, const ball_state *in, double t_end, const fit *f, ball_state *out)
 {
-    bm_problem *P = &b->P;
-    memcpy(P->mp, f->mp, sizeof P->mp);
-    P->motion = BM_POLY;
+    const bm_problem *P = &b->P;
+    bm_rhs_fn rhs = bm_ball_rhs;
+    bmg_poly_ctx gctx = {b->G.c, f->poly};
+    const void *ctx = NULL;
+    if (b->motion == 2) {
+        P = &b->G.base;
+        rhs = bmg_poly_rhs;
+        ctx = &gctx;
+    } else {
+        memcpy(b->P.mp, f->mp, sizeof b->P.mp);
+        b->P.motion = BM_POLY;
+    }
     *out = *in;
     out->t = t_end;
     if (!(t_end - in->t > 0.0)) return 1;
     double h = in->h;
     if (P->adaptive && !(h > 0.0 && isfinite(h))) {
         double f0[BM_NY];
-        bm_rhs(P, in->t, in->y, f0);
+        rhs(P, ctx, in->t, in->y, f0);
         if (!bm_all_finite(f0, P->ny)) return 0;
-        h = bm_initial_step_np(P, bm_ball_rhs, NULL, in->t, in->y, f0, t_end - in->t);
+        h = bm_initial_step_np(P, rhs, ctx, in->t, in->y, f0, t_end - in->t);
     }
     bm_stats st = {0, 0, 0};
-    if (!bm_advance(P, &b->T, bm_ball_rhs, NULL, in->t, out->y, t_end, &h, &st)) return 0;
+    if (!bm_advance(P, &b->T, rhs, ctx, in->t, out->y, t_end, &h, &st)) return 0;
     out->h = P->adaptive ? h : P->h_fixed;
     return 1;
 }
 
-/* outputs.evaluate of a state at t, with the platform motion reconstructed at t */
-static void outputs_at(ball_in_shell *b, const ball_state *s, const fit *f, double t, double o[BM_NOUT])
+/* the published outputs: bm_outputs' 22 (outputs.Outputs), then the contact point and the
+ * force in the chamber's axes and the moment about O1 */
+enum { O_XP, O_YP, O_ZP, O_XC, O_YC, O_ZC, O_WX, O_WY, O_WZ, O_N, O_FX, O_FY, O_FZ, O_MR, O_MAX, O_MAY,
+       O_MAZ, O_FT, O_RATIO, O_CONTACT, O_ROLLING, O_PDISS, O_XPCH, O_YPCH, O_ZPCH, O_FXCH, O_FYCH, O_FZCH,
+       O_MO1X, O_MO1Y, O_MO1Z, N_OUT };
+
+/* motion = 2 (ballinshell_fmu._general_outputs): from ChamberOutputs go at the chamber state cs */
+static void general_outputs(const ball_in_shell *b, const double *y, const double *cs, const double *go, double *o)
 {
+    double R = b->R, d = b->d, nx = y[0], ny = y[1], nz = y[2];
+    double ex = R * cs[17], ey = R * cs[20], ez = R * cs[23];
+    double sx = go[16], sy = go[17], sz = go[18], Px = go[0], Py = go[1], Pz = go[2];
+    double mo[3] = {Py * sz - Pz * sy, Pz * sx - Px * sz, Px * sy - Py * sx};
+    o[O_XP] = R * nx + ex; o[O_YP] = R * ny + ey; o[O_ZP] = R * nz + ez;
+    o[O_XC] = d * nx + ex; o[O_YC] = d * ny + ey; o[O_ZC] = d * nz + ez;
+    o[O_WX] = go[9]; o[O_WY] = go[10]; o[O_WZ] = go[11];
+    o[O_N] = go[13]; o[O_FX] = sx; o[O_FY] = sy; o[O_FZ] = sz;
+    o[O_MR] = mo[2];
+    o[O_MAX] = R * (ny * sz - nz * sy); o[O_MAY] = R * (nz * sx - nx * sz); o[O_MAZ] = R * (nx * sy - ny * sx);
+    o[O_FT] = go[14]; o[O_RATIO] = go[15]; o[O_CONTACT] = go[26]; o[O_ROLLING] = go[27]; o[O_PDISS] = 0.0;
+    o[O_XPCH] = go[3]; o[O_YPCH] = go[4]; o[O_ZPCH] = go[5];
+    o[O_FXCH] = go[19]; o[O_FYCH] = go[20]; o[O_FZCH] = go[21];
+    o[O_MO1X] = mo[0]; o[O_MO1Y] = mo[1]; o[O_MO1Z] = mo[2];
+}
+
+/* outputs.evaluate of a state at t, with the platform motion reconstructed at t (motion = 2:
+ * turning.model.evaluate_c at the reconstructed chamber state) */
+static void outputs_at(ball_in_shell *b, const ball_state *s, const fit *f, double t, double o[N_OUT])
+{
+    if (b->motion == 2) {
+        double cs[BMG_NCS], go[BMG_NOUT];
+        general_state(f, t, cs);
+        bmg_outputs(b->G.oc, s->y, cs, go);
+        general_outputs(b, s->y, cs, go, o);
+        return;
+    }
     double m[6], nw[BM_NY];
     recon_state(f, t, m);
     to_n(b, s->y, nw);
     memcpy(nw + 3, s->y + b->P.ny - 3, 3 * sizeof(double));
     bm_outputs(&b->P, nw, m[4], m[5], m[0], m[1], o);
+    /* the chamber does not turn: its axes are the frame's. The moment about O1 is A x F + M_A,
+     * A = (x1O, y1O, R) (with losses M_A holds the material's moments too), so MO1z is the crank's
+     * torque M_reaction plus MAz */
+    double xo = m[0], yo = m[1], R = b->R;
+    double sx = o[O_FX], sy = o[O_FY], sz = o[O_FZ];
+    o[O_XPCH] = o[O_XP]; o[O_YPCH] = o[O_YP]; o[O_ZPCH] = o[O_ZP];
+    o[O_FXCH] = sx; o[O_FYCH] = sy; o[O_FZCH] = sz;
+    o[O_MO1X] = (yo * sz - R * sy) + o[O_MAX];
+    o[O_MO1Y] = (R * sx - xo * sz) + o[O_MAY];
+    o[O_MO1Z] = o[O_MR] + o[O_MAZ];
 }
 
-enum { O_XP, O_YP, O_ZP, O_XC, O_YC, O_ZC, O_WX, O_WY, O_WZ, O_N, O_FX, O_FY, O_FZ, O_MR, O_MAX, O_MAY,
-       O_MAZ, O_FT, O_RATIO, O_CONTACT, O_ROLLING, O_PDISS };
-
-static void publish(double *v, const double o[BM_NOUT])
+static void publish(double *v, const double o[N_OUT])
 {
     static const int vr[] = {VR_xP, VR_yP, VR_zP, VR_xC, VR_yC, VR_zC, VR_wx, VR_wy, VR_wz, VR_N, VR_Fx,
                              VR_Fy, VR_Fz, VR_M_reaction, VR_MAx, VR_MAy, VR_MAz, VR_Ft, VR_friction_ratio};
+    static const int vr_more[] = {VR_xP_ch, VR_yP_ch, VR_zP_ch, VR_Fx_ch, VR_Fy_ch, VR_Fz_ch,
+                                  VR_MO1x, VR_MO1y, VR_MO1z};
     for (int i = 0; i < (int)(sizeof vr / sizeof vr[0]); i++) v[vr[i]] = vr[i] == VR_friction_ratio && isinf(o[i]) ? copysign(FMU_BIG, o[i]) : o[i];
     v[VR_contact] = o[O_CONTACT] != 0.0;
     v[VR_rolling] = o[O_ROLLING] != 0.0;
     v[VR_P_diss] = o[O_PDISS];
+    for (int i = 0; i < 9; i++) v[vr_more[i]] = o[O_XPCH + i];
 }
 
 /* ===================================================================== validity signals
@@ -508,7 +745,7 @@ static void invalidate(fmu_instance *fi, double *v, double t, const char *reason
 
 /* loss of contact and onset of slip, judged at communication point t with the true
  * inputs there (the published flags use extrapolated inputs) */
-static void report(fmu_instance *fi, ball_in_shell *b, double *v, double t, const double o[BM_NOUT])
+static void report(fmu_instance *fi, ball_in_shell *b, double *v, double t, const double o[N_OUT])
 {
     char when[96], why[160];
     int was_contact = b->confirmed_contact, was_rolling = b->confirmed_rolling;
@@ -584,6 +821,24 @@ static fmi2Status init_error(fmu_instance *fi, const char *fmt, const char *deta
     return fmi2Error;
 }
 
+/* motion = 1 takes only a horizontal translation: a new input away from its default is
+ * refused (ballinshell_fmu.BallInShell._check_translation's message in why), never ignored */
+static int translation_only(const double *v, char *why, size_t size)
+{
+    for (int i = 0; i < SAMPLE_VALUES - 7; i++) {
+        const fmu_variable *var = &FMU_VARIABLES[MOTION_VR[i]];
+        double x = v[MOTION_VR[i]];
+        if (x == var->start) continue;
+        char a[32], c[32];
+        int unit = *var->unit && strcmp(var->unit, "1") != 0;
+        snprintf(why, size, "input %s = %s%s%s is away from its default %s, but motion = 1 (horizontal "
+                 "translation) does not use it: set motion = 2 for a chamber that moves vertically or turns",
+                 var->name, fmu_repr(x, a), unit ? " " : "", unit ? var->unit : "", fmu_repr(var->start, c));
+        return 1;
+    }
+    return 0;
+}
+
 static int positive(fmu_instance *fi, const char *name, double x, const char *unit, int allow_zero)
 {
     char a[32], msg[160];
@@ -615,6 +870,7 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
         return init_error(fi, msg, "");
     }
     int formulation = (int)v[VR_formulation], integrator = (int)v[VR_integrator], mode = (int)v[VR_input_mode];
+    int motion = (int)v[VR_motion];
     if (formulation != 1 && formulation != 2) {
         snprintf(msg, sizeof msg, "formulation must be one of [1, 2] (1 = vector, 2 = paper), got %d", formulation);
         return init_error(fi, msg, "");
@@ -708,6 +964,35 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
                  "3 = hold, 4 = accelerations), got %d", mode);
         return init_error(fi, msg, "");
     }
+    if (motion == 2) { /* BallInShell._build_general */
+        if (formulation != 1) {
+            snprintf(msg, sizeof msg, "motion = 2 needs formulation = 1 (vector; the paper's coordinates describe "
+                     "only a translating chamber's lower hemisphere), got formulation = %d", formulation);
+            return init_error(fi, msg, "");
+        }
+        if (delta != 0.0 || cdrag != 0.0) {
+            snprintf(msg, sizeof msg, "motion = 2 is lossless: delta = %s m and c_drag = %s N.s/m must be 0 (the "
+                     "ground material's losses exist only with motion = 1)", fmu_repr(delta, a), fmu_repr(cdrag, c));
+            return init_error(fi, msg, "");
+        }
+        if (mode != 1 && mode != 3) {
+            snprintf(msg, sizeof msg, "input_mode = %d is not available with motion = 2: use 1 (derivatives) or "
+                     "3 (hold)", mode);
+            return init_error(fi, msg, "");
+        }
+    } else if (translation_only(v, msg, sizeof msg)) {
+        return init_error(fi, msg, "");
+    }
+    b->motion = motion;
+    if (motion == 2) { /* turning.kernel.problem's parts: the integrator (G.base) and the constants */
+        bmg_problem *G = &b->G;
+        memset(G, 0, sizeof *G);
+        G->base = *P;
+        double cg[6] = {R / d, lam, R, r, g, k};
+        double og[10] = {R / d, lam, R, r, g, k, d, m, I, mu};
+        memcpy(G->c, cg, sizeof cg);
+        memcpy(G->oc, og, sizeof og);
+    }
     b->max_step = max_step != 0.0 ? max_step : 0.05 * 2.0 * M_PI / omega_small;
     if (integrator == 3 && b->max_step / h_fixed > MAX_INTERNAL_STEPS) {
         snprintf(msg, sizeof msg, "parameter h_fixed = %s s is outside its accepted range [%.6g, inf) s "
@@ -735,7 +1020,7 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
         }
         b->state.y[0] = n[0] * d; b->state.y[1] = n[1] * d;
         b->state.y[2] = w0[0]; b->state.y[3] = w0[1]; b->state.y[4] = w0[2];
-    } else {
+    } else if (motion == 1) {
         b->state.y[0] = n[0]; b->state.y[1] = n[1]; b->state.y[2] = n[2];
         b->state.y[3] = w0[0]; b->state.y[4] = w0[1]; b->state.y[5] = w0[2];
     }
@@ -743,6 +1028,13 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
     b->n_samples = 0;
     b->h_next = 0.0;
     if (recon_push(b, v, t, msg, sizeof msg) < 0) return init_error(fi, msg, "");
+    if (motion == 2) { /* ChamberModel.initial: (xC0, yC0) and w0 relative to the chamber, its axes */
+        const double *Q = b->samples[0].q, *om = b->samples[0].om;
+        for (int i = 0; i < 3; i++) {
+            b->state.y[i] = Q[3 * i] * n[0] + Q[3 * i + 1] * n[1] + Q[3 * i + 2] * n[2];
+            b->state.y[3 + i] = om[i] + (Q[3 * i] * w0[0] + Q[3 * i + 1] * w0[1] + Q[3 * i + 2] * w0[2]);
+        }
+    }
     b->n_hist = 1;
     b->hist[0] = b->state;
     b->has_t_prev = 0;
@@ -754,7 +1046,7 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
     v[VR_valid] = 1.0;
     v[VR_t_invalid] = NEVER;
     fit f;
-    double o[BM_NOUT];
+    double o[N_OUT];
     recon_fit(b, &f); /* one sample: never singular */
     outputs_at(b, &b->state, &f, t, o);
     publish(v, o);
@@ -793,6 +1085,7 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
                 fmu_repr(t, tc));
         return fmi2Discard;
     }
+    if (b->motion == 1 && translation_only(v, problem, sizeof problem)) return refuse_step(fi, t, problem);
     b->h_next = t_end - t; /* what the Python flavour computes (set_horizon(t_end - t)) */
     int pushed = recon_push(b, v, t, problem, sizeof problem);
     if (pushed < 0) return refuse_step(fi, t, problem);
@@ -804,7 +1097,7 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
     int corrected = corrected_history(b, &f, t, hist, &n_hist);
     if (corrected < 0) return refuse_step(fi, t, "the integrator failed on the corrector's interval");
     const ball_state *now = &hist[n_hist - 1];
-    double confirmed[BM_NOUT], out[BM_NOUT];
+    double confirmed[N_OUT], out[N_OUT];
     outputs_at(b, now, &f, t, confirmed);
     if (!advance(b, now, t_end, &f, &predicted)) {
         if (b->P.form == BM_PAPER)
@@ -841,7 +1134,7 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
     }
     /* the commit: nothing below fails */
     b->noise_sum = noise_sum;
-    if (b->has_t_prev) { /* this fit's a mid-way through the interval it has just closed */
+    if (b->has_t_prev && b->motion == 1) { /* this fit's a mid-way through the interval it has just closed */
         double tm = 0.5 * (b->t_prev + t);
         b->a_mid[0] = tm;
         recon_accel(&f, tm, &b->a_mid[1], &b->a_mid[2]);
@@ -903,7 +1196,7 @@ static fmi2Status check(fmu_instance *fi, const void *data, const double *v)
     else if (!(isfinite(b->state.t) && bm_all_finite(b->state.y, b->P.ny))) why = "its ball state is not finite";
     for (int i = 0; !why && i < b->n_samples; i++) {
         const double *s = &b->samples[i].t;
-        for (int j = 0; j < 7; j++)
+        for (int j = 0; j < SAMPLE_VALUES; j++)
             if (!isfinite(s[j])) why = "an input sample is not finite";
         if (i && !(b->samples[i].t > b->samples[i - 1].t)) why = "its input samples are not in time order";
     }

@@ -38,9 +38,12 @@ import math
 
 import numpy as np
 
-from ballmill.fmi.interface import BALL_IN_SHELL, BALL_INPUTS, BALL_OUTPUTS
+from ballmill.fmi.interface import (BALL_ALL_INPUTS, BALL_IN_SHELL, BALL_INPUTS, BALL_MOTION_INPUTS,
+                                    BALL_MOTION_START, BALL_OUTPUTS)
 from ballmill.fmi.slave import NEVER, Slave
 from ballmill.physics import Ball, BallModel, BallState, InputReconstruction
+from ballmill.physics.turning.model import ChamberModel, evaluate_c
+from ballmill.physics.turning.reconstruction import ChamberReconstruction
 
 FORMULATIONS = {1: "vector", 2: "paper"}
 METHODS = {1: "DOP853", 2: "RK45", 3: "RK4"}
@@ -49,6 +52,9 @@ MAX_INTERNAL_STEPS = 20000  # work bound: internal steps of one integration in a
 DRAG_LIMIT = 1e4  # c_drag <= DRAG_LIMIT m omega0 (drag time m/c_drag >= 1e-4 / omega0)
 OUTPUTS = BALL_OUTPUTS
 INPUTS = BALL_INPUTS
+MOTIONS = {1: "translation", 2: "general"}
+GENERAL_MODES = {1: "derivatives", 3: "hold"}  # input modes of motion = 2
+_UNITS = {v.name: v.unit for v in BALL_IN_SHELL.variables}
 
 
 class BallInShell(Slave):
@@ -85,6 +91,10 @@ class BallInShell(Slave):
             raise ValueError(f"parameter h_fixed = {self.h_fixed!r} s is outside its accepted range "
                              f"[{self._max_step / MAX_INTERNAL_STEPS:.6g}, inf) s (max_step / "
                              f"{MAX_INTERNAL_STEPS} internal steps, max_step = {self._max_step:.6g} s)")
+        self._general = self.choice("motion", MOTIONS) == "general"
+        if self._general:
+            self._build_general(ball, method)
+            return
         self._model = BallModel(ball, formulation=self.choice("formulation", FORMULATIONS),
                                 method=method, tol=self.tolerance, h_fixed=self.h_fixed,
                                 max_steps=MAX_INTERNAL_STEPS)
@@ -92,9 +102,36 @@ class BallInShell(Slave):
         self._inputs = InputReconstruction(mode, a_tol=self.input_tol)
         self._correct = bool(self.corrector) and mode != "hold"
 
+    def _build_general(self, ball, method):
+        """motion = 2: the general model (ballmill.physics.turning) and the chamber's
+        reconstruction; vector formulation, no losses, input modes 1 and 3."""
+        if self.formulation != 1:
+            raise ValueError(f"motion = 2 needs formulation = 1 (vector; the paper's coordinates describe "
+                             f"only a translating chamber's lower hemisphere), got formulation = "
+                             f"{self.formulation!r}")
+        if self.delta != 0.0 or self.c_drag != 0.0:
+            raise ValueError(f"motion = 2 is lossless: delta = {self.delta!r} m and c_drag = {self.c_drag!r} "
+                             f"N.s/m must be 0 (the ground material's losses exist only with motion = 1)")
+        if self.input_mode not in GENERAL_MODES:
+            raise ValueError(f"input_mode = {self.input_mode!r} is not available with motion = 2: use "
+                             f"1 (derivatives) or 3 (hold)")
+        self._model = ChamberModel(ball, method=method, tol=self.tolerance, h_fixed=self.h_fixed,
+                                   max_steps=MAX_INTERNAL_STEPS)
+        self._inputs = ChamberReconstruction(GENERAL_MODES[self.input_mode], R=ball.R)
+        self._correct = bool(self.corrector) and self.input_mode != 3
+
     def start(self):
-        self._state = self._model.initial(self.xC0, self.yC0, (self.wx0, self.wy0, self.wz0), t0=self._time)
-        problem = self._inputs.push(*self._sample(self._time))
+        if self._general:
+            # the checks (and messages) of the translation-only model's initial state
+            BallModel(self._model.ball).initial(self.xC0, self.yC0, (self.wx0, self.wy0, self.wz0))
+            problem = self._inputs.push(*self._sample(self._time))
+            self._state = self._model.initial(self._inputs, self.xC0, self.yC0,
+                                              (self.wx0, self.wy0, self.wz0), t0=self._time)
+        else:
+            self._check_translation()
+            self._state = self._model.initial(self.xC0, self.yC0, (self.wx0, self.wy0, self.wz0),
+                                              t0=self._time)
+            problem = self._inputs.push(*self._sample(self._time))
         # corrected states at the times of the samples in the reconstruction window
         self._history = [self._state]
         self._coupling_warned, self.coupling_error = False, 0.0
@@ -121,17 +158,32 @@ class BallInShell(Slave):
         return self._max_step
 
     def _sample(self, t):
-        return (t,) + tuple(getattr(self, name) for name in INPUTS)
+        names = BALL_ALL_INPUTS if self._general else INPUTS
+        return (t,) + tuple(getattr(self, name) for name in names)
+
+    def _check_translation(self):
+        """motion = 1 takes only a horizontal translation: a new input away from its default
+        is refused (ValueError naming it), never ignored."""
+        for name in BALL_MOTION_INPUTS:
+            v = getattr(self, name)
+            if v != BALL_MOTION_START[name]:
+                unit = _UNITS[name]
+                unit = f" {unit}" if unit and unit != "1" else ""
+                raise ValueError(f"input {name} = {v!r}{unit} is away from its default "
+                                 f"{BALL_MOTION_START[name]!r}, but motion = 1 (horizontal translation) does "
+                                 f"not use it: set motion = 2 for a chamber that moves vertically or turns")
 
     def step(self, t, t_end):
         try:
+            if not self._general:
+                self._check_translation()
             self._inputs.set_horizon(t_end - t)
             problem = self._inputs.push(*self._sample(t))
             accel = self._inputs.accel_function()
             history = self._corrected_history(t, accel)
             state = history[-1]
             confirmed = self._outputs_at(state, t)
-            predicted = self._model.advance(state, t_end, accel)
+            predicted = self._advance(state, t_end, accel)
             out = self._outputs_at(predicted, t_end)
             values = self._values(out)
         except (ValueError, ArithmeticError) as e:
@@ -143,7 +195,7 @@ class BallInShell(Slave):
         noise_sum = self._noise_sum
         if self._correct and history[-1] is not self._state:
             # a-posteriori estimate of the step's error: predicted vs corrected state at t_k
-            (px, py, pz), (qx, qy, qz) = self._model.nw(self._state)[0], self._model.nw(history[-1])[0]
+            (px, py, pz), (qx, qy, qz) = self._n(self._state), self._n(history[-1])
             step_error = self.R * math.sqrt((px - qx) ** 2 + (py - qy) ** 2 + (pz - qz) ** 2)
             # what the corrector cannot repair: the fit itself moves when a new sample arrives
             # (input noise). Each step's change of the fitted acceleration, da (the previous and
@@ -163,7 +215,7 @@ class BallInShell(Slave):
             drift = self.R * (5.0 / 7.0) * math.sqrt(noise_sum) / (ball.d * ball.omega_small)
             coupling_error = math.sqrt(step_error * step_error + drift * drift)
         self._noise_sum = noise_sum
-        if self._t_prev is not None:  # this fit's a mid-way through the interval it has just closed
+        if self._t_prev is not None and not self._general:  # this fit's a mid-way through the interval
             tm = 0.5 * (self._t_prev + t)
             self._a_mid = (tm,) + tuple(accel(tm))
         self._history = history
@@ -199,6 +251,7 @@ class BallInShell(Slave):
         return True
 
     _t_prev = None
+    _general = False
     _coupling_warned = False
     _resolution_warned = False
     _inconsistency_warned = False
@@ -222,7 +275,7 @@ class BallInShell(Slave):
             return uncorrected
         out = [by_time[times[0]]]
         for t in times[1:]:
-            out.append(self._model.advance(out[-1], t, accel))
+            out.append(self._advance(out[-1], t, accel))
         if abs(out[-1].t - t_now) > 1e-9 * max(1.0, abs(t_now)):  # the window ends at t_now
             return uncorrected
         return [st for st in self._history if st.t in keep and st.t < times[0]] + out
@@ -230,14 +283,30 @@ class BallInShell(Slave):
     _confirmed = (True, True)
 
     # -- outputs -------------------------------------------------------------
+    def _advance(self, state, t_end, accel):
+        if self._general:
+            return self._model.advance(state, t_end, _Kin(accel))
+        return self._model.advance(state, t_end, accel)
+
+    def _n(self, state):
+        return tuple(state.y[:3]) if self._general else self._model.nw(state)[0]
+
     def _outputs_at(self, state, t):
         """Outputs of a state at time t, with the platform motion reconstructed at t."""
+        if self._general:
+            return _general_outputs(self._model, state, self._inputs.state(t))
         x, y, _, _, ax, ay = self._inputs.state(t)
-        return self._model.outputs(state, ax, ay, x, y)
+        out = self._model.outputs(state, ax, ay, x, y)
+        return _Translated(out, x, y, self.R)
 
     def _values(self, out):
         """The output values to publish (ArithmeticError naming an output that is not finite;
         friction_ratio is +inf when N <= 0, published as 1e300)."""
+        if self._general:
+            finite = self.finite
+            return [(name, finite(name, v, allow_infinite=(name == "friction_ratio"))) for name, v in out.values]
+        extra = out.extra
+        out = out.out
         fields = out._fields
         if fields is not self._fields:  # the index of each output in an Outputs tuple, once
             self._fields, self._index = fields, [(name, fields.index(name)) for name, _, _ in OUTPUTS]
@@ -245,6 +314,7 @@ class BallInShell(Slave):
         values = [(name, finite(name, out[i], allow_infinite=(name == "friction_ratio")))
                   for name, i in self._index]
         values.append(("P_diss", finite("P_diss", out.P_diss)))
+        values.extend((name, finite(name, v)) for name, v in extra)
         return values
 
     def _set_outputs(self, values, out):
@@ -282,7 +352,7 @@ class BallInShell(Slave):
                 "noise_sum": self._noise_sum, "a_mid": None if self._a_mid is None else list(self._a_mid)}
 
     def restore_internal_state(self, s):
-        ndim = self._model.form.ndim
+        ndim = 6 if self._general else self._model.form.ndim
         state = self._checked_state(s["state"], ndim)
         if abs(state.t - self._time) > 1e-9 * max(1.0, abs(self._time)):
             raise ValueError(f"the ball state is at t = {state.t!r} s but the FMU time is {self._time!r} s")
@@ -314,12 +384,77 @@ class BallInShell(Slave):
         """A BallState from saved data, or ValueError saying what does not fit this model."""
         y = d["y"]
         if not (isinstance(y, list) and len(y) == ndim and all(isinstance(v, (int, float)) for v in y)):
-            raise ValueError(f"ball state {y!r}: expected {ndim} numbers for formulation {self.formulation}")
+            raise ValueError(f"ball state {y!r}: expected {ndim} numbers for formulation {self.formulation}"
+                             f" (motion = {self.motion})")
         state = BallState.from_dict(d)
         if not (math.isfinite(state.t) and np.all(np.isfinite(state.y))) or \
                 (state.h is not None and not (isinstance(state.h, (int, float)) and state.h > 0)):
             raise ValueError(f"ball state {d!r} is not finite")
-        if self._model.form.name == "vector" and abs(math.sqrt(sum(v * v for v in state.y[:3])) - 1.0) > 1e-6:
+        vector = self._general or self._model.form.name == "vector"
+        if vector and abs(math.sqrt(sum(v * v for v in state.y[:3])) - 1.0) > 1e-6:
             raise ValueError(f"ball state {d!r}: n = y[0:3] must be a unit vector")
-        self._model.form.check(state.y)
+        if not self._general:
+            self._model.form.check(state.y)
         return state
+
+
+class _Kin:
+    """A chamber motion for ChamberModel.advance from the reconstruction's kin(t)."""
+
+    __slots__ = ("accel",)
+
+    def __init__(self, kin):
+        self.accel = kin
+
+
+class _Translated:
+    """motion = 1: outputs.Outputs at t and the new outputs derived from them (contact point and
+    force in the chamber's axes = the frame's, since the chamber does not turn; the moment about
+    O1 = A x F + M_A with A = (x1O, y1O, R), so that MO1z = M_reaction + MAz; with losses M_A
+    holds the ground material's moments too)."""
+
+    __slots__ = ("out", "extra", "contact", "rolling", "N", "friction_ratio")
+
+    def __init__(self, out, x, y, R):
+        self.out = out
+        self.contact, self.rolling, self.N, self.friction_ratio = out.contact, out.rolling, out.N, out.friction_ratio
+        sx, sy, sz = out.Fx, out.Fy, out.Fz
+        self.extra = (("xP_ch", out.xP), ("yP_ch", out.yP), ("zP_ch", out.zP),
+                      ("Fx_ch", sx), ("Fy_ch", sy), ("Fz_ch", sz),
+                      ("MO1x", (y * sz - R * sy) + out.MAx), ("MO1y", (R * sx - x * sz) + out.MAy),
+                      ("MO1z", out.M_reaction + out.MAz))
+
+
+class _General:
+    """motion = 2: the FMU's outputs from turning.model's ChamberOutputs (see the interface)."""
+
+    __slots__ = ("values", "contact", "rolling", "N", "friction_ratio")
+
+
+def _general_outputs(model, state, cs):
+    """The FMU's outputs for motion = 2 at the chamber state cs (ChamberState's 38 floats):
+    P - O and C - O in fixed axes (O = A - Q (0, 0, R)), N, F, the moment about A and about O1
+    (M_reaction = MO1z), the contact point and force in the chamber's axes; the order of
+    operations is fmu_src/ballinshell.c's (general_publish)."""
+    y = state.y.tolist()
+    o = evaluate_c(model._oc, y, cs)
+    ball = model.ball
+    R, d = ball.R, ball.d
+    nx, ny, nz = y[0], y[1], y[2]
+    ex, ey, ez = R * cs[17], R * cs[20], R * cs[23]
+    sx, sy, sz = o.Fx, o.Fy, o.Fz
+    Px, Py, Pz = o.Px, o.Py, o.Pz
+    mo = (Py * sz - Pz * sy, Pz * sx - Px * sz, Px * sy - Py * sx)
+    g = _General()
+    g.contact, g.rolling, g.N, g.friction_ratio = o.contact, o.rolling, o.N, o.friction_ratio
+    g.values = (
+        ("xP", R * nx + ex), ("yP", R * ny + ey), ("zP", R * nz + ez), ("N", o.N),
+        ("Fx", sx), ("Fy", sy), ("Fz", sz), ("M_reaction", mo[2]),
+        ("MAx", R * (ny * sz - nz * sy)), ("MAy", R * (nz * sx - nx * sz)), ("MAz", R * (nx * sy - ny * sx)),
+        ("xC", d * nx + ex), ("yC", d * ny + ey), ("zC", d * nz + ez),
+        ("wx", o.wx), ("wy", o.wy), ("wz", o.wz), ("Ft", o.Ft), ("friction_ratio", o.friction_ratio),
+        ("P_diss", 0.0),
+        ("xP_ch", o.Pch_x), ("yP_ch", o.Pch_y), ("zP_ch", o.Pch_z),
+        ("Fx_ch", o.Fch_x), ("Fy_ch", o.Fch_y), ("Fz_ch", o.Fch_z),
+        ("MO1x", mo[0]), ("MO1y", mo[1]), ("MO1z", mo[2]))
+    return g

@@ -25,6 +25,7 @@ import math
 import numpy as np
 import pytest
 
+from ballmill.fmi.interface import BALL_MOTION_OUTPUTS
 from ballmill.physics import Ball, BallModel, CrankStartup, InputReconstruction, simulate
 from ballmill.fmi.slave import NEVER
 from ballmill.physics.drives.induction import RPM, CrankDrive, InductionMotor, simulate_runup
@@ -240,8 +241,15 @@ def monolithic(ball, form, H, n):
 
 
 def check_ball_outputs(out, ref, rtol, atol, window, what):
-    assert set(out) == set(BALL_OUTPUT_FIELDS) | {"coupling_error", "valid", "t_invalid"}, \
-        set(out) ^ set(BALL_OUTPUT_FIELDS)
+    new = {name for name, _, _ in BALL_MOTION_OUTPUTS}
+    assert set(out) == set(BALL_OUTPUT_FIELDS) | {"coupling_error", "valid", "t_invalid"} | new, \
+        set(out) ^ (set(BALL_OUTPUT_FIELDS) | new)
+    # motion = 1 (issue 12): the chamber's axes are the frame's, and the moment about O1 is
+    # A x F + M_A: about the vertical through O1 the crank's torque plus MAz
+    for a, b in (("xP_ch", "xP"), ("yP_ch", "yP"), ("zP_ch", "zP"), ("Fx_ch", "Fx"), ("Fy_ch", "Fy"),
+                 ("Fz_ch", "Fz")):
+        assert np.array_equal(out[a][window], out[b][window]), (what, a)
+    assert np.array_equal(out["MO1z"][window], (out["M_reaction"] + out["MAz"])[window]), (what, "MO1z")
     # the latch: valid until the library's ball first loses contact or rolling, t_invalid unset
     held = np.logical_and.accumulate(np.asarray(ref["contact"], bool) & np.asarray(ref["rolling"], bool))
     assert np.array_equal(np.asarray(out["valid"], bool)[window], held[window]), (what, "valid")

@@ -352,24 +352,26 @@ FIG1_DRIVE = _interface(
 # ----------------------------------------------------------------------------- the ball
 BALL_INPUTS = ("x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O")
 BALL_OUTPUTS = (  # the Real outputs that come straight from outputs.Outputs (same names)
-    ("xP", "m", "Contact point P, x in the chamber frame Oxyz"),
-    ("yP", "m", "Contact point P, y in the chamber frame Oxyz"),
-    ("zP", "m", "Contact point P, height above the chamber's lowest point O"),
+    ("xP", "m", "Contact point P, x in the chamber frame Oxyz (motion = 2: P - O, fixed axes)"),
+    ("yP", "m", "Contact point P, y in the chamber frame Oxyz (motion = 2: P - O, fixed axes)"),
+    ("zP", "m", "Contact point P, height above the chamber's lowest point O (motion = 2: P - O, fixed "
+                "axes)"),
     ("N", "N", "Normal force of the chamber on the ball (> 0: ball pressed on the wall)"),
-    ("Fx", "N", "Force of the ball on the chamber, x"),
-    ("Fy", "N", "Force of the ball on the chamber, y"),
-    ("Fz", "N", "Force of the ball on the chamber, z (-m g at rest)"),
-    ("M_reaction", "N.m", "Torque of the ball's force on the crank shaft about the vertical crank axis "
-                          "through O1 (positive counter-clockwise seen from above)"),
-    ("MAx", "N.m", "Moment of the ball's force about the chamber centre A, x"),
-    ("MAy", "N.m", "Moment of the ball's force about the chamber centre A, y"),
-    ("MAz", "N.m", "Moment of the ball's force about the chamber centre A, z"),
-    ("xC", "m", "Ball centre C, x in Oxyz"),
-    ("yC", "m", "Ball centre C, y in Oxyz"),
-    ("zC", "m", "Ball centre C, z in Oxyz"),
-    ("wx", "rad/s", "Absolute angular velocity of the ball, x"),
-    ("wy", "rad/s", "Absolute angular velocity of the ball, y"),
-    ("wz", "rad/s", "Absolute angular velocity of the ball, z"),
+    ("Fx", "N", "Force of the ball on the chamber, x in the fixed axes O1x1y1z1"),
+    ("Fy", "N", "Force of the ball on the chamber, y in the fixed axes O1x1y1z1"),
+    ("Fz", "N", "Force of the ball on the chamber, z in the fixed axes O1x1y1z1 (-m g at rest)"),
+    ("M_reaction", "N.m", "Torque of the ball's force about the vertical axis z1 through O1 (positive "
+                          "counter-clockwise seen from above): motion = 1, the crank shaft's torque of the "
+                          "translating platform, x1O Fy - y1O Fx; motion = 2, MO1z"),
+    ("MAx", "N.m", "Moment of the ball's force about the chamber centre A, x (fixed axes)"),
+    ("MAy", "N.m", "Moment of the ball's force about the chamber centre A, y (fixed axes)"),
+    ("MAz", "N.m", "Moment of the ball's force about the chamber centre A, z (fixed axes)"),
+    ("xC", "m", "Ball centre C, x in Oxyz (motion = 2: C - O, fixed axes)"),
+    ("yC", "m", "Ball centre C, y in Oxyz (motion = 2: C - O, fixed axes)"),
+    ("zC", "m", "Ball centre C, z in Oxyz (motion = 2: C - O, fixed axes)"),
+    ("wx", "rad/s", "Absolute angular velocity of the ball, x (fixed axes)"),
+    ("wy", "rad/s", "Absolute angular velocity of the ball, y (fixed axes)"),
+    ("wz", "rad/s", "Absolute angular velocity of the ball, z (fixed axes)"),
     ("Ft", "N", "Magnitude of the friction (tangential) force on the ball"),
     ("friction_ratio", "1", "|F_t| / N: the ball rolls while this is <= mu (1e300 when N <= 0)"),
 )
@@ -381,14 +383,52 @@ _INPUT_TEXT = {
     "ax1O": ("Platform acceleration x (used with input_mode = 1 or 3)", "m/s2"),
     "ay1O": ("Platform acceleration y (used with input_mode = 1 or 3)", "m/s2"),
 }
+# the chamber's motion in 3-D (motion = 2; declared after the original variables, so that
+# earlier value references stay). Defaults: no vertical motion, no rotation, Q = identity.
+_Q = tuple(f"Q{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3))
+BALL_MOTION_INPUTS = ("z1O", "vz1O", "az1O", "Omega_x", "Omega_y", "Omega_z",
+                      "Omega_dot_x", "Omega_dot_y", "Omega_dot_z") + _Q
+BALL_MOTION_START = {name: (1.0 if name in ("Q11", "Q22", "Q33") else 0.0) for name in BALL_MOTION_INPUTS}
+_MOTION_INPUT_TEXT = {
+    "z1O": ("Platform point O, z in the fixed frame (z1 up; motion = 2): (x1O, y1O, z1O) is the "
+            "chamber-fixed point O, the chamber's lowest point when Q = I; the chamber centre is "
+            "A = O + Q (0, 0, R)", "m"),
+    "vz1O": ("Velocity of O, z (motion = 2; used with input_mode = 1)", "m/s"),
+    "az1O": ("Acceleration of O, z (motion = 2; used with input_mode = 1 or 3)", "m/s2"),
+    **{f"Omega_{c}": (f"Angular velocity of the chamber, {c} in the fixed axes (motion = 2)", "rad/s")
+       for c in "xyz"},
+    **{f"Omega_dot_{c}": (f"Angular acceleration of the chamber dOmega/dt, {c} in the fixed axes "
+                          f"(motion = 2)", "rad/s2") for c in "xyz"},
+    **{f"Q{i}{j}": (f"Orientation of the chamber, row {i} column {j} of the rotation matrix Q from the "
+                    f"chamber's axes to the fixed axes (motion = 2; start: identity; must be orthonormal "
+                    f"within 1e-6 with det Q > 0)", "1") for i in (1, 2, 3) for j in (1, 2, 3)},
+}
+BALL_MOTION_OUTPUTS = (
+    ("xP_ch", "m", "Contact point in the chamber's axes, x of Q^T (P - A) + (0, 0, R) (at rest at the "
+                   "bottom: the origin; motion = 1: xP)"),
+    ("yP_ch", "m", "Contact point in the chamber's axes, y of Q^T (P - A) + (0, 0, R)"),
+    ("zP_ch", "m", "Contact point in the chamber's axes, z of Q^T (P - A) + (0, 0, R) (height above the "
+                   "chamber's lowest point, in the chamber)"),
+    ("Fx_ch", "N", "Force of the ball on the chamber, x in the chamber's axes (Q^T F)"),
+    ("Fy_ch", "N", "Force of the ball on the chamber, y in the chamber's axes (Q^T F)"),
+    ("Fz_ch", "N", "Force of the ball on the chamber, z in the chamber's axes (Q^T F)"),
+    ("MO1x", "N.m", "Moment of the ball's force on the chamber about the fixed origin O1, x in the fixed "
+                    "axes (A x F + M_A; motion = 1: A = (x1O, y1O, R)): a drive of the chamber with "
+                    "twist (w, v) feels w . MO1 + v . F"),
+    ("MO1y", "N.m", "Moment of the ball's force on the chamber about the fixed origin O1, y in the fixed "
+                    "axes"),
+    ("MO1z", "N.m", "Moment of the ball's force on the chamber about the fixed origin O1, z in the fixed "
+                    "axes (about the vertical axis z1 through O1)"),
+)
+BALL_ALL_INPUTS = BALL_INPUTS + BALL_MOTION_INPUTS
 _ball = Ball()
 W0_MAX = 1e4  # rad/s: bound of the initial angular velocity components
 NEVER = 1e300  # t_invalid while the model is valid
-_out = dict(depends=BALL_INPUTS)
+_out = dict(depends=BALL_ALL_INPUTS)
 BALL_IN_SHELL = _interface(
     "BallInShell",
-    "Ball rolling without slip inside a translating spherical chamber (Gibbs-Appell model of the "
-    "shockless ball mill)",
+    "Ball rolling without slip inside a spherical chamber that translates (motion = 1, Gibbs-Appell "
+    "model of the shockless ball mill) or moves in 3-D and turns (motion = 2)",
     [
         ("r", "parameter", _ball.r, "Ball radius", dict(unit="m", min=0.0, max=1e3)),
         ("R", "parameter", _ball.R, "Chamber (inner sphere) radius, > r", dict(unit="m", min=0.0, max=1e3)),
@@ -418,7 +458,9 @@ BALL_IN_SHELL = _interface(
          "is obtained: 1 = from the derivative inputs vx1O..ay1O (Hermite extrapolation), "
          "2 = from the positions x1O, y1O alone (polynomial through the last 6 samples), "
          "3 = hold ax1O, ay1O constant (first order), 4 = measured accelerations ax1O, ay1O, linear "
-         "between samples (x1O, y1O only for the moment arm; for noisy measured motion)", dict(min=1, max=4)),
+         "between samples (x1O, y1O only for the moment arm; for noisy measured motion); motion = 2 takes "
+         "1 (z1O like x1O, Omega and Omega_dot as a velocity/acceleration pair) or 3 (hold az1O and "
+         "Omega_dot) and refuses 2 and 4", dict(min=1, max=4)),
         ("max_step", "parameter", 0.0, "Largest communication step accepted; longer steps are "
          "refused (fmi2Discard) because the platform motion cannot be extrapolated accurately over "
          "them. 0 = automatic: 1/20 of the ball's natural period 2 pi sqrt(7 (R - r) / (5 g))",
@@ -459,6 +501,14 @@ BALL_IN_SHELL = _interface(
          "not those of the model's physics", _out),
         ("t_invalid", "output", NEVER, "Time at which valid became false (1e300 while valid)",
          dict(unit="s", **_out)),
+        # the chamber's motion in 3-D (issue 12; declared last: earlier value references stay)
+        ("motion", "parameter", 1, "Chamber motion: 1 = translation in the horizontal plane (x1O, y1O "
+         "and derivatives; the new inputs must keep their defaults), 2 = general rigid motion (z1O, "
+         "Omega, Omega_dot, Q as well; vector formulation, no losses, input_mode 1 or 3)",
+         dict(min=1, max=2)),
+        *[(name, "input", BALL_MOTION_START[name], _MOTION_INPUT_TEXT[name][0],
+           dict(unit=_MOTION_INPUT_TEXT[name][1])) for name in BALL_MOTION_INPUTS],
+        *[(name, "output", 0.0, desc, dict(unit=unit, **_out)) for name, unit, desc in BALL_MOTION_OUTPUTS],
     ])
 
 INTERFACES = {i.name: i for i in (BALL_IN_SHELL, MOTOR_STARTUP, INDUCTION_MOTOR, FIG1_DRIVE)}

@@ -1021,6 +1021,56 @@ BM_EXPORT long long bmg_simulate(const bmg_problem *G, const double *times, long
     return n - 1;
 }
 
+/* ---------------------------------------------------- turning/reconstruction.py
+ * The chamber's motion over one communication step as the BallInShell FMU (motion = 2)
+ * reconstructs it: ChamberReconstruction's kin(t) closure, its coefficients `poly`
+ * (BMG_NPOLY: t0; a_A cubics x, y, z; Omega cubics; Omega' quadratics, in s = t - t0),
+ * evaluated in the closure's operation order. */
+#define BMG_NPOLY 34
+
+static void bmg_poly_kin(const double *p, double t, double kin[9])
+{
+    double s = t - p[0];
+    for (int k = 0; k < 3; k++) {
+        const double *a = p + 1 + 4 * k, *o = p + 13 + 4 * k, *d = p + 25 + 3 * k;
+        kin[k] = a[0] + s * (a[1] + s * (a[2] + s * a[3]));
+        kin[3 + k] = o[0] + s * (o[1] + s * (o[2] + s * o[3]));
+        kin[6 + k] = d[0] + s * (d[1] + s * d[2]);
+    }
+}
+
+/* the general right-hand side along a reconstructed motion: ctx = {constants c[6], poly} */
+typedef struct {
+    const double *c, *poly;
+} bmg_poly_ctx;
+
+static void bmg_poly_rhs(const bm_problem *P, const void *ctx, double t, const double *y, double *f)
+{
+    const bmg_poly_ctx *x = ctx;
+    double kin[9];
+    (void)P;
+    bmg_poly_kin(x->poly, t, kin);
+    bmg_derivative(x->c, y, kin, f);
+}
+
+/* ChamberModel.advance along a reconstructed motion (the pythonfmu BallInShell with
+ * motion = 2), as bm_advance_interval: io = t, t_end, h, y[6], poly[BMG_NPOLY]; on
+ * success (1) io[2] and io[3..8] hold the next step and the state at t_end; 0: Python
+ * must do the interval (it fails there, or needs the initial step); io is then unchanged. */
+BM_EXPORT int bmg_advance_poly(const bmg_problem *G, double *io, bm_stats *st)
+{
+    bm_tab T;
+    double y[BM_NY], h = io[2];
+    bmg_poly_ctx ctx = {G->c, io + 3 + BM_NY};
+    bm_tab_make(&G->base, &T);
+    memcpy(y, io + 3, sizeof y);
+    st->steps = 0; st->rejected = 0; st->nfev = 0;
+    if (!bm_advance(&G->base, &T, bmg_poly_rhs, &ctx, io[0], y, io[1], &h, st)) return 0;
+    io[2] = h;
+    memcpy(io + 3, y, sizeof y);
+    return 1;
+}
+
 /* single evaluations, for tests and the benchmark */
 BM_EXPORT void bmg_eval_rhs(const bmg_problem *G, double t, const double *y, double *f) { bmg_rhs(G, t, y, f); }
 BM_EXPORT void bmg_eval_state(const bmg_problem *G, double t, double *cs) { bmg_state(G, t, cs); }

@@ -24,7 +24,8 @@ from ..fast import KernelUnavailable, _Stats, _dp
 from ..integrators import Integrator, TABLEAUS
 from .motions import NSTATE, ConstantSpeed, Fig1Machine, Spin
 
-__all__ = ["KernelUnavailable", "applicable", "simulate", "problem", "eval_rhs", "eval_state", "eval_outputs"]
+__all__ = ["KernelUnavailable", "applicable", "simulate", "problem", "advance", "eval_rhs", "eval_state",
+           "eval_outputs"]
 
 NY = 6
 NOUT = 28  # model.ChamberOutputs
@@ -71,6 +72,8 @@ def _lib():
             lib.bmg_eval_rhs.argtypes = [G, ctypes.c_double, _dp, _dp]
             lib.bmg_eval_state.restype = None
             lib.bmg_eval_state.argtypes = [G, ctypes.c_double, _dp]
+            lib.bmg_advance_poly.restype = ctypes.c_int
+            lib.bmg_advance_poly.argtypes = [G, _dp, ctypes.POINTER(_Stats)]
             lib.bmg_eval_outputs.restype = None
             lib.bmg_eval_outputs.argtypes = [G, _dp, _dp, _dp]
         _LIB = (lib, reason)
@@ -170,6 +173,93 @@ def simulate(model, motion, times: np.ndarray, state, outputs: bool):
 
     return fast.run_grid(_lib().bmg_simulate, problem(model, motion), NOUT, model, model.rhs(motion),
                          lambda *a: record_python(model, motion, *a), times, state, outputs)
+
+
+# one interval along a reconstructed motion (the BallInShell FMU with motion = 2)
+NPOLY = 34  # reconstruction.NPOLY, BMG_NPOLY
+
+
+class _Poly:
+    """What `advance` keeps per model: the problem and the buffers, valid while ``key``
+    (the model's integrator and constants) holds."""
+
+    __slots__ = ("key", "why", "G", "io", "stats")
+
+
+def _poly_key(model):
+    integ = model.integrator
+    return (type(model), integ, integ.tab, integ.adaptive, integ.tol, integ.h_fixed, integ.h_max,
+            integ.max_steps, id(integ.scale), integ.project, model._c)
+
+
+def advance(model, state, t_end, kin):
+    """ChamberModel.advance in the kernel for a motion whose accel is ChamberReconstruction's
+    kin closure (``kin.poly``): the new BallState, y and h the Python path's bit for bit, the
+    work added to ``model.info``; or None when Python must do the interval (no kernel, nothing
+    to integrate, or a step fails: Python redoes it and raises with its own message)."""
+    from .model import BallState, ChamberModel, _project
+
+    poly = getattr(kin, "poly", None)
+    lib = _lib()
+    if lib is None or poly is None or len(poly) != NPOLY or type(model) is not ChamberModel:
+        return None
+    key = _poly_key(model)
+    c = model.__dict__.get("_fast_poly")
+    if c is None or c.key != key:
+        c = _Poly()
+        c.key = key
+        integ = model.integrator
+        c.why = ("" if type(integ) is Integrator and integ.method in TABLEAUS and integ.project is _project
+                 and integ.scale is not None and integ.scale.shape == (NY,) else "integrator")
+        if not c.why:
+            c.G = _GProblem()
+            base = fast._problem(_IntegratorOnly(model), None)
+            ctypes.memmove(ctypes.byref(c.G.base), ctypes.byref(base), ctypes.sizeof(base))
+            c.G.c[:] = [float(v) for v in model._c]
+            c.G.oc[:] = [float(v) for v in model._oc]
+            c.io = np.zeros(3 + NY + NPOLY)
+            c.stats = _Stats()
+        model.__dict__["_fast_poly"] = c
+    if c.why:
+        return None
+    t, y = state.t, state.y
+    if type(y) is not np.ndarray or y.shape != (NY,) or not (isinstance(t, float) and isinstance(t_end, float)):
+        return None
+    span = t_end - t
+    if not span > 0.0:
+        return None
+    integ = model.integrator
+    h = state.h
+    extra_nfev = 0
+    if integ.adaptive:
+        if h is None or not (h > 0.0 and math.isfinite(h)):
+            f = model.rhs(_Accel(kin))
+            y0 = np.array(y, dtype=float)
+            f0 = f(t, y0)
+            if not all(map(math.isfinite, f0)):
+                return None
+            h = integ.initial_step(f, t, y0, np.asarray(f0, dtype=float), span)
+            extra_nfev = 1
+    else:
+        h = math.nan
+    io = c.io
+    io[0], io[1], io[2] = t, t_end, h
+    io[3:3 + NY] = y
+    io[3 + NY:] = poly
+    if not lib.bmg_advance_poly(ctypes.byref(c.G), io.ctypes.data_as(_dp), ctypes.byref(c.stats)):
+        return None
+    st = c.stats
+    model.info.steps += st.steps
+    model.info.rejected += st.rejected
+    model.info.nfev += st.nfev + extra_nfev
+    return BallState(float(t_end), io[3:3 + NY].copy(), float(io[2]) if integ.adaptive else integ.h_fixed)
+
+
+class _Accel:
+    __slots__ = ("accel",)
+
+    def __init__(self, kin):
+        self.accel = kin
 
 
 # single evaluations (tests, benchmark)

@@ -253,7 +253,7 @@ class ChamberModel:
     """
 
     def __init__(self, ball: Ball, method: str = "DOP853", tol: float = 1e-9, h_fixed: float = 1e-3,
-                 h_max: float | None = None, kernel: str = "auto"):
+                 h_max: float | None = None, kernel: str = "auto", max_steps: int = 1_000_000):
         _check_lossless(ball)
         if kernel not in KERNELS:
             raise ValueError(f"kernel must be one of {KERNELS}, got {kernel!r}")
@@ -263,7 +263,7 @@ class ChamberModel:
         self._oc = out_constants(ball)
         w_ref = ball.d * ball.omega_small / ball.r
         self.integrator = Integrator(method, tol=tol, scale=[1.0, 1.0, 1.0] + [w_ref] * 3,
-                                     h_fixed=h_fixed, h_max=h_max,
+                                     h_fixed=h_fixed, h_max=h_max, max_steps=max_steps,
                                      project=_project)
         self.info = StepInfo()
 
@@ -299,7 +299,16 @@ class ChamberModel:
         return f
 
     def advance(self, state: BallState, t_end: float, motion: ChamberMotion) -> BallState:
-        """Integrate from state.t to t_end (Python); the old state is left intact on failure."""
+        """Integrate from state.t to t_end; the old state is left intact on failure. A motion
+        whose accel is reconstruction.ChamberReconstruction's closure (``accel.poly``; the
+        BallInShell FMU with motion = 2) runs in the compiled kernel unless ``kernel`` is
+        "python" (the same state bit for bit); anything else in Python."""
+        if self.kernel != "python" and hasattr(motion.accel, "poly"):
+            from . import kernel as fast_turning
+
+            new = fast_turning.advance(self, state, t_end, motion.accel)
+            if new is not None:
+                return new
         y, h, st = self.integrator.advance(self.rhs(motion), state.t, state.y, t_end, state.h)
         self.info.steps += st.steps
         self.info.rejected += st.rejected
