@@ -166,8 +166,9 @@ def _plot_shell(res: RunResult, models, spec, plt):
     fail = _failures(res, models, ball)
     t_fail = min((v for v in fail.values() if v is not None), default=None)
     fig, axes = plt.subplots(1, 2, figsize=(9.0, 4.9), layout="constrained")
-    sm = shell.draw_hemispheres(axes, _shell_unit_vectors(res, models, ball), t, t_fail, float(t[-1]),
-                                fail_label="rolling or contact fails")
+    # colours over the model's valid span (the path after a failure is grey)
+    sm = shell.draw_hemispheres(axes, _shell_unit_vectors(res, models, ball), t, t_fail,
+                                float(t[-1]) if t_fail is None else t_fail, fail_label="rolling or contact fails")
     fig.colorbar(sm, ax=axes, shrink=0.7, label="time [s]")
     fig.suptitle(f"{spec.get('title', 'Contact point on the shell')}\n({shell.CAPTION})", fontsize=10)
     return fig
@@ -182,13 +183,14 @@ def _plot_slip_margin(res: RunResult, models, spec, plt):
     ax.plot(t, np.where(fr >= 1e299, np.nan, mu - fr), lw=0.8 if len(t) > 2000 else 1.2,
             label=f"mu - friction_ratio (mu = {mu:g})")
     ax.axhline(0.0, color="k", lw=0.6)
+    ax.set_ylim(-mu, 1.05 * mu)  # from rolling freely (mu) to well past slip; spikes beyond are cut
     fail = _failures(res, models, ball)
     for flag, style in (("rolling", ":"), ("contact", "--")):
         if fail.get(flag) is not None:
             ax.axvline(fail[flag], color="tab:red", ls=style, lw=1.0, label=f"{flag} first fails, "
                        f"t = {fail[flag]:.4f} s")
     ax.set_xlabel("time [s]")
-    ax.set_ylabel(spec.get("ylabel", "slip margin [1]"))
+    ax.set_ylabel(spec.get("ylabel", "slip margin mu - F_t / N [1] (cut at -mu)"))
     ax.set_title(spec.get("title", "Slip margin: the ball rolls while positive"))
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
