@@ -67,6 +67,12 @@ def _per_step_us(path: Path, inputs, n_steps: int, repeats: int) -> float:
     return statistics.median(times)
 
 
+def timed_models(ball_inputs, drive_inputs, fig1_inputs):
+    """(model, inputs(t)) of the FMUs whose step is timed, in the table's order."""
+    return (("BallInShell", ball_inputs), ("MotorStartup", drive_inputs), ("InductionMotor", drive_inputs),
+            ("Fig1Drive", fig1_inputs))
+
+
 def step_costs(repeats: int, n_steps: int, build_dir: Path | None = None):
     """{(model, flavour): us per step} and the do-nothing FMU's us per step."""
     from ..fmi import native
@@ -82,9 +88,11 @@ def step_costs(repeats: int, n_steps: int, build_dir: Path | None = None):
     def drive_inputs(t):
         return {"M_reaction": 0.0}
 
+    def fig1_inputs(t):  # the ball's wrench at rest at the bottom (Fig1Drive's defaults: the Fig. 1 machine)
+        return {"Fx": 0.0, "Fy": 0.0, "Fz": -5.0, "MO1x": 0.0, "MO1y": 0.0, "MO1z": 0.0}
+
     rows = {}
-    for model, inputs in (("BallInShell", ball_inputs), ("MotorStartup", drive_inputs),
-                          ("InductionMotor", drive_inputs)):
+    for model, inputs in timed_models(ball_inputs, drive_inputs, fig1_inputs):
         for flavour in ("native", "pythonfmu"):
             rows[(model, flavour)] = _per_step_us(fmu_path(model, build_dir, flavour), inputs, n_steps, repeats)
     with tempfile.TemporaryDirectory(prefix="ballmill_null_") as tmp:
@@ -222,7 +230,7 @@ def section(repeats: int, quick: bool, literal_time_at, progress=print) -> list[
     lc_floor = libcosim_floor_us(repeats, n_steps * 5) if lc else None
     kernel = kernel_us_per_step(repeats, stop or 10.0)
     lines = ["## Native and pythonfmu FMUs", "",
-             "The same three FMUs in both flavours (`build/<Model>.fmu`: C, no Python; "
+             "The same FMUs in both flavours (`build/<Model>.fmu`: C, no Python; "
              "`build/pythonfmu/<Model>.fmu`: the Python reference); they give the same results bit for "
              "bit on every scenario (tests/test_flavours.py). "
              + ("Quick run: reduced steps and a 2 s coupled run. " if quick else ""), "",
@@ -232,7 +240,7 @@ def section(repeats: int, quick: bool, literal_time_at, progress=print) -> list[
              f"per step.", "",
              "| FMU | native [us] | pythonfmu [us] | pythonfmu / native | native / floor |",
              "| --- | ---: | ---: | ---: | ---: |"]
-    for model in ("BallInShell", "MotorStartup", "InductionMotor"):
+    for model, _ in timed_models(None, None, None):
         a, b = costs[(model, "native")], costs[(model, "pythonfmu")]
         lines.append(f"| {model} | {a:.1f} | {b:.1f} | {b / a:.1f} | {a / floor:.1f} |")
     lines += ["", "### The coupled fast start, whole run (load, initialisation, steps)", "",
