@@ -87,7 +87,7 @@ BAD_SCENARIO = """
 description = "every kind of mistake at once"
 connections = [
     "drive.x1O -> ball.x1O", "drive.y1O -> ball.y1O",
-    "drive.psi -> ball.z1O",
+    "drive.psi -> ball.w1O",
     "drive.vx1O -> ball.ax1O",
     "ball.M_reaction -> drive.M_reaction",
 ]
@@ -112,7 +112,7 @@ EXPECTED_PROBLEMS = [
     ("instances.drive.parameters.n0", "expected a Real value, got 'fast'"),
     ("instances.ball.parameters.rr", "has no parameter 'rr'"),
     ("instances.ball.parameters.formulation", "expected a Integer value, got 1.5"),
-    ("connections[2]", "'ball' has no input 'z1O'"),
+    ("connections[2]", "'ball' has no input 'w1O'"),
     ("connections[3]", "unit mismatch, m/s -> m/s2"),
 ]
 

@@ -58,13 +58,29 @@ def _after_time(res: RunResult, models) -> float:
 
 
 def _failures(res: RunResult, models, ball: str) -> dict:
-    """First loss of contact (N <= 0) and of rolling (mu N - F_t <= 0), interpolated between
-    samples [s] (None: never)."""
-    t, N = res.column("time"), res.column(f"{ball}.N")
-    out = {"contact": shell.first_failure(t, N)}
-    if f"{ball}.Ft" in res.columns:
+    """{flag: time} of the first failure of the ball's `contact` and `rolling` outputs (None:
+    never), between the samples where the flag first turns false: where the margin (N, resp.
+    mu N - F_t) changes sign there, the zero of its linear interpolation, else that sample's
+    time [s]."""
+    t, cols = res.column("time"), set(res.columns)
+    N = res.column(f"{ball}.N") if f"{ball}.N" in cols else None
+    margins = {"contact": N}
+    if N is not None and f"{ball}.Ft" in cols:
         mu = _parameter(res, models, ball, "mu")
-        out["rolling"] = shell.first_failure(t, np.where(N > 0, mu * N - res.column(f"{ball}.Ft"), N))
+        margins["rolling"] = np.where(N > 0, mu * N - res.column(f"{ball}.Ft"), N)
+    out = {}
+    for flag in ("contact", "rolling"):
+        if f"{ball}.{flag}" not in cols:
+            continue
+        bad = np.flatnonzero(res.column(f"{ball}.{flag}") < 0.5)
+        if not bad.size:
+            out[flag] = None
+            continue
+        i, m = int(bad[0]), margins.get(flag)
+        if i > 0 and m is not None and m[i - 1] > 0.0 >= m[i]:
+            out[flag] = shell.first_failure(t[i - 1:i + 1], m[i - 1:i + 1])
+        else:
+            out[flag] = float(t[i])
     return out
 
 
