@@ -23,7 +23,6 @@ import numpy as np
 import pytest
 
 from ballmill.scenario import runner, spec
-from turning_ball import TURNING_SCENARIOS, missing
 
 SCENARIOS = sorted(p.stem for p in spec.SCENARIO_DIR.glob("*.toml"))
 
@@ -44,8 +43,6 @@ def _same(a, b):
 
 @pytest.mark.parametrize("scenario", SCENARIOS)
 def test_native_and_pythonfmu_flavours_agree_bit_for_bit(fmu_build_dir, scenario):
-    if scenario in TURNING_SCENARIOS and missing(fmu_build_dir):
-        pytest.skip(missing(fmu_build_dir))
     a = _run(scenario, fmu_build_dir, "native")
     b = _run(scenario, fmu_build_dir, "pythonfmu")
     assert a.success, a.message

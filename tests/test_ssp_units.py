@@ -26,7 +26,6 @@ from fractions import Fraction
 import pytest
 
 from ballmill.scenario import runner, spec, ssp
-from turning_ball import TURNING_SCENARIOS, missing
 
 BASE = ("kg", "m", "s", "A", "K", "mol", "cd", "rad")
 # SI derived units as (exponents, factor), from their definitions
@@ -102,8 +101,6 @@ def exported(fmu_build_dir):
     """name -> (scenario, models, ssd root) of every scenario with FMU instances only."""
     out = {}
     for path in sorted(spec.SCENARIO_DIR.glob("*.toml")):
-        if path.stem in TURNING_SCENARIOS and missing(fmu_build_dir):
-            continue  # needs BallInShell's motion = 2 (tests/turning_ball.py)
         sc, models, _ = runner.prepare(str(path), [], fmu_build_dir, log=lambda m: None)
         if any(inst.fmu is None for inst in sc.instances.values()):
             continue  # a table source cannot go into an SSP (tested in test_libcosim)

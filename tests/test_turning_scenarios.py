@@ -1,10 +1,7 @@
 """The scenarios of a chamber that turns (issue 12): spinning_bowl, tumbling_drum and
 fig1_machine, Fig1Drive + BallInShell (motion = 2) through `ballmill run`, against the
 library (simulate_chamber with Spin / Fig1Machine) and the closed forms; and the report's
-shell summary and plot kinds on library data.
-
-The FMU runs need BallInShell with motion = 2 (branch ballgen); without it they skip and
-say so."""
+shell summary and plot kinds on library data."""
 from __future__ import annotations
 
 import json
@@ -25,10 +22,9 @@ from ballmill.scenario import spec
 from ballmill.scenario.report import summarise, write_all
 from ballmill.scenario.runner import RunResult
 from ballmill.scenario.spec import ScenarioError
-from turning_ball import TURNING_SCENARIOS, missing
 
 BALL = Ball(r=0.025, R=0.25, m=0.5105088062083415, g=9.81, mu=0.3)
-TURNING = TURNING_SCENARIOS
+TURNING = ("spinning_bowl", "tumbling_drum", "fig1_machine")
 # the library's scenes, as the scenario files define them (A at O1 for the drum: the shaft
 # passes through O1; the ball's motion relative to A does not depend on where A is)
 LIBRARY = {
@@ -82,25 +78,27 @@ def test_unit_vectors_put_the_lowest_point_at_the_bottom():
 
 
 def test_a_shell_plot_needs_the_chamber_outputs(tmp_path, built_fmus):
+    """A shell plot whose contact point is not recorded, and an unknown plot kind, are refused
+    with the file and the plot's key."""
     models = {name: read_model_description(str(p)) for name, p in built_fmus.items()}
-    text = (spec.SCENARIO_DIR / "fast_start.toml").read_text()
+    text = (spec.SCENARIO_DIR / "spinning_bowl.toml").read_text()
     bad = tmp_path / "bad.toml"
-    bad.write_text(text + '\n[[plots]]\nkind = "shell"\nfile = "s.png"\n\n[[plots]]\nkind = "pie"\nfile = "p.png"\n')
+    bad.write_text(text.replace("[summary]", '[record]\nvariables = ["ball.N", "ball.Ft", "ball.friction_ratio", '
+                                '"drive.T_frame"]\n\n[summary]')
+                   + '\n[[plots]]\nkind = "pie"\nfile = "p.png"\n')
     with pytest.raises(ScenarioError) as e:
         spec.load(str(bad), models=models)
-    msg = str(e.value)
-    assert "plots[5].kind: expected one of series, shell, slip_margin, got 'pie'" in msg
-    if "xP_ch" not in {v.name for v in models["BallInShell"].modelVariables}:
-        assert "plots[4]: a shell plot needs ball.xP_ch" in msg
-    else:  # fast_start records every output: the shell plot is fine there
-        assert "plots[4]" not in msg
+    problems = e.value.problems
+    assert len(problems) == 2, problems
+    assert problems[0].endswith("plots[0]: a shell plot needs ball.xP_ch, ball.yP_ch, ball.zP_ch recorded "
+                                "(BallInShell with motion = 2 has them)"), problems
+    assert problems[1].endswith("plots[4].kind: expected one of series, shell, slip_margin, got 'pie'"), problems
+    assert all(p.startswith(bad.as_posix() + ": ") for p in problems)
 
 
 # ----------------------------------------------------------------------------- the FMU runs
 @pytest.fixture(scope="module")
 def turning_runs(fmu_build_dir, tmp_path_factory):
-    if missing(fmu_build_dir):
-        pytest.skip(missing(fmu_build_dir))
     runs = {}
     for name in TURNING:
         out = tmp_path_factory.mktemp(name)
@@ -168,8 +166,6 @@ def test_bowl_oscillates_at_the_closed_form_frequencies(fmu_build_dir):
     from ballmill.scenario import runner
     from ballmill.studies import fig1
 
-    if missing(fmu_build_dir):
-        pytest.skip(missing(fmu_build_dir))
     sc, models, paths = runner.prepare("spinning_bowl", ["ball.xC0=0.001"], fmu_build_dir, log=lambda m: None)
     sc.stop = 4.0
     res = runner.run(sc, models, paths, progress=False, echo=False)
