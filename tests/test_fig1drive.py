@@ -261,3 +261,34 @@ def test_fmu_drives_the_chamber_of_the_library_scenes(fmu_build_dir):
             assert np.allclose([row["Omega_x"], row["Omega_y"], row["Omega_z"]], cs[9:12], atol=0), name
             vA = np.array([row["vx1O"], row["vy1O"], row["vz1O"]]) + np.cross(cs[9:12], Q @ [0.0, 0.0, R])
             assert np.allclose(vA, cs[3:6], atol=1e-13), name
+
+
+@pytest.mark.parametrize("flavour", ["native", "pythonfmu"])
+def test_a_non_finite_wrench_is_refused_state_kept(fmu_build_dir, flavour):
+    """A step with a non-finite input is refused (fmi2Discard) naming the input, its value and
+    unit; the outputs keep the last good state and the next good step continues as if the
+    refused one had never been asked for."""
+    import ctypes
+
+    from ballmill.fmi.build import fmu_path
+    from fmu_instance import Opened
+
+    opened = Opened()
+    try:
+        a = opened.open(fmu_path("Fig1Drive", fmu_build_dir, flavour), f"fig1_{flavour}", **WRENCH)
+        a.initialize()
+        a.fmu.doStep(0.0, 0.01)
+        before = a.reals(list(DriveOutputs._fields))
+        a.set(MO1y=float("nan"))
+        st = a.fmu.dll.fmi2DoStep(a.fmu.component, ctypes.c_double(0.01), ctypes.c_double(0.01), 1)
+        assert st == 2  # fmi2Discard
+        msg = "\n".join(m for _, m in a.messages)
+        assert "input MO1y must be finite, got nan N.m at t = 0.01 s; step refused, last good state kept" in msg
+        assert a.reals(list(DriveOutputs._fields)) == before
+        a.set(MO1y=WRENCH["MO1y"])
+        a.fmu.doStep(0.01, 0.01)
+        ref = Fig1Drive().outputs(0.02, (WRENCH["Fx"], WRENCH["Fy"], WRENCH["Fz"]),
+                                  (WRENCH["MO1x"], WRENCH["MO1y"], WRENCH["MO1z"]))
+        assert a.reals(list(DriveOutputs._fields)) == list(ref)
+    finally:
+        opened.close_all()

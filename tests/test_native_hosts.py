@@ -36,6 +36,9 @@ CASES = {
     "MotorStartup": ("psi_dot", 50, _w0 * (1.0 - (1.0 - _t / 2.5) ** 2)),
     # the motor started direct on line, unloaded: the pythonfmu reference's crank speed
     "InductionMotor": ("psi_dot", 50, None),
+    # the Fig. 1 machine (defaults): z1O = sin(phi) l sin(psi), phi = 0.5 rad/s t, psi the paper's law
+    "Fig1Drive": ("z1O", 50, math.sin(0.5 * _t) * 0.5 * math.sin(
+        -_w0 * (_t - 2.5) ** 3 / (3.0 * 2.5 ** 2) + _w0 * _t - _w0 * 2.5 / 3.0)),
 }
 
 
@@ -155,5 +158,8 @@ def test_fmpy_builds_a_platform_binary_from_the_carried_sources(fmus_of, tmp_pat
         assert res["psi_dot"][-1] == pytest.approx(2.0 * math.pi * 0.64, rel=1e-12)
     elif model == "BallInShell":  # the ball released at xC0 = 0.05 m swings through the bottom
         assert res["xC"].min() < -0.045
+    elif model == "Fig1Drive":  # the frame at 0.5 rad/s, the cranks' law as MotorStartup's
+        assert res["phi"][-1] == pytest.approx(0.5, rel=1e-12)
+        assert res["psi_dot"][-1] == pytest.approx(2.0 * math.pi * 0.64, rel=1e-12)
     else:  # the unloaded, frictionless motor runs up to its synchronous speed 2 pi 50 / 2 / i
         assert 0.95 * math.pi * 50 / 24 < res["psi_dot"][-1] <= (1 + 1e-9) * math.pi * 50 / 24

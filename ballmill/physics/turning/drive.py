@@ -104,7 +104,7 @@ class Fig1Drive:
     relative to the shaft; ``centre`` c of the crank circle in the frame's axes [m];
     ``J_frame``, ``J_crank`` [kg m2], ``m_platform`` [kg], ``g`` [m/s2]."""
 
-    def __init__(self, shaft="x", Omega_frame=0.5, frame_law=0, t0_frame=1.0, l=0.5, n0=60.0, t0=2.5,
+    def __init__(self, shaft="x", Omega_frame=0.5, frame_law=0, t0_frame=2.5, l=0.5, n0=60.0, t0=2.5,
                  law="quadratic", arrangement="perpendicular", centre=(0.0, 0.0, 0.0), J_frame=0.0,
                  J_crank=0.0, m_platform=0.0, g=9.81):
         for name, v, unit in (("Omega_frame", Omega_frame, "rad/s"), ("t0_frame", t0_frame, "s"),
