@@ -236,7 +236,8 @@ def test_fmu_outputs_are_the_library_s_and_flavours_agree(fmu_build_dir, variant
             assert row[name] == getattr(ref, name), (name, row["time"])
 
 
-def test_fmu_drives_the_chamber_of_the_library_scenes(fmu_build_dir):
+@pytest.mark.parametrize("flavour", ["native", "pythonfmu"])
+def test_fmu_drives_the_chamber_of_the_library_scenes(fmu_build_dir, flavour):
     """The chamber the FMU describes (A = O + Q (0, 0, R)) is the library's: the Fig. 1 machine
     (zc = -R: A = Rx(phi) (l cos psi, l sin psi, 0), the default Fig1Machine), the spinning bowl
     (shaft z, l = 0: Spin((0, 0, 3), A = (0, 0, R))) and the tumbling drum (shaft x through A,
@@ -251,7 +252,7 @@ def test_fmu_drives_the_chamber_of_the_library_scenes(fmu_build_dir):
                  Spin((0.8, 0.0, 0.0), (0.0, 0.0, 0.0))),
     }
     for name, (params, motion) in scenes.items():
-        r = _simulate(fmu_path("Fig1Drive", fmu_build_dir, "native"), params, stop=5.0, step=0.5)
+        r = _simulate(fmu_path("Fig1Drive", fmu_build_dir, flavour), params, stop=5.0, step=0.5)
         for row in r:
             cs = motion.state(float(row["time"]))
             Q = np.array([row[f"Q{i}{j}"] for i in (1, 2, 3) for j in (1, 2, 3)]).reshape(3, 3)
