@@ -3,7 +3,7 @@
  * generated MotorStartup_interface.h).
  *
  * The crank start-up laws as ballmill.physics.drives.crank.CrankStartup computes them, in
- * the same operation order (same values bit for bit as the pythonfmu flavour,
+ * the same operation order (startup_law.h; same values bit for bit as the pythonfmu flavour,
  * drive_models/motorstartup_fmu.py): the crank speed rises to w0 = 2 pi n0 / 60 in t0
  * along the law the parameter `law` chooses (1 = the paper's quadratic rise, 2 = S-curve,
  * 3 = linear, 4 = quintic), the platform point moves on a circle of radius l, and with
@@ -16,61 +16,19 @@
 #include "fmu_model.h"
 #include "MotorStartup_interface.h"
 #include "crank_kinematics.h"
-
-/* the parameter law's values (the pythonfmu flavour's LAWS) */
-enum { LAW_QUADRATIC = 1, LAW_SCURVE = 2, LAW_LINEAR = 3, LAW_QUINTIC = 4 };
+#include "startup_law.h"
 
 typedef struct {
     double l, w0, t0, j_total; /* configuration */
-    int law;                   /* LAW_* */
+    int law;                   /* STARTUP_* of startup_law.h (the pythonfmu flavour's LAWS) */
     double unused;             /* dynamic state: none beyond the plumbing's time */
 } motor_startup;
-
-/* CrankStartup.angle: (psi, psi', psi'') at t */
-static void angle(const motor_startup *m, double t, double out[3])
-{
-    double w0 = m->w0, t0 = m->t0;
-    if (t < 0.0) {
-        out[0] = 0.0; out[1] = 0.0; out[2] = 0.0;
-    } else if (m->law == LAW_QUADRATIC) {
-        if (t <= t0) {
-            double u = 1.0 - t / t0;
-            out[0] = -w0 * pow(t - t0, 3.0) / (3.0 * t0 * t0) + w0 * t - w0 * t0 / 3.0;
-            out[1] = w0 * (1.0 - u * u);
-            out[2] = 2.0 * w0 * u / t0;
-        } else {
-            out[0] = 2.0 / 3.0 * w0 * t0 + w0 * (t - t0);
-            out[1] = w0;
-            out[2] = 0.0;
-        }
-    } else if (t > t0) { /* every other law: psi = w0 t0 / 2 + w0 (t - t0) after the rise */
-        out[0] = 0.5 * w0 * t0 + w0 * (t - t0);
-        out[1] = w0;
-        out[2] = 0.0;
-    } else {
-        double s = t / t0;
-        if (m->law == LAW_LINEAR) {
-            out[0] = 0.5 * w0 * t0 * s * s;
-            out[1] = w0 * s;
-            out[2] = w0 / t0;
-        } else if (m->law == LAW_SCURVE) {
-            out[0] = w0 * t0 * s * s * s * (1.0 - 0.5 * s);
-            out[1] = w0 * s * s * (3.0 - 2.0 * s);
-            out[2] = 6.0 * w0 * s * (1.0 - s) / t0;
-        } else { /* LAW_QUINTIC */
-            double u = 1.0 - s;
-            out[0] = w0 * t0 * pow(s, 4.0) * (2.5 - 3.0 * s + s * s);
-            out[1] = w0 * pow(s, 3.0) * (10.0 - 15.0 * s + 6.0 * s * s);
-            out[2] = 30.0 * w0 * s * s * u * u / t0;
-        }
-    }
-}
 
 /* the outputs at t, from the input M_reaction */
 static void publish(const motor_startup *m, double *v, double t)
 {
     double a[3];
-    angle(m, t, a);
+    startup_angle(m->law, m->w0, m->t0, t, a);
     double psi = a[0], wd = a[1], wdd = a[2];
     crank_publish(v, m->l, psi, wd, wdd);
     v[VR_T_drive] = m->j_total * wdd - v[VR_M_reaction];
@@ -97,7 +55,7 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
     if (!(isfinite(v[VR_J_crank]) && v[VR_J_crank] >= 0.0))
         return refuse(fi, "J_crank", v[VR_J_crank], "kg.m2", "non-negative and finite");
     int law = (int)v[VR_law];
-    if (law < LAW_QUADRATIC || law > LAW_QUINTIC) { /* the declared bounds keep it out; as the Python flavour */
+    if (law < STARTUP_QUADRATIC || law > STARTUP_QUINTIC) { /* the declared bounds keep it out; as the Python flavour */
         fmu_log(fi, fmi2Error, "MotorStartup '%s': initialisation failed: law must be one of [1, 2, 3, 4] "
                 "(1 = quadratic, 2 = scurve, 3 = linear, 4 = quintic), got %d", fmu_instance_name(fi), law);
         return fmi2Error;

@@ -18,8 +18,8 @@ from fmpy.fmi1 import FMICallException
 from fmu_instance import Opened
 
 OK, WARNING, DISCARD, ERROR = 0, 1, 2, 3
-MODELS = ("BallInShell", "MotorStartup", "InductionMotor")
-WATCH = {"BallInShell": "xC", "MotorStartup": "psi_dot", "InductionMotor": "psi_dot"}
+MODELS = ("BallInShell", "MotorStartup", "InductionMotor", "Fig1Drive")
+WATCH = {"BallInShell": "xC", "MotorStartup": "psi_dot", "InductionMotor": "psi_dot", "Fig1Drive": "z1O"}
 H = 0.002
 
 

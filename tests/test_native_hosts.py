@@ -39,6 +39,9 @@ CASES = {
     # at rest by default (no excitation): the load on the binary, its memory and its carried
     # sources are what is checked here; the instantaneous excitation frequency is f_exc
     "Structure": ("f_inst", 50, 0.8),
+    # the Fig. 1 machine (defaults): z1O = sin(phi) l sin(psi), phi = 0.5 rad/s t, psi the paper's law
+    "Fig1Drive": ("z1O", 50, math.sin(0.5 * _t) * 0.5 * math.sin(
+        -_w0 * (_t - 2.5) ** 3 / (3.0 * 2.5 ** 2) + _w0 * _t - _w0 * 2.5 / 3.0)),
 }
 
 
@@ -182,5 +185,8 @@ def test_fmpy_builds_a_platform_binary_from_the_carried_sources(fmus_of, tmp_pat
     elif model == "Structure":  # 1 N at resonance on 100 kg from rest: x ~ F t sin(w t) / (2 M w)
         assert 0.0 < res["x_rel"].max() < 1.0 / (2 * 100.0 * 2 * math.pi * 0.8)
         assert res["W_exc"][-1] > 0.0
+    elif model == "Fig1Drive":  # the frame at 0.5 rad/s, the cranks' law as MotorStartup's
+        assert res["phi"][-1] == pytest.approx(0.5, rel=1e-12)
+        assert res["psi_dot"][-1] == pytest.approx(2.0 * math.pi * 0.64, rel=1e-12)
     else:  # the unloaded, frictionless motor runs up to its synchronous speed 2 pi 50 / 2 / i
         assert 0.95 * math.pi * 50 / 24 < res["psi_dot"][-1] <= (1 + 1e-9) * math.pi * 50 / 24

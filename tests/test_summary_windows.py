@@ -77,8 +77,9 @@ def test_whole_run_extremes_on_the_first_and_last_samples():
     assert s["zP_max_m"] == 0.24
     assert s["M_reaction_peak_abs_Nm"] == 2.0
     v = s["validity"]
-    assert v["contact"] == {"held_throughout": False, "first_failure_s": 1.0}
-    assert v["rolling"] == {"held_throughout": False, "first_failure_s": 0.0}
+    # the interpolated time is the sample's where the margin (N here) does not change sign there
+    assert v["contact"] == {"held_throughout": False, "first_failure_s": 1.0, "first_failure_interpolated_s": 1.0}
+    assert v["rolling"] == {"held_throughout": False, "first_failure_s": 0.0, "first_failure_interpolated_s": 0.0}
     # 1e300 stands for 'no contact' and NaN is no number: the largest real ratio, 0.3 at t = 0
     assert v["friction_ratio_max"] == 0.3
     assert s["log"] == [{"status": "warning", "message": "w"}]  # 'ok' messages are left out

@@ -71,6 +71,17 @@ def _per_step_us(path: Path, inputs, n_steps: int, repeats: int, integers=None) 
     return statistics.median(times)
 
 
+def timed_models(ball_inputs, drive_inputs, fig1_inputs, structure_inputs):
+    """(model, inputs(t)) of the FMUs whose step is timed, in the table's order."""
+    return (("BallInShell", ball_inputs), ("MotorStartup", drive_inputs), ("InductionMotor", drive_inputs),
+            ("Fig1Drive", fig1_inputs), ("Structure", structure_inputs))
+
+
+# BallInShell's motion = 2 (the general model): the fast start's crank translation on it, and
+# the Fig. 1 machine (frame turning, cranks on it)
+MOTION2_CASES = ("BallInShell motion=2, crank translation", "BallInShell motion=2, Fig. 1 machine")
+
+
 def step_costs(repeats: int, n_steps: int, build_dir: Path | None = None):
     """{(model, flavour): us per step} and the do-nothing FMU's us per step."""
     from ..fmi import native
@@ -94,15 +105,17 @@ def step_costs(repeats: int, n_steps: int, build_dir: Path | None = None):
     def machine_inputs(t):  # the Fig. 1 machine's chamber motion (issue 12), exact
         return dict(zip(NAMES, inputs_of(machine.state(t), R)))
 
+    def fig1_inputs(t):  # the ball's wrench at rest at the bottom (Fig1Drive's defaults: the Fig. 1 machine)
+        return {"Fx": 0.0, "Fy": 0.0, "Fz": -5.0, "MO1x": 0.0, "MO1y": 0.0, "MO1z": 0.0}
+
+    def structure_inputs(t):  # no ball: the structure at rest
+        return {"Fx_ball": 0.0, "Fy_ball": 0.0}
+
     rows = {}
-    for model, inputs in (("BallInShell", ball_inputs), ("MotorStartup", drive_inputs),
-                          ("InductionMotor", drive_inputs)):
+    for model, inputs in timed_models(ball_inputs, drive_inputs, fig1_inputs, structure_inputs):
         for flavour in ("native", "pythonfmu"):
             rows[(model, flavour)] = _per_step_us(fmu_path(model, build_dir, flavour), inputs, n_steps, repeats)
-    # BallInShell's motion = 2 (the general model): the fast start's crank translation on it, and
-    # the Fig. 1 machine (frame turning, cranks on it)
-    for case, inputs in (("BallInShell motion=2, crank translation", ball_inputs),
-                         ("BallInShell motion=2, Fig. 1 machine", machine_inputs)):
+    for case, inputs in zip(MOTION2_CASES, (ball_inputs, machine_inputs)):
         for flavour in ("native", "pythonfmu"):
             rows[(case, flavour)] = _per_step_us(fmu_path("BallInShell", build_dir, flavour), inputs, n_steps,
                                                  repeats, integers={"motion": 2})
@@ -241,7 +254,7 @@ def section(repeats: int, quick: bool, literal_time_at, progress=print) -> list[
     lc_floor = libcosim_floor_us(repeats, n_steps * 5) if lc else None
     kernel = kernel_us_per_step(repeats, stop or 10.0)
     lines = ["## Native and pythonfmu FMUs", "",
-             "The same three FMUs in both flavours (`build/<Model>.fmu`: C, no Python; "
+             "The same FMUs in both flavours (`build/<Model>.fmu`: C, no Python; "
              "`build/pythonfmu/<Model>.fmu`: the Python reference); they give the same results bit for "
              "bit on every scenario (tests/test_flavours.py). "
              + ("Quick run: reduced steps and a 2 s coupled run. " if quick else ""), "",
@@ -251,8 +264,7 @@ def section(repeats: int, quick: bool, literal_time_at, progress=print) -> list[
              f"per step.", "",
              "| FMU | native [us] | pythonfmu [us] | pythonfmu / native | native / floor |",
              "| --- | ---: | ---: | ---: | ---: |"]
-    for model in ("BallInShell", "BallInShell motion=2, crank translation", "BallInShell motion=2, Fig. 1 machine",
-                  "MotorStartup", "InductionMotor"):
+    for model in [m for m, _ in timed_models(None, None, None, None)] + list(MOTION2_CASES):
         a, b = costs[(model, "native")], costs[(model, "pythonfmu")]
         lines.append(f"| {model} | {a:.1f} | {b:.1f} | {b / a:.1f} | {a / floor:.1f} |")
     m1 = costs[("BallInShell", "native")]

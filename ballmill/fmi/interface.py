@@ -3,7 +3,7 @@
 Names, value references (the position in ``variables``), causality,
 variability, type, units, descriptions, bounds, start values, the outputs'
 dependencies during initialisation (InitialUnknowns) and the DefaultExperiment
-of BallInShell, MotorStartup and InductionMotor are written here once. The
+of BallInShell, MotorStartup, InductionMotor and Fig1Drive are written here once. The
 pythonfmu adapters (fmu_src/, drive_models/) register these variables
 (`ballmill.fmi.slave.Slave.declare`), and the native build
 (`ballmill.fmi.native`) writes the model description and the C header of
@@ -276,6 +276,85 @@ INDUCTION_MOTOR = _interface(
          dict(unit="J")),
         ("E_drive", "output", 0.0, "Kinetic energy of rotor, gear, cranks and platform 1/2 J_total psi'^2",
          dict(unit="J")),
+    ])
+
+# ----------------------------------------------------------------------------- the Fig. 1 machine
+_WRENCH = ("Fx", "Fy", "Fz", "MO1x", "MO1y", "MO1z")
+_AX = ("x", "y", "z")
+FIG1_DRIVE = _interface(
+    "Fig1Drive",
+    "The drives of the paper's Fig. 1 machine: the bearing frame turns about a fixed shaft through O1 "
+    "(horizontal x1 or vertical z1) by phi(t), the cranks carry the platform point O on a circle of "
+    "radius l relative to the frame by psi(t) (circular translation relative to the frame); outputs the "
+    "chamber's motion for BallInShell (motion = 2) and, from the ball's wrench, the reaction moments, "
+    "torques and powers of both drives (ballmill.physics.turning.drive)",
+    [
+        ("shaft", "parameter", 1, "The frame's shaft through O1: 1 = the horizontal x1 axis (Fig. 1), "
+         "2 = the vertical z1 axis (a turntable)", dict(min=1, max=2)),
+        ("Omega_frame", "parameter", 0.5, "Steady angular speed of the frame about its shaft (either sign)",
+         dict(unit="rad/s", min=-1e4, max=1e4)),
+        ("frame_law", "parameter", 0, "Frame speed law: 0 = constant speed Omega_frame from t = 0; 1..4 = "
+         "a rise from rest to Omega_frame in t0_frame with MotorStartup's shapes (1 = quadratic, "
+         "2 = S-curve, 3 = linear, 4 = quintic)", dict(min=0, max=4)),
+        ("t0_frame", "parameter", 2.5, "Rise time of the frame's speed (frame_law 1..4)",
+         dict(unit="s", min=1e-3, max=1e6)),
+        ("l", "parameter", 0.5, "Crank length (radius of O's circle relative to the frame; 0 = no cranks)",
+         dict(unit="m", min=0.0, max=1e3)),
+        ("n0", "parameter", 60.0, "Steady crank speed relative to the frame", dict(unit="1/min", min=0.0, max=1e5)),
+        ("t0", "parameter", 2.5, "Start-up time of the cranks to reach n0", dict(unit="s", min=1e-3, max=1e6)),
+        ("law", "parameter", 1, "Shape of the cranks' speed rise to n0 in t0: 1 = quadratic (the paper's), "
+         "2 = S-curve, 3 = linear, 4 = quintic (as MotorStartup)", dict(min=1, max=4)),
+        ("arrangement", "parameter", 1, "Crank axes: 1 = perpendicular to the shaft (circle in the frame's "
+         "xy plane for the x1 shaft, yz plane for the z1 shaft), 2 = parallel to it (yz resp. xy plane)",
+         dict(min=1, max=2)),
+        ("xc", "parameter", 0.0, "Centre of O's crank circle in the frame's axes, x", dict(unit="m", min=-1e3, max=1e3)),
+        ("yc", "parameter", 0.0, "Centre of O's crank circle in the frame's axes, y", dict(unit="m", min=-1e3, max=1e3)),
+        ("zc", "parameter", 0.0, "Centre of O's crank circle in the frame's axes, z (-R puts the chamber "
+         "centre A on the shaft's plane)", dict(unit="m", min=-1e3, max=1e3)),
+        ("J_frame", "parameter", 0.0, "Inertia of everything turning with the frame about the shaft (frame, "
+         "the cranks' and the platform's own inertia about it)", dict(unit="kg.m2", min=0.0, max=1e9)),
+        ("J_crank", "parameter", 0.0, "Inertia of the cranks and their gear about the crank axes",
+         dict(unit="kg.m2", min=0.0, max=1e9)),
+        ("m_platform", "parameter", 0.0, "Mass of the platform with the chamber, a point mass at O",
+         dict(unit="kg", min=0.0, max=1e9)),
+        ("g", "parameter", 9.81, "Gravitational acceleration (the platform's weight in T_frame, T_crank)",
+         dict(unit="m/s2", min=0.0, max=1e3)),
+        ("Fx", "input", 0.0, "Force of the ball on the chamber, x1 (BallInShell.Fx)", dict(unit="N")),
+        ("Fy", "input", 0.0, "Force of the ball on the chamber, y1 (BallInShell.Fy)", dict(unit="N")),
+        ("Fz", "input", 0.0, "Force of the ball on the chamber, z1 (BallInShell.Fz)", dict(unit="N")),
+        ("MO1x", "input", 0.0, "Moment of the ball's force on the chamber about O1, x1 (BallInShell.MO1x)",
+         dict(unit="N.m")),
+        ("MO1y", "input", 0.0, "Moment of the ball's force on the chamber about O1, y1 (BallInShell.MO1y)",
+         dict(unit="N.m")),
+        ("MO1z", "input", 0.0, "Moment of the ball's force on the chamber about O1, z1 (BallInShell.MO1z)",
+         dict(unit="N.m")),
+        ("phi", "output", 0.0, "Frame angle about the shaft", dict(unit="rad")),
+        ("phi_dot", "output", 0.0, "Frame angular speed", dict(unit="rad/s")),
+        ("phi_ddot", "output", 0.0, "Frame angular acceleration", dict(unit="rad/s2")),
+        ("psi", "output", 0.0, "Crank angle relative to the frame", dict(unit="rad")),
+        ("psi_dot", "output", 0.0, "Crank angular speed relative to the frame", dict(unit="rad/s")),
+        ("psi_ddot", "output", 0.0, "Crank angular acceleration relative to the frame", dict(unit="rad/s2")),
+        *[(f"{c}1O", "output", 0.0, f"Platform point O (the chamber's lowest point when Q = I), {c}1",
+           dict(unit="m")) for c in _AX],
+        *[(f"v{c}1O", "output", 0.0, f"Velocity of O, {c}1", dict(unit="m/s")) for c in _AX],
+        *[(f"a{c}1O", "output", 0.0, f"Acceleration of O, {c}1", dict(unit="m/s2")) for c in _AX],
+        *[(f"Omega_{c}", "output", 0.0, f"Angular velocity of the chamber, {c}1", dict(unit="rad/s")) for c in _AX],
+        *[(f"Omega_dot_{c}", "output", 0.0, f"Angular acceleration of the chamber, {c}1", dict(unit="rad/s2"))
+          for c in _AX],
+        *[(f"Q{i}{j}", "output", 1.0 if i == j else 0.0, f"Orientation of the chamber (chamber axes to fixed "
+           f"axes), row {i}, column {j}", dict(unit="1")) for i in (1, 2, 3) for j in (1, 2, 3)],
+        ("M_frame", "output", 0.0, "Reaction moment of the ball's load on the frame shaft: e . MO1",
+         dict(unit="N.m", depends=_WRENCH)),
+        ("M_crank", "output", 0.0, "Reaction moment of the ball's load on the cranks: (dO/dpsi) . F",
+         dict(unit="N.m", depends=_WRENCH)),
+        ("T_frame", "output", 0.0, "Torque the frame drive must supply: inertias (J_frame, the cranks' "
+         "coupling, the platform as a point mass at O with its weight) minus M_frame",
+         dict(unit="N.m", depends=_WRENCH)),
+        ("T_crank", "output", 0.0, "Torque the crank drive must supply: J_crank times the cranks' angular "
+         "acceleration about their axes, the platform's inertia and weight, minus M_crank",
+         dict(unit="N.m", depends=_WRENCH)),
+        ("P_frame", "output", 0.0, "Power the frame drive must supply: T_frame phi'", dict(unit="W", depends=_WRENCH)),
+        ("P_crank", "output", 0.0, "Power the crank drive must supply: T_crank psi'", dict(unit="W", depends=_WRENCH)),
     ])
 
 # ----------------------------------------------------------------------------- the ball
@@ -561,7 +640,7 @@ STRUCTURE = _interface(
     default_experiment=(0.0, 60.0, 2e-3),
 )
 
-INTERFACES = {i.name: i for i in (BALL_IN_SHELL, MOTOR_STARTUP, INDUCTION_MOTOR, STRUCTURE)}
+INTERFACES = {i.name: i for i in (BALL_IN_SHELL, MOTOR_STARTUP, INDUCTION_MOTOR, FIG1_DRIVE, STRUCTURE)}
 
 BIG = 1e300  # stands for infinity in outputs (FMI tools choke on inf)
 assert math.isfinite(BIG)

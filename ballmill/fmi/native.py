@@ -42,10 +42,12 @@ MODEL_SOURCES = {
     "MotorStartup": ROOT / "drive_models" / "motorstartup.c",
     "InductionMotor": ROOT / "drive_models" / "inductionmotor.c",
     "Structure": ROOT / "drive_models" / "structure.c",
+    "Fig1Drive": ROOT / "drive_models" / "fig1drive.c",
 }
 # model -> the headers its C file includes besides the plumbing's, the kernel and the generated ones
 MODEL_HEADERS = {
-    "MotorStartup": [ROOT / "drive_models" / "crank_kinematics.h"],
+    "MotorStartup": [ROOT / "drive_models" / "crank_kinematics.h", ROOT / "drive_models" / "startup_law.h"],
+    "Fig1Drive": [ROOT / "drive_models" / "startup_law.h"],
     "InductionMotor": [ROOT / "drive_models" / "crank_kinematics.h"],
 }
 FMI_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")

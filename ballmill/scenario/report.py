@@ -11,6 +11,14 @@ acceleration of the structure at the absorber, their reduction against the
 bare structure (the same scenario without the ball, run by `ballmill run`),
 the ball's largest excursion and whether it kept rolling; and a plot of the
 structure's displacement with and without the ball.
+A ball in a turning chamber (BallInShell with motion = 2: outputs
+xP_ch, yP_ch, zP_ch) adds the fraction of the shell its contact point visits
+(ballmill/plotting/shell.py) and the failure times interpolated between samples.
+
+Plots ([[plots]]): time series or x-y curves of recorded variables; ``kind =
+"shell"``: the contact point's path on the chamber's sphere, two equal-area
+hemispheres (``ball = "ball"``, the instance); ``kind = "slip_margin"``: the
+ball's mu - friction_ratio (rolling while positive) with the first failure marked.
 """
 from __future__ import annotations
 
@@ -20,7 +28,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..plotting import shell
 from .runner import RunResult
+
+SHELL_OUTPUTS = ("xP_ch", "yP_ch", "zP_ch")  # BallInShell's contact point in the chamber's axes
 
 
 def _ball_instance(res: RunResult) -> str | None:
@@ -34,17 +45,55 @@ def _ball_instance(res: RunResult) -> str | None:
     return None
 
 
+def _parameter(res: RunResult, models, inst: str, param: str) -> float:
+    """A parameter's value in the run: the scenario's, else the model's start value."""
+    sc = res.scenario
+    if param in sc.instances[inst].parameters:
+        return float(sc.instances[inst].parameters[param])
+    md = models[sc.instances[inst].fmu]
+    return float(next(v.start for v in md.modelVariables if v.name == param))
+
+
 def _after_time(res: RunResult, models) -> float:
     """Start of the 'after start-up' window: a number or 'instance.parameter'."""
     sc = res.scenario
     after = sc.summary.get("after", sc.start)
     if isinstance(after, str):
         inst, param = after.split(".", 1)
-        if param in sc.instances[inst].parameters:
-            return float(sc.instances[inst].parameters[param])
-        md = models[sc.instances[inst].fmu]
-        return float(next(v.start for v in md.modelVariables if v.name == param))
+        return _parameter(res, models, inst, param)
     return float(after)
+
+
+def _failures(res: RunResult, models, ball: str) -> dict:
+    """{flag: time} of the first failure of the ball's `contact` and `rolling` outputs (None:
+    never), between the samples where the flag first turns false: where the margin (N, resp.
+    mu N - F_t) changes sign there, the zero of its linear interpolation, else that sample's
+    time [s]."""
+    t, cols = res.column("time"), set(res.columns)
+    N = res.column(f"{ball}.N") if f"{ball}.N" in cols else None
+    margins = {"contact": N}
+    if N is not None and f"{ball}.Ft" in cols:
+        mu = _parameter(res, models, ball, "mu")
+        margins["rolling"] = np.where(N > 0, mu * N - res.column(f"{ball}.Ft"), N)
+    out = {}
+    for flag in ("contact", "rolling"):
+        if f"{ball}.{flag}" not in cols:
+            continue
+        bad = np.flatnonzero(res.column(f"{ball}.{flag}") < 0.5)
+        if not bad.size:
+            out[flag] = None
+            continue
+        i, m = int(bad[0]), margins.get(flag)
+        if i > 0 and m is not None and m[i - 1] > 0.0 >= m[i]:
+            out[flag] = shell.first_failure(t[i - 1:i + 1], m[i - 1:i + 1])
+        else:
+            out[flag] = float(t[i])
+    return out
+
+
+def _shell_unit_vectors(res: RunResult, models, ball: str):
+    R = _parameter(res, models, ball, "R")
+    return shell.unit_vectors(*(res.column(f"{ball}.{v}") for v in SHELL_OUTPUTS), R)
 
 
 def _stats(x):
@@ -153,7 +202,22 @@ def summarise(res: RunResult, models, bare: RunResult | None = None) -> dict:
             fr = col("friction_ratio")
             validity["friction_ratio_max"] = float(fr[np.isfinite(fr) & (fr < 1e299)].max()) \
                 if np.any(fr < 1e299) else None
+        for flag, when in _failures(res, models, ball).items():
+            if flag in validity:
+                validity[flag]["first_failure_interpolated_s"] = when
         out["validity"] = validity
+        if all(f"{ball}.{v}" in cols for v in SHELL_OUTPUTS):
+            u = _shell_unit_vectors(res, models, ball)
+            k = int(keep.sum())
+            out["shell"] = {
+                "visited_fraction_valid": shell.visited_fraction(u, k) if k else None,
+                "visited_fraction_all": shell.visited_fraction(u),
+                "cells": shell.N_CELLS,
+                "measure": (f"fraction of {shell.N_CELLS} equal-area cells of the chamber's sphere that the "
+                            f"contact point (chamber axes) visits at the recorded samples; 'valid': over the "
+                            f"model's valid span, 'all': over the whole run (not physical after it)"),
+                "z_ch_max_valid_m": float(col("zP_ch")[:k].max()) if k else None,
+            }
     out["log"] = [m for m in res.messages if m["status"] != "ok"][:50]
     return out
 
@@ -163,14 +227,61 @@ def write_csv(res: RunResult, path: Path):
     np.savetxt(path, res.data, delimiter=",", header=header, comments="", fmt="%.12g")
 
 
-def plot(res: RunResult, out_dir: Path) -> list[Path]:
-    """The scenario's [[plots]] as PNG files."""
+def _plot_shell(res: RunResult, models, spec, plt):
+    ball = spec.get("ball") or _ball_instance(res)
+    t = res.column("time")
+    fail = _failures(res, models, ball)
+    t_fail = min((v for v in fail.values() if v is not None), default=None)
+    fig, axes = plt.subplots(1, 2, figsize=(9.0, 4.9), layout="constrained")
+    # colours over the model's valid span (the path after a failure is grey)
+    sm = shell.draw_hemispheres(axes, _shell_unit_vectors(res, models, ball), t, t_fail,
+                                float(t[-1]) if t_fail is None else t_fail, fail_label="rolling or contact fails")
+    fig.colorbar(sm, ax=axes, shrink=0.7, label="time [s]")
+    fig.suptitle(f"{spec.get('title', 'Contact point on the shell')}\n({shell.CAPTION})", fontsize=10)
+    return fig
+
+
+def _plot_slip_margin(res: RunResult, models, spec, plt):
+    ball = spec.get("ball") or _ball_instance(res)
+    t = res.column("time")
+    mu = _parameter(res, models, ball, "mu")
+    fr = res.column(f"{ball}.friction_ratio")
+    fig, ax = plt.subplots(figsize=(7.5, 4.8))
+    ax.plot(t, np.where(fr >= 1e299, np.nan, mu - fr), lw=0.8 if len(t) > 2000 else 1.2,
+            label=f"mu - friction_ratio (mu = {mu:g})")
+    ax.axhline(0.0, color="k", lw=0.6)
+    ax.set_ylim(-mu, 1.05 * mu)  # from rolling freely (mu) to well past slip; spikes beyond are cut
+    fail = _failures(res, models, ball)
+    for flag, style in (("rolling", ":"), ("contact", "--")):
+        if fail.get(flag) is not None:
+            ax.axvline(fail[flag], color="tab:red", ls=style, lw=1.0, label=f"{flag} first fails, "
+                       f"t = {fail[flag]:.4f} s")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel(spec.get("ylabel", "slip margin mu - F_t / N [1] (cut at -mu)"))
+    ax.set_title(spec.get("title", "Slip margin: the ball rolls while positive"))
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def plot(res: RunResult, out_dir: Path, models=None) -> list[Path]:
+    """The scenario's [[plots]] as PNG files (``models``: the model descriptions, for the
+    parameters the shell and slip-margin kinds need)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     files = []
     for spec in res.scenario.plots:
+        kind = spec.get("kind", "series")
+        if kind in ("shell", "slip_margin"):
+            fig = (_plot_shell if kind == "shell" else _plot_slip_margin)(res, models, spec, plt)
+            path = out_dir / spec["file"]
+            fig.savefig(path, dpi=110)
+            plt.close(fig)
+            files.append(path)
+            continue
         fig, ax = plt.subplots(figsize=(7.5, 4.8) if spec.get("aspect") != "equal" else (6.4, 6.4))
         xname = spec.get("x", "time")
         x = res.column(xname)
@@ -228,7 +339,7 @@ def write_all(res: RunResult, models, out_dir: Path, bare: RunResult | None = No
     out_dir.mkdir(parents=True, exist_ok=True)
     write_csv(res, out_dir / "results.csv")
     summary = summarise(res, models, bare)
-    summary["plots"] = [p.name for p in plot(res, out_dir)] if len(res.data) > 1 else []
+    summary["plots"] = [p.name for p in plot(res, out_dir, models)] if len(res.data) > 1 else []
     if bare is not None and bare.success and len(bare.data) > 1:
         write_csv(bare, out_dir / "bare.csv")
         summary["plots"] += [p.name for p in plot_bare(res, bare, out_dir)]

@@ -17,7 +17,9 @@ A scenario is a TOML file:
                             the FMUs' ModelStructure); loop_tol (relative, default 1e-10),
                             loop_atol (absolute, default 1e-14), loop_max_iter (default 50)
     [[plots]]               title, x = "time" or a variable, y = [variables], file = "name.png",
-                            aspect = "equal" (optional), ylabel, xlabel (optional)
+                            aspect = "equal" (optional), ylabel, xlabel (optional);
+                            or kind = "shell" / "slip_margin", ball = "ball", title, file
+                            (the contact point on the sphere; mu - friction_ratio)
 
 `load` returns a `Scenario` or raises `ScenarioError` listing every problem
 with its file and key.
@@ -32,6 +34,8 @@ from pathlib import Path
 import numpy as np
 
 SCENARIO_DIR = Path(__file__).resolve().parents[2] / "scenarios"
+# [[plots]] kind -> the ball outputs it draws besides N and Ft (report.py); "series" is the default
+PLOT_KINDS = {"series": (), "shell": ("xP_ch", "yP_ch", "zP_ch"), "slip_margin": ("friction_ratio",)}
 
 
 class ScenarioError(ValueError):
@@ -293,6 +297,24 @@ def check(sc: Scenario, models: dict, record_all: bool) -> list[str]:
             problems.append(f"{where}: record.variables[{i}]: no variable {inst}.{var}")
     recorded = {f"{a}.{b}" for a, b in sc.record} | {"time"}
     for i, plot in enumerate(sc.plots):
+        kind = plot.get("kind", "series")
+        if kind not in PLOT_KINDS:
+            problems.append(f"{where}: plots[{i}].kind: expected one of {', '.join(PLOT_KINDS)}, got {kind!r}")
+            continue
+        if kind != "series":  # the ball's own outputs (report.py)
+            ball = plot.get("ball") or next((n for n, inst in sc.instances.items() if inst.fmu == "BallInShell"), None)
+            if ball not in sc.instances or sc.instances[ball].fmu is None:
+                problems.append(f"{where}: plots[{i}].ball: a {kind} plot needs a BallInShell instance, "
+                                f"got {ball!r}")
+                continue
+            needed = PLOT_KINDS[kind] + ("N", "Ft")
+            missing = [f"{ball}.{v}" for v in needed if f"{ball}.{v}" not in recorded]
+            if missing:
+                problems.append(f"{where}: plots[{i}]: a {kind} plot needs {', '.join(missing)} recorded "
+                                f"(BallInShell with motion = 2 has them)")
+            if not plot.get("file"):
+                problems.append(f"{where}: plots[{i}].file: expected a PNG file name")
+            continue
         for var in [plot.get("x", "time")] + list(plot.get("y", [])):
             if var not in recorded and var.split(".", 1)[0] not in broken:
                 problems.append(f"{where}: plots[{i}]: {var!r} is not recorded")

@@ -16,12 +16,12 @@ Writes docs/fig1_machine.md with the numbers (closed-form anchors against the ru
 contact and rolling first fail, the fraction of the shell the contact point visits) and
 the figures docs/figures/fig1_*.png; the time series as CSV in --csv (one file a scene).
 
-The visited fraction: the shell is cut into N_CELLS cells of equal area (Archimedes:
-N_BANDS bands of equal height in the chamber's z times N_SECTORS equal sectors of
-longitude, each 4 pi R^2 / N_CELLS, about a ball's radius across); a cell is visited when
-the contact point (in the chamber's axes, sampled every dt, at most a few mm apart) falls
-in it. Reported up to the first failure of rolling (the model's validity) and, for
-reference only, over the whole run.
+The visited fraction (ballmill/plotting/shell.py, shared with the scenario reports): the
+shell is cut into N_CELLS cells of equal area (Archimedes: N_BANDS bands of equal height in
+the chamber's z times N_SECTORS equal sectors of longitude, each 4 pi R^2 / N_CELLS, about a
+ball's radius across); a cell is visited when the contact point (in the chamber's axes,
+sampled every dt, at most a few mm apart) falls in it. Reported up to the first failure of
+rolling (the model's validity) and, for reference only, over the whole run.
 """
 from __future__ import annotations
 
@@ -36,12 +36,13 @@ import numpy as np
 from ballmill.physics import Ball, CrankStartup
 from ballmill.physics.turning import model as turning
 from ballmill.physics.turning.motions import ConstantSpeed, Fig1Machine, Spin
+from ballmill.plotting.shell import CAPTION as SHELL_CAPTION
+from ballmill.plotting.shell import N_BANDS, N_CELLS, N_SECTORS, cells, draw_hemispheres, first_failure, \
+    visited_curve, visited_fraction  # noqa: F401 (cells: part of this study's measure, tested here)
 
 ROOT = Path(__file__).resolve().parents[2]
 BALL = Ball(r=0.025, R=0.25, m=0.5105088062083415, g=9.81, mu=0.3)
 T_END = 10.0
-N_BANDS, N_SECTORS = 40, 32  # 1280 cells of 0.61 dm^2 (side ~25 mm on R = 0.25 m)
-N_CELLS = N_BANDS * N_SECTORS
 TOL = 1e-10
 
 
@@ -67,45 +68,6 @@ def unit_on_shell(tr):
     """The contact point as a unit vector from the chamber's centre, chamber axes."""
     R = BALL.R
     return np.column_stack([tr["Pch_x"] / R, tr["Pch_y"] / R, tr["Pch_z"] / R - 1.0])
-
-
-def cells(u):
-    """Equal-area cell index of each unit vector u (N_BANDS x N_SECTORS)."""
-    band = np.clip(((u[:, 2] + 1.0) / 2.0 * N_BANDS).astype(int), 0, N_BANDS - 1)
-    lon = np.mod(np.arctan2(u[:, 1], u[:, 0]), 2.0 * math.pi)
-    sector = np.clip((lon / (2.0 * math.pi) * N_SECTORS).astype(int), 0, N_SECTORS - 1)
-    return band * N_SECTORS + sector
-
-
-def visited_fraction(u, upto=None):
-    """Fraction of the N_CELLS equal-area cells visited by the samples u[:upto]."""
-    c = cells(u[:upto] if upto is not None else u)
-    return np.unique(c).size / N_CELLS
-
-
-def visited_curve(u):
-    """Visited fraction as a function of sample index (cumulative)."""
-    seen = np.zeros(N_CELLS, dtype=bool)
-    out = np.empty(len(u))
-    count = 0
-    for i, c in enumerate(cells(u)):
-        if not seen[c]:
-            seen[c] = True
-            count += 1
-        out[i] = count / N_CELLS
-    return out
-
-
-def first_failure(t, margin):
-    """Time where margin first drops to <= 0 (linear interpolation between samples), or None."""
-    k = np.flatnonzero(margin <= 0.0)
-    if not k.size:
-        return None
-    i = int(k[0])
-    if i == 0:
-        return float(t[0])
-    a, b = margin[i - 1], margin[i]
-    return float(t[i - 1] + (t[i] - t[i - 1]) * a / (a - b))
 
 
 def slip_margin(tr):
@@ -169,16 +131,6 @@ def drum_period(Omega=0.8):
 
 
 # --------------------------------------------------------------------------- figures
-def _hemisphere_xy(u, upper):
-    """Lambert azimuthal equal-area coordinates of a hemisphere (radius sqrt(2) at the equator);
-    the lower one seen from inside the chamber looking down, the upper one looking up."""
-    rho = np.sqrt(np.maximum(0.0, 2.0 * (1.0 - u[:, 2] if upper else 1.0 + u[:, 2])))
-    h = np.hypot(u[:, 0], u[:, 1])
-    h = np.where(h > 0, h, 1.0)
-    x, y = rho * u[:, 0] / h, rho * u[:, 1] / h
-    return (x, -y) if upper else (x, y)
-
-
 def figure_paths(runs, file):
     import matplotlib
     matplotlib.use("Agg")
@@ -186,40 +138,10 @@ def figure_paths(runs, file):
 
     fig, axes = plt.subplots(len(runs), 2, figsize=(8.6, 4.0 * len(runs)), layout="constrained")
     for row, (name, (motion, tr, m)) in zip(axes, runs.items()):
-        u = unit_on_shell(tr)
-        valid = np.ones(len(tr.t), dtype=bool)
-        if m["t_slip"] is not None:
-            valid = tr.t <= m["t_slip"]
-        for ax, upper in zip(row, (False, True)):
-            sel = (u[:, 2] >= 0) if upper else (u[:, 2] < 0)
-            x, y = _hemisphere_xy(u, upper)
-            ax.add_patch(plt.Circle((0, 0), math.sqrt(2.0), fill=False, color="0.4", lw=1.0))
-            for zc in (0.5, 0.866):  # 30 and 60 degrees from the equator
-                ax.add_patch(plt.Circle((0, 0), math.sqrt(2.0 * (1.0 - zc)), fill=False, color="0.85",
-                                        lw=0.6, ls="--"))
-            if (~valid).any():
-                ax.scatter(x[sel & ~valid], y[sel & ~valid], s=0.6, color="0.72", lw=0)
-                ax.plot([], [], "o", color="0.72", ms=4, label="after rolling first fails (not physical)")
-            ax.scatter(x[sel & valid], y[sel & valid], c=tr.t[sel & valid], s=1.5, cmap="viridis",
-                       vmin=0, vmax=T_END, lw=0)
-            if m["t_slip"] is not None:
-                k = min(int(np.searchsorted(tr.t, m["t_slip"])), len(tr.t) - 1)
-                if sel[k]:
-                    ax.plot(x[k], y[k], "rx", ms=9, mew=2, label=f"rolling fails, t = {m['t_slip']:.3f} s")
-            ax.set_xlim(-1.5, 1.5)
-            ax.set_ylim(-1.5, 1.5)
-            ax.set_aspect("equal")
-            ax.set_xticks([])
-            ax.set_yticks([])
-            ax.set_title(f"{'upper hemisphere, seen from below' if upper else 'lower hemisphere, seen from above'}",
-                         fontsize=9)
-            if ax.get_legend_handles_labels()[0]:
-                ax.legend(loc="lower left", fontsize=7, framealpha=0.9)
+        sm = draw_hemispheres(row, unit_on_shell(tr), tr.t, m["t_slip"], T_END)
         row[0].set_ylabel(name, fontsize=11)
-    sm = plt.cm.ScalarMappable(cmap="viridis", norm=plt.Normalize(0, T_END))
     fig.colorbar(sm, ax=axes, shrink=0.5, label="time [s]")
-    fig.suptitle("Contact point on the shell in the chamber's axes\n(equal-area projection of each "
-                 "hemisphere; centre = bottom resp. top, circle = equator, x_ch to the right)", fontsize=10)
+    fig.suptitle(f"Contact point on the shell in the chamber's axes\n({SHELL_CAPTION})", fontsize=10)
     fig.savefig(file, dpi=110)
     plt.close(fig)
 
@@ -315,8 +237,9 @@ def markdown(runs, dt, wall, figs_rel):
          f"Generated by `python -m ballmill.studies.fig1` (dt = {dt:g} s, DOP853 tol {TOL:g}, "
          f"{wall:.1f} s wall). Physics: `ballmill.physics.turning.model` (equations and their derivation in "
          f"its docstring; DESIGN.md section 10), motions `ballmill.physics.turning.motions`. Ball r = 0.025 m, "
-         f"R = 0.25 m, m = 0.5105 kg, g = 9.81 m/s2, mu = 0.3; 0 to 10 s. The FMU interface does not "
-         f"yet carry these motions (README, Known limits): this page runs the library directly.\n",
+         f"R = 0.25 m, m = 0.5105 kg, g = 9.81 m/s2, mu = 0.3; 0 to 10 s. This page runs the library "
+         f"directly; the same scenes as FMU scenarios (Fig1Drive + BallInShell with motion = 2): "
+         f"`ballmill run spinning_bowl` (tumbling_drum, fig1_machine).\n",
          "## The scenes\n",
          "| scene | chamber motion | ball at t = 0 |", "| --- | --- | --- |",
          "| spinning_bowl | A fixed, Omega = (0, 0, 3) rad/s | co-rotating, xC0 = 0.05 m, yC0 = 0 |",

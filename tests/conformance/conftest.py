@@ -1,6 +1,6 @@
 """The FMU flavours the conformance suite runs over (docs/conformance.md).
 
-`flavours()` is the one place that says which builds of the three models exist.
+`flavours()` is the one place that says which builds of the models exist.
 ``pythonfmu`` (build/pythonfmu/<Model>.fmu) and ``native`` (the C FMUs,
 build/<Model>.fmu), both written by `ballmill build`.
 
@@ -26,7 +26,7 @@ import pythonfmu.builder  # noqa: F401
 
 ROOT = Path(__file__).resolve().parents[2]
 OK, WARNING, DISCARD, ERROR, FATAL = 0, 1, 2, 3, 4
-MODELS = ("BallInShell", "MotorStartup", "InductionMotor", "Structure")
+MODELS = ("BallInShell", "MotorStartup", "InductionMotor", "Fig1Drive", "Structure")
 
 
 @dataclass(frozen=True)

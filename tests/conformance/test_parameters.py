@@ -10,7 +10,8 @@ from .conftest import MODELS, OK
 from .inputs import feed, run_ball
 
 FIXED = {"BallInShell": ("m", 2.0), "MotorStartup": ("l", 0.7), "InductionMotor": ("i", 30.0),
-         "Structure": ("M_x1", 50.0)}
+         "Structure": ("M_x1", 50.0),
+         "Fig1Drive": ("Omega_frame", 0.8)}
 
 
 def _initialised(open_fmu, model, **parameters):
@@ -75,6 +76,12 @@ def test_a_tunable_parameter_takes_effect_at_the_next_step(open_fmu, flavour):
     ("InductionMotor", "i", 1e300, "parameter i = 1e+300 is outside its accepted range [0.001, 10000]"),
     ("InductionMotor", "i", 1e-300, "parameter i = 1e-300 is outside its accepted range [0.001, 10000]"),
     ("InductionMotor", "eta", 2.0, "parameter eta = 2.0 is outside its accepted range [0, 1]"),
+    ("Fig1Drive", "t0_frame", 0.0, "parameter t0_frame = 0.0 s is outside its accepted range [0.001, 1e+06] s"),
+    ("Fig1Drive", "Omega_frame", float("inf"), "parameter Omega_frame = inf rad/s is outside its accepted range"),
+    ("Fig1Drive", "zc", -1e4, "parameter zc = -10000.0 m is outside its accepted range [-1000, 1000] m"),
+    ("Fig1Drive", "shaft", 3, "parameter shaft = 3 is outside its accepted range [1, 2]"),
+    ("Fig1Drive", "frame_law", -1, "parameter frame_law = -1 is outside its accepted range [0, 4]"),
+    ("Fig1Drive", "m_platform", -1.0, "parameter m_platform = -1.0 kg is outside its accepted range [0, "),
 ])
 def test_refused_initialisation_names_variable_value_and_range(open_fmu, flavour, model, name, value, expected):
     fmu = open_fmu(model, **{name: value})
@@ -91,7 +98,7 @@ def test_reset_after_a_refused_initialisation_works(open_fmu, flavour, model):
     if not flavour.usable_after_refusal:
         pytest.skip(f"{flavour}: an instance is gone after a refused initialisation (fmi2Fatal)")
     bad = {"BallInShell": {"m": -1.0}, "MotorStartup": {"t0": 0.0}, "InductionMotor": {"i": 0.0},
-           "Structure": {"f_x1": 0.0}}[model]
+           "Structure": {"f_x1": 0.0}, "Fig1Drive": {"t0_frame": 0.0}}[model]
     fmu = open_fmu(model, **bad)
     if model == "BallInShell":
         feed(fmu, 0.0)

@@ -23,6 +23,34 @@ def _check(name, value, unit, allow_zero=False):
     return v
 
 
+def rise_angle(law: str, w0: float, t0: float, t: float):
+    """(angle, rate, acceleration) at time t of a speed rise from rest at t = 0 to the rate
+    w0 [rad/s] in t0 [s] along ``law`` (one of LAWS, formulas in `CrankStartup`), w0
+    kept after t0, at rest before t = 0. CrankStartup's crank law; also the frame law of
+    the Fig. 1 machine (turning/motions.py, SpeedRise). The native drive models mirror
+    it operation for operation (drive_models/startup_law.h)."""
+    if t < 0.0:
+        return 0.0, 0.0, 0.0
+    if law == "quadratic":
+        if t <= t0:
+            u = 1.0 - t / t0
+            return (-w0 * (t - t0) ** 3 / (3.0 * t0 * t0) + w0 * t - w0 * t0 / 3.0,
+                    w0 * (1.0 - u * u), 2.0 * w0 * u / t0)
+        return 2.0 / 3.0 * w0 * t0 + w0 * (t - t0), w0, 0.0
+    if t > t0:
+        return 0.5 * w0 * t0 + w0 * (t - t0), w0, 0.0
+    s = t / t0
+    if law == "linear":
+        return 0.5 * w0 * t0 * s * s, w0 * s, w0 / t0
+    if law == "scurve":
+        return (w0 * t0 * s * s * s * (1.0 - 0.5 * s), w0 * s * s * (3.0 - 2.0 * s),
+                6.0 * w0 * s * (1.0 - s) / t0)
+    # quintic
+    u = 1.0 - s
+    return (w0 * t0 * s ** 4 * (2.5 - 3.0 * s + s * s), w0 * s ** 3 * (10.0 - 15.0 * s + 6.0 * s * s),
+            30.0 * w0 * s * s * u * u / t0)
+
+
 @dataclass(frozen=True)
 class CrankStartup:
     """The paper's start-up law: the crank's angular speed rises quadratically
@@ -66,28 +94,7 @@ class CrankStartup:
 
     def angle(self, t: float):
         """(psi, psi', psi'') at time t [rad, rad/s, rad/s2]."""
-        w0, t0 = self.w0, self.t0
-        if t < 0.0:
-            return 0.0, 0.0, 0.0
-        law = self.law
-        if law == "quadratic":
-            if t <= t0:
-                u = 1.0 - t / t0
-                return (-w0 * (t - t0) ** 3 / (3.0 * t0 * t0) + w0 * t - w0 * t0 / 3.0,
-                        w0 * (1.0 - u * u), 2.0 * w0 * u / t0)
-            return 2.0 / 3.0 * w0 * t0 + w0 * (t - t0), w0, 0.0
-        if t > t0:
-            return 0.5 * w0 * t0 + w0 * (t - t0), w0, 0.0
-        s = t / t0
-        if law == "linear":
-            return 0.5 * w0 * t0 * s * s, w0 * s, w0 / t0
-        if law == "scurve":
-            return (w0 * t0 * s * s * s * (1.0 - 0.5 * s), w0 * s * s * (3.0 - 2.0 * s),
-                    6.0 * w0 * s * (1.0 - s) / t0)
-        # quintic
-        u = 1.0 - s
-        return (w0 * t0 * s ** 4 * (2.5 - 3.0 * s + s * s), w0 * s ** 3 * (10.0 - 15.0 * s + 6.0 * s * s),
-                30.0 * w0 * s * s * u * u / t0)
+        return rise_angle(self.law, self.w0, self.t0, t)
 
     def angles(self, t):
         """`angle` over an array of times: (psi, psi', psi'') as arrays (numpy; for studies,

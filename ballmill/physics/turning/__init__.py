@@ -11,10 +11,12 @@ communication points as the BallInShell FMU (motion = 2) sees it (`ChamberRecons
 The translation-only ball model it falls back to for a `Translation` is
 ``ballmill.physics.model``.
 """
-from .motions import ARRANGEMENTS, ChamberMotion, ChamberState, ConstantSpeed, Fig1Machine, Spin, Translation
+from .motions import (ARRANGEMENTS, SHAFTS, ChamberMotion, ChamberState, ConstantSpeed, Fig1Machine, SpeedRise,
+                      Spin, Translation)
 from .model import ChamberModel, ChamberOutputs, simulate_chamber, simulate_general
 
 __all__ = [
-    "ARRANGEMENTS", "ChamberMotion", "ChamberState", "ConstantSpeed", "Fig1Machine", "Spin", "Translation",
+    "ARRANGEMENTS", "SHAFTS", "ChamberMotion", "ChamberState", "ConstantSpeed", "Fig1Machine", "SpeedRise", "Spin",
+    "Translation",
     "ChamberModel", "ChamberOutputs", "simulate_chamber", "simulate_general",
 ]

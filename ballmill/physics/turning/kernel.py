@@ -86,11 +86,11 @@ def _real(*v):
 
 def _law(law):
     """(kind, params) of an angle law the kernel knows, or (None, reason)."""
-    if type(law) is CrankStartup and _real(law.n0, law.t0):
+    if type(law) is CrankStartup and law.law == "quadratic" and _real(law.n0, law.t0):
         return 1, (float(law.w0), float(law.t0))
     if type(law) is ConstantSpeed and _real(law.w, law.angle0):
         return 0, (float(law.w), float(law.angle0))
-    return None, f"angle law {law!r} (the kernel knows CrankStartup and ConstantSpeed)"
+    return None, f"angle law {law!r} (the kernel knows CrankStartup's quadratic law and ConstantSpeed)"
 
 
 def _motion_reason(motion) -> str:
@@ -98,6 +98,8 @@ def _motion_reason(motion) -> str:
     if tp is Spin:
         return ""
     if tp is Fig1Machine:
+        if motion.shaft != "x":
+            return f"Fig1Machine with shaft {motion.shaft!r} (the kernel knows the horizontal x1 shaft)"
         for law in (motion.frame, motion.crank):
             kind, why = _law(law)
             if kind is None:

@@ -36,7 +36,8 @@ Implementations:
 * `Spin`: A fixed, constant angular velocity Omega about an axis through A
   (the spinning bowl, the tumbling drum). One drive: the spin, rate |Omega|.
 * `Fig1Machine`: the mill of the paper's Fig. 1. The bearing frame turns about
-  the fixed x1 axis by phi(t) (drive 8, the frame shaft); on it the crank
+  the fixed x1 axis by phi(t) (drive 8, the frame shaft; ``shaft="z"``: about the
+  vertical z1 axis instead, a turntable); on it the crank
   parallelogram (drive 5) carries the platform on a circle of radius l,
   relative to the frame, with the crank angle psi(t). The chamber's centre is
   A = Rx(phi) a(psi) and its orientation Rx(phi) (a circular translation
@@ -46,9 +47,14 @@ Implementations:
   centre in the frame's axes (default the origin, on the shaft). Drives: 1 the
   frame (rate phi', twist (e_x, 0): a rotation about the x1 axis through O1), 2
   the cranks (rate psi', twist (0, Rx(phi) da/dpsi): a translation).
+  With the vertical shaft, Rz(phi) replaces Rx(phi), the frame's twist is (e_z, 0),
+  and the crank circle lies in the frame's yz plane when the crank axes are
+  perpendicular to the shaft (a(psi) = c + (0, l cos psi, l sin psi)), in its xy
+  plane when parallel (a(psi) = c + (l cos psi, l sin psi, 0)).
 
 Angle laws (``angle(t) -> (angle, rate, acceleration)`` [rad, rad/s, rad/s2]):
-drives.crank.CrankStartup (the paper's start-up) and `ConstantSpeed`.
+drives.crank.CrankStartup (the paper's start-up), `ConstantSpeed` and `SpeedRise`
+(CrankStartup's rise shapes to any rate, for the frame).
 
 The arithmetic is written as scalar expressions in a fixed order: the compiled
 kernel (_kernel.c, functions bmg_*) mirrors it operation for operation.
@@ -59,7 +65,7 @@ import math
 from collections import namedtuple
 from dataclasses import dataclass, field
 
-from ..drives.crank import CrankStartup
+from ..drives.crank import LAWS, CrankStartup, rise_angle
 from ..errors import ParameterError
 
 _V = ("x", "y", "z")
@@ -104,6 +110,30 @@ class ConstantSpeed:
 
     def angle(self, t: float):
         return self.angle0 + self.w * t, self.w, 0.0
+
+
+@dataclass(frozen=True)
+class SpeedRise:
+    """An angle law whose rate rises from rest at t = 0 to w [rad/s] (either sign) in t0 [s]
+    along one of CrankStartup's shapes ``law`` (drives.crank.LAWS), then stays at w; at
+    rest before t = 0. CrankStartup's angle with w0 = w (drives.crank.rise_angle)."""
+
+    w: float = 0.5
+    t0: float = 2.5
+    law: str = "quadratic"
+
+    def __post_init__(self):
+        for name, unit in (("w", "rad/s"), ("t0", "s")):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)):
+                raise ParameterError(f"{name} must be a finite number, got {name} = {v!r} {unit}")
+        if not self.t0 > 0.0:
+            raise ParameterError(f"t0 must be positive, got t0 = {self.t0!r} s")
+        if self.law not in LAWS:
+            raise ParameterError(f"law must be one of {', '.join(LAWS)}, got law = {self.law!r}")
+
+    def angle(self, t: float):
+        return rise_angle(self.law, self.w, self.t0, t)
 
 
 class ChamberMotion:
@@ -184,6 +214,7 @@ class Spin(ChamberMotion):
 
 
 ARRANGEMENTS = ("perpendicular", "parallel")
+SHAFTS = ("x", "z")  # the frame's shaft: the horizontal x1 axis (Fig. 1) or the vertical z1 axis
 
 
 class Fig1Machine(ChamberMotion):
@@ -192,10 +223,11 @@ class Fig1Machine(ChamberMotion):
     the frame by ``crank.angle(t)``; ``arrangement`` 'perpendicular' (crank axes
     perpendicular to the frame's shaft, default) or 'parallel'; ``centre``: the crank
     circle's centre in the frame's axes [m]; ``l``: the crank length [m] (default: the crank
-    law's own ``l``, as CrankStartup has one)."""
+    law's own ``l``, as CrankStartup has one); ``shaft``: "x" (the fixed horizontal x1
+    axis, default) or "z" (the vertical z1 axis)."""
 
     def __init__(self, frame=None, crank=None, arrangement: str = "perpendicular", centre=(0.0, 0.0, 0.0),
-                 l: float | None = None):
+                 l: float | None = None, shaft: str = "x"):
         self.frame = ConstantSpeed(0.5) if frame is None else frame
         self.crank = CrankStartup(l=0.5, n0=60.0, t0=2.5) if crank is None else crank
         if arrangement not in ARRANGEMENTS:
@@ -209,16 +241,23 @@ class Fig1Machine(ChamberMotion):
         if not (isinstance(l, (int, float)) and math.isfinite(l) and l >= 0.0):
             raise ParameterError(f"crank.l must be a non-negative length in m, got {l!r}")
         self.l = float(l)
+        if shaft not in SHAFTS:
+            raise ParameterError(f"shaft must be one of {SHAFTS}, got {shaft!r}")
         self.arrangement = arrangement
-        self.parallel = arrangement == "parallel"
+        self.shaft = shaft
+        self.vertical = shaft == "z"
+        # the crank circle in the frame's yz plane (else xy)
+        self.parallel = (arrangement == "parallel") != self.vertical
         self.centre = _finite3("centre", centre)
 
     def __repr__(self):
         return (f"Fig1Machine(frame={self.frame!r}, crank={self.crank!r}, "
-                f"arrangement={self.arrangement!r}, centre={self.centre})")
+                f"arrangement={self.arrangement!r}, centre={self.centre}"
+                + (f", shaft={self.shaft!r})" if self.vertical else ")"))
 
     def _kin(self, t):
-        """(phi, phi', phi'', psi', psi'', A, T, U): A = Rx a, T = Rx a_psi, U = Rx a_psipsi."""
+        """(cos phi, sin phi, phi', phi'', psi', psi'', A, T, U): A = Rx a, T = Rx a_psi,
+        U = Rx a_psipsi (Rz with the vertical shaft)."""
         ph, phd, phdd = self.frame.angle(t)
         ps, psd, psdd = self.crank.angle(t)
         c, s = math.cos(ph), math.sin(ph)
@@ -233,9 +272,14 @@ class Fig1Machine(ChamberMotion):
             a = (ox + l * cp, oy + l * sp, oz)
             ap = (-l * sp, l * cp, 0.0)
             app = (-l * cp, -l * sp, 0.0)
-        A = (a[0], c * a[1] - s * a[2], s * a[1] + c * a[2])
-        T = (ap[0], c * ap[1] - s * ap[2], s * ap[1] + c * ap[2])
-        U = (app[0], c * app[1] - s * app[2], s * app[1] + c * app[2])
+        if self.vertical:
+            A = (c * a[0] - s * a[1], s * a[0] + c * a[1], a[2])
+            T = (c * ap[0] - s * ap[1], s * ap[0] + c * ap[1], ap[2])
+            U = (c * app[0] - s * app[1], s * app[0] + c * app[1], app[2])
+        else:
+            A = (a[0], c * a[1] - s * a[2], s * a[1] + c * a[2])
+            T = (ap[0], c * ap[1] - s * ap[2], s * ap[1] + c * ap[2])
+            U = (app[0], c * app[1] - s * app[2], s * app[1] + c * app[2])
         return c, s, phd, phdd, psd, psdd, A, T, U
 
     @staticmethod
@@ -246,12 +290,28 @@ class Fig1Machine(ChamberMotion):
                 -phdd * A[2] - phd * phd * A[1] - 2.0 * phd * psd * T[2] + psd * psd * U[1] + psdd * T[1],
                 phdd * A[1] - phd * phd * A[2] + 2.0 * phd * psd * T[1] + psd * psd * U[2] + psdd * T[2])
 
+    @staticmethod
+    def _acc_z(phd, phdd, psd, psdd, A, T, U):
+        # the same with Omega = (0, 0, phi')
+        return (-phdd * A[1] - phd * phd * A[0] - 2.0 * phd * psd * T[1] + psd * psd * U[0] + psdd * T[0],
+                phdd * A[0] - phd * phd * A[1] + 2.0 * phd * psd * T[0] + psd * psd * U[1] + psdd * T[1],
+                psd * psd * U[2] + psdd * T[2])
+
     def accel(self, t: float):
         c, s, phd, phdd, psd, psdd, A, T, U = self._kin(t)
+        if self.vertical:
+            return self._acc_z(phd, phdd, psd, psdd, A, T, U) + (0.0, 0.0, phd, 0.0, 0.0, phdd)
         return self._acc(phd, phdd, psd, psdd, A, T, U) + (phd, 0.0, 0.0, phdd, 0.0, 0.0)
 
     def state(self, t: float) -> ChamberState:
         c, s, phd, phdd, psd, psdd, A, T, U = self._kin(t)
+        if self.vertical:
+            vA = (-phd * A[1] + psd * T[0], phd * A[0] + psd * T[1], psd * T[2])
+            aA = self._acc_z(phd, phdd, psd, psdd, A, T, U)
+            return ChamberState(*A, *vA, *aA, 0.0, 0.0, phd, 0.0, 0.0, phdd,
+                                c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0,
+                                phd, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0,
+                                psd, 0.0, 0.0, 0.0, T[0], T[1], T[2])
         vA = (psd * T[0], -phd * A[2] + psd * T[1], phd * A[1] + psd * T[2])
         aA = self._acc(phd, phdd, psd, psdd, A, T, U)
         return ChamberState(*A, *vA, *aA, phd, 0.0, 0.0, phdd, 0.0, 0.0,

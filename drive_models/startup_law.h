@@ -1,0 +1,53 @@
+/* startup_law.h: a speed rise from rest at t = 0 to the rate w0 (rad/s) in t0 (s), w0
+ * kept after t0, at rest before t = 0, in the shape `law` chooses (STARTUP_QUADRATIC, the
+ * paper's, STARTUP_SCURVE, STARTUP_LINEAR, STARTUP_QUINTIC: MotorStartup's parameter `law`),
+ * as ballmill.physics.drives.crank.rise_angle computes it, in the same operation order.
+ * Shared by the native drive models motorstartup.c (the cranks) and fig1drive.c (the
+ * cranks and the frame), whose sources/ folders carry it (ballmill/fmi/native.py,
+ * MODEL_HEADERS). out = (angle, rate, acceleration) in rad, rad/s, rad/s^2. */
+#ifndef STARTUP_LAW_H
+#define STARTUP_LAW_H
+
+#include <math.h>
+
+enum { STARTUP_QUADRATIC = 1, STARTUP_SCURVE = 2, STARTUP_LINEAR = 3, STARTUP_QUINTIC = 4 };
+
+static inline void startup_angle(int law, double w0, double t0, double t, double out[3])
+{
+    if (t < 0.0) {
+        out[0] = 0.0; out[1] = 0.0; out[2] = 0.0;
+    } else if (law == STARTUP_QUADRATIC) {
+        if (t <= t0) {
+            double u = 1.0 - t / t0;
+            out[0] = -w0 * pow(t - t0, 3.0) / (3.0 * t0 * t0) + w0 * t - w0 * t0 / 3.0;
+            out[1] = w0 * (1.0 - u * u);
+            out[2] = 2.0 * w0 * u / t0;
+        } else {
+            out[0] = 2.0 / 3.0 * w0 * t0 + w0 * (t - t0);
+            out[1] = w0;
+            out[2] = 0.0;
+        }
+    } else if (t > t0) { /* every other law: angle = w0 t0 / 2 + w0 (t - t0) after the rise */
+        out[0] = 0.5 * w0 * t0 + w0 * (t - t0);
+        out[1] = w0;
+        out[2] = 0.0;
+    } else {
+        double s = t / t0;
+        if (law == STARTUP_LINEAR) {
+            out[0] = 0.5 * w0 * t0 * s * s;
+            out[1] = w0 * s;
+            out[2] = w0 / t0;
+        } else if (law == STARTUP_SCURVE) {
+            out[0] = w0 * t0 * s * s * s * (1.0 - 0.5 * s);
+            out[1] = w0 * s * s * (3.0 - 2.0 * s);
+            out[2] = 6.0 * w0 * s * (1.0 - s) / t0;
+        } else { /* STARTUP_QUINTIC */
+            double u = 1.0 - s;
+            out[0] = w0 * t0 * pow(s, 4.0) * (2.5 - 3.0 * s + s * s);
+            out[1] = w0 * pow(s, 3.0) * (10.0 - 15.0 * s + 6.0 * s * s);
+            out[2] = 30.0 * w0 * s * s * u * u / t0;
+        }
+    }
+}
+
+#endif
