@@ -190,5 +190,5 @@ static fmi2Status check(fmu_instance *fi, const void *data, const double *v)
 const fmu_model FMU_MODEL = {
     FMU_IDENTIFIER, FMU_GUID, FMU_N_VARS, FMU_VARIABLES,
     sizeof(fig1_drive), offsetof(fig1_drive, unused),
-    setup, step, check,
+    setup, step, check, NULL,
 };
