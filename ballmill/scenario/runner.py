@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import fmucache
 from . import spec as _spec
 
 PROGRESS_EVERY = 50  # steps between updates of the progress bar (which itself shows at most 10 per s)
@@ -178,15 +179,18 @@ def _slot(bus, i: int):
 
 class _FmuInstance:
     def __init__(self, inst: _spec.Instance, path: Path, md, logger: _Logger):
-        from fmpy import extract
-        from fmpy.fmi2 import FMU2Slave
         self.name = inst.name
+        self.path = path
         self.md = md
         self.vars = {v.name: v for v in md.modelVariables}
-        self.unzipdir = extract(str(path))
-        self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=self.unzipdir,
-                             modelIdentifier=md.coSimulation.modelIdentifier, instanceName=inst.name)
-        self.fmu.instantiate(callbacks=logger.callbacks, loggingOn=True)
+        # the FMU's files and its loaded library are kept between runs (fmucache): a
+        # run still instantiates, initialises and frees its own instance
+        self.fmu = fmucache.take(path, md, inst.name)
+        try:
+            self.fmu.instantiate(callbacks=logger.callbacks, loggingOn=True)
+        except Exception:
+            fmucache.give_back(path, self.fmu)  # nothing instantiated: the library is still good
+            raise
         self.parameters = inst.parameters
 
     def set_parameters(self):
@@ -247,16 +251,15 @@ class _FmuInstance:
                 (ctypes.c_void_p(self.fmu.component), varr, ctypes.c_size_t(len(vrs)), values_ptr), "fmi2SetReal")
 
     def close(self):
-        import shutil
         try:
             self.fmu.terminate()
         except Exception:
             pass
         try:
-            self.fmu.freeInstance()
+            self.fmu.fmi2FreeInstance(self.fmu.component)  # the library stays loaded for the next run
         except Exception:
-            pass
-        shutil.rmtree(self.unzipdir, ignore_errors=True)
+            return  # a library that failed to free an instance is not reused
+        fmucache.give_back(self.path, self.fmu)
 
 
 def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, echo: bool = True) -> RunResult:
@@ -418,11 +421,9 @@ def prepare(name_or_path: str, overrides=(), build_dir: Path | None = None, log=
             flavour: str = "native"):
     """Build the FMUs if needed, read their model descriptions, load and check the scenario.
     flavour: "native" (C, build/<Model>.fmu) or "pythonfmu" (build/pythonfmu/<Model>.fmu)."""
-    from fmpy import read_model_description
-
     from ..fmi import build as _build
     fmus = _build.build_all(build_dir, log=log, flavour=flavour)
     paths = {p.stem: p for p in fmus}
-    models = {name: read_model_description(str(p)) for name, p in paths.items()}
+    models = {name: fmucache.model_description(p) for name, p in paths.items()}
     sc = _spec.load(name_or_path, overrides, models)
     return sc, models, paths
