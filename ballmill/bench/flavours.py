@@ -16,7 +16,11 @@ Measures, in one run on this machine:
   `ballmill export-ssp`), its time per communication step against the compiled
   kernel's own integration time per step (the monolithic `simulate(kernel="c")` of
   the same problem at the same output step, once for the predictor and once for the
-  corrector: what the ball FMU integrates per step).
+  corrector: what the ball FMU integrates per step);
+* the native FMUs' own time per step measured directly, not by subtraction: a minimal
+  master in C (coupled_host.c) steps them as libcosim does, timed by CPU time, against
+  the kernel's integration timed the same way; and, where `perf` works, their share of
+  libcosim's CPU time while it steps (sampled, cpu-clock).
 """
 from __future__ import annotations
 
@@ -201,7 +205,8 @@ def fmus_in_c_host(repeats: int, stop: float = 10.0, build_dir: Path | None = No
     MotorStartup -> BallInShell as libcosim does and reads the clock around each FMU's own
     calls. Returns {"both", "both_median", "both_wall", "drive", "ball", "zP", "zP_ref", "steps",
     "cycles"}: us per step of both FMUs (whole runs timed as one, the thread's CPU time: minimum
-    and median over `repeats` cycles in one process; both_wall: elapsed, minimum), of each FMU (as many cycles with the clock read around its calls: minimum),
+    and median over `repeats` cycles in one process; both_wall: elapsed, minimum), of each FMU
+    (as many cycles with the clock read around its calls: minimum),
     and zP, the contact point's height at `stop`, with the converged monolithic solution's
     zP_ref (a check that the host ran the fast start); None without a C compiler or native
     FMUs."""
@@ -346,7 +351,8 @@ def _fmus_own_lines(host, kernel_min, share, lc, lc_floor) -> list[str]:
               f"one process (and as many with the clock read around each FMU's calls, for the split): "
               f"the thread's CPU time, minimum over the cycles (the work is deterministic; CPU time and "
               f"the minimum are least disturbed by other processes; elapsed: {host['both_wall']:.2f} us). "
-              f"The kernel's integration is timed the same way (CPU time of the thread, minimum). It ends at zP = {host['zP']:.9f} m (the converged monolithic solution: "
+              f"The kernel's integration is timed the same way (CPU time of the thread, minimum). "
+              f"It ends at zP = {host['zP']:.9f} m (the converged monolithic solution: "
               f"{host['zP_ref']:.9f} m).", "",
               "| | us per step |", "| --- | ---: |",
               f"| both native FMUs (the loop timed as a whole, CPU time) | {both:.2f} |",

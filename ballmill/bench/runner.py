@@ -184,12 +184,13 @@ def run(cfg: Config, root: Path, out: Path, figures: Path, work: Path, progress)
         start = cosim.startup(cfg.startup_repeats)
         progress("co-simulation: cold (first run in a process) and warm whole runs")
         cw = cosim.cold_warm(3 if cfg.quick else 5)
+        breakdown = cosim.load_breakdown(5 if cfg.quick else 15)
         progress("co-simulation: against the paper-literal program at matched contact-point errors")
         match = cosim.matched(lit, rows, cfg.repeats if cfg.quick else 9, progress)
         floor = cosim.literal_floor(lit, ref.sample.P, problem.grid, problem.drive.t0)
         progress("co-simulation: cost of each scene choice per communication step")
         scene, forces = cosim.scene_costs(3 if cfg.quick else 5)
-        data["cosim_lines"] = cosim.report(rows, start, scene, forces, cw, match, floor)
+        data["cosim_lines"] = cosim.report(rows, start, scene, forces, cw, match, floor, breakdown)
         data["cosim_rows"] = rows
         data["cosim_match"] = match
 

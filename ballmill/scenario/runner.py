@@ -24,6 +24,7 @@ import ctypes
 import math
 import sys
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -417,6 +418,23 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
                      time.perf_counter() - wall0, init_time, steps)
 
 
+class _Descriptions(Mapping):
+    """model name -> its parsed model description, parsed on first use (a scenario reads
+    only the FMUs it instantiates) and kept per process by fmucache."""
+
+    def __init__(self, paths: dict):
+        self._paths = dict(paths)
+
+    def __getitem__(self, name):
+        return fmucache.model_description(self._paths[name])
+
+    def __iter__(self):
+        return iter(self._paths)
+
+    def __len__(self):
+        return len(self._paths)
+
+
 def prepare(name_or_path: str, overrides=(), build_dir: Path | None = None, log=print,
             flavour: str = "native"):
     """Build the FMUs if needed, read their model descriptions, load and check the scenario.
@@ -424,6 +442,6 @@ def prepare(name_or_path: str, overrides=(), build_dir: Path | None = None, log=
     from ..fmi import build as _build
     fmus = _build.build_all(build_dir, log=log, flavour=flavour)
     paths = {p.stem: p for p in fmus}
-    models = {name: fmucache.model_description(p) for name, p in paths.items()}
+    models = _Descriptions(paths)
     sc = _spec.load(name_or_path, overrides, models)
     return sc, models, paths
