@@ -87,9 +87,12 @@ typedef struct {
     bmg_problem G;   /* motion = 2: the integrator settings (G.base) and the general model's constants */
     int mode, points, correct;
     double max_step, R, d, mu, omega_small, a_tol;
-    /* a cache, not state: the last fit matrix and its inverse (invert_memo); 0: empty */
-    int memo_n;
-    double memo_M[6][6], memo_inv[6][6];
+    /* caches, not state (a calloc'ed instance starts them empty): the last fit's system, by
+     * its size, derivative orders and nodes, with its inverse (fit_inverse; memo_n 0: empty),
+     * and the powers hs^2 .. hs^5 of the last node spacing (hs_powers; memo_hs 0: empty) */
+    int memo_n, memo_ders[6];
+    double memo_taus[6], memo_inv[6][6];
+    double memo_hs, memo_hs_pow[4];
     /* dynamic state: what FMU states carry */
     ball_state state; /* the predicted state at the instance's time */
     int n_samples;
@@ -383,18 +386,47 @@ static int invert(int n, const double M[6][6], double inv[6][6])
  * time) runs once. invert() is a function of M's bits alone, so a bitwise-equal M gets
  * the bitwise-equal inverse: results do not change. The memo sits in the configuration
  * part of the data, which setup clears and FMU states never restore. */
-static int invert_memo(ball_in_shell *b, int n, const double M[6][6], double inv[6][6])
+/* j (j-1) ... (j-der+1): math.perm(j, der) */
+static double perm(int j, int der)
 {
-    if (n == b->memo_n && memcmp(M, b->memo_M, sizeof b->memo_M) == 0) {
+    double p = 1.0;
+    for (int q = 0; q < der; q++) p *= (double)(j - q);
+    return p;
+}
+
+/* The inverse of the fit's confluent Vandermonde matrix M[i][j] = perm(j, ders[i]) *
+ * taus[i]^(j - ders[i]) (the Python flavour's numpy.linalg.inv, see invert). M depends on
+ * (n, ders, taus) alone, which repeat from step to step at a constant communication step, so
+ * the last inverse is kept with them and neither M nor its inverse is computed again while
+ * they stay bit for bit the same. 0 when M is singular. */
+static int fit_inverse(ball_in_shell *b, int n, const int ders[6], const double taus[6], double inv[6][6])
+{
+    if (n == b->memo_n && memcmp(ders, b->memo_ders, (size_t)n * sizeof *ders) == 0 &&
+        memcmp(taus, b->memo_taus, (size_t)n * sizeof *taus) == 0) {
         memcpy(inv, b->memo_inv, sizeof b->memo_inv);
         return 1;
     }
+    double M[6][6] = {{0}};
+    for (int i = 0; i < n; i++)
+        for (int j = ders[i]; j < n; j++) M[i][j] = perm(j, ders[i]) * pow(taus[i], (double)(j - ders[i]));
     memset(inv, 0, sizeof b->memo_inv); /* invert() fills the n x n corner */
     if (!invert(n, M, inv)) return 0;
     b->memo_n = n;
-    memcpy(b->memo_M, M, sizeof b->memo_M);
+    memcpy(b->memo_ders, ders, (size_t)n * sizeof *ders);
+    memcpy(b->memo_taus, taus, (size_t)n * sizeof *taus);
     memcpy(b->memo_inv, inv, sizeof b->memo_inv);
     return 1;
+}
+
+/* hs^2, hs^3, hs^4, hs^5 as libm's pow gives them (the Python flavour's hs ** k), computed
+ * once per node spacing */
+static const double *hs_powers(ball_in_shell *b, double hs)
+{
+    if (!(hs == b->memo_hs)) {
+        for (int j = 0; j < 4; j++) b->memo_hs_pow[j] = pow(hs, (double)(j + 2));
+        b->memo_hs = hs;
+    }
+    return b->memo_hs_pow;
 }
 
 /* Python's round(x, 12): the exact binary value rounded to 12 decimals (printf rounds
@@ -418,14 +450,6 @@ static double dot_lr(const double *row, const double *b, int n)
     double acc = row[0] * b[0];
     for (int j = 1; j < n; j++) acc += row[j] * b[j];
     return acc;
-}
-
-/* j (j-1) ... (j-der+1): math.perm(j, der) */
-static double perm(int j, int der)
-{
-    double p = 1.0;
-    for (int q = 0; q < der; q++) p *= (double)(j - q);
-    return p;
 }
 
 /* coefficients of the derivative of a polynomial (InputReconstruction._deriv) */
@@ -575,7 +599,7 @@ static int recon_fit(ball_in_shell *b, fit *f)
     } else {
         /* kind: 'x' positions; 'f' x, v, a at every node; 'v' v, a at every node and x at the
          * newest; 'a' a at every node and x, v at the newest */
-        double M[6][6] = {{0}}, inv[6][6], bx[6], by[6], hs = f->hs;
+        double inv[6][6], bx[6], by[6], hs = f->hs;
         char kind;
         if (b->mode == 2) {
             kind = 'x';
@@ -615,9 +639,7 @@ static int recon_fit(ball_in_shell *b, fit *f)
             if (n >= 6) return 0;
             ders[n] = 2; taus[n] = tau; bx[n] = q->ax * hs * hs; by[n] = q->ay * hs * hs; n++;
         }
-        for (int i = 0; i < n; i++)
-            for (int j = ders[i]; j < n; j++) M[i][j] = perm(j, ders[i]) * pow(taus[i], (double)(j - ders[i]));
-        if (!invert_memo(b, n, M, inv)) return 0;
+        if (!fit_inverse(b, n, ders, taus, inv)) return 0;
         f->n = n;
         for (int i = 0; i < n; i++) {
             f->cx[i] = dot_lr(inv[i], bx, n);
@@ -631,10 +653,11 @@ static int recon_fit(ball_in_shell *b, fit *f)
     int n1 = deriv(f->cx, f->n, dx), n2 = deriv(dx, n1, ddx);
     deriv(f->cy, f->n, dy);
     deriv(dy, n1, ddy);
+    const double *hs_pow = hs_powers(b, f->hs);
     f->mp[0] = f->t0;
     for (int j = 0; j < 4; j++) {
-        f->mp[1 + j] = j < n2 ? ddx[j] / pow(f->hs, (double)(j + 2)) : 0.0;
-        f->mp[5 + j] = j < n2 ? ddy[j] / pow(f->hs, (double)(j + 2)) : 0.0;
+        f->mp[1 + j] = j < n2 ? ddx[j] / hs_pow[j] : 0.0;
+        f->mp[5 + j] = j < n2 ? ddy[j] / hs_pow[j] : 0.0;
     }
     return 1;
 }

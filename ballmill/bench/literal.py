@@ -104,6 +104,7 @@ def prepare(problem: Problem, ref: Sample, rtol: float) -> RunResult:
     res.ok, res.message = bool(sol.success), sol.message
     res.err_P, res.err_N = errors(sample, ref)
     res.nfev = int(sol.nfev)
+    res.extra["sample"] = sample
     res.extra["rerun"] = lambda: run(problem, rtol)
     return res
 

@@ -411,7 +411,7 @@ def _defaults(d) -> str:
         L.append(f"- **BallInShell FMU: RK45 tol 1e-8, derivative inputs, corrector on; scenarios step "
                  f"2 ms.** In co-simulation the coupling error dominates: RK45 at 1e-8 gives the same "
                  f"contact point ({a['dP']:.1e} m) and N ({a['dN']:.1e} N) as DOP853 at 1e-9 in "
-                 f"{a['wall']:.2f} s instead of {b['wall']:.2f} s. A 2 ms step keeps N within "
+                 f"{a['wall']:.3f} s instead of {b['wall']:.3f} s. A 2 ms step keeps N within "
                  f"{a['dN']:.0e} N of the monolithic solution (the issue asks for 1e-3 N) and the main "
                  f"job within a second or two"
                  + (f"; where only the contact point matters, 20 ms gives {c['dP']:.0e} m in "

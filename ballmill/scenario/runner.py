@@ -38,11 +38,13 @@ import ctypes
 import math
 import sys
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from . import fmucache
 from . import spec as _spec
 
 PROGRESS_EVERY = 50  # steps between updates of the progress bar (which itself shows at most 10 per s)
@@ -267,15 +269,18 @@ def _slot(bus, i: int):
 
 class _FmuInstance:
     def __init__(self, inst: _spec.Instance, path: Path, md, logger: _Logger):
-        from fmpy import extract
-        from fmpy.fmi2 import FMU2Slave
         self.name = inst.name
+        self.path = path
         self.md = md
         self.vars = {v.name: v for v in md.modelVariables}
-        self.unzipdir = extract(str(path))
-        self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=self.unzipdir,
-                             modelIdentifier=md.coSimulation.modelIdentifier, instanceName=inst.name)
-        self.fmu.instantiate(callbacks=logger.callbacks, loggingOn=True)
+        # the FMU's files and its loaded library are kept between runs (fmucache): a
+        # run still instantiates, initialises and frees its own instance
+        self.fmu = fmucache.take(path, md, inst.name)
+        try:
+            self.fmu.instantiate(callbacks=logger.callbacks, loggingOn=True)
+        except Exception:
+            fmucache.give_back(path, self.fmu)  # nothing instantiated: the library is still good
+            raise
         self.parameters = inst.parameters
 
     def set_parameters(self):
@@ -336,16 +341,15 @@ class _FmuInstance:
                 (ctypes.c_void_p(self.fmu.component), varr, ctypes.c_size_t(len(vrs)), values_ptr), "fmi2SetReal")
 
     def close(self):
-        import shutil
         try:
             self.fmu.terminate()
         except Exception:
             pass
         try:
-            self.fmu.freeInstance()
+            self.fmu.fmi2FreeInstance(self.fmu.component)  # the library stays loaded for the next run
         except Exception:
-            pass
-        shutil.rmtree(self.unzipdir, ignore_errors=True)
+            return  # a library that failed to free an instance is not reused
+        fmucache.give_back(self.path, self.fmu)
 
 
 def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, echo: bool = True) -> RunResult:
@@ -565,15 +569,30 @@ def without(sc: _spec.Scenario, instance: str, record: list | None = None) -> _s
     return dataclasses.replace(sc, instances=keep, connections=conns, record=rec, plots=[])
 
 
+class _Descriptions(Mapping):
+    """model name -> its parsed model description, parsed on first use (a scenario reads
+    only the FMUs it instantiates) and kept per process by fmucache."""
+
+    def __init__(self, paths: dict):
+        self._paths = dict(paths)
+
+    def __getitem__(self, name):
+        return fmucache.model_description(self._paths[name])
+
+    def __iter__(self):
+        return iter(self._paths)
+
+    def __len__(self):
+        return len(self._paths)
+
+
 def prepare(name_or_path: str, overrides=(), build_dir: Path | None = None, log=print,
             flavour: str = "native"):
     """Build the FMUs if needed, read their model descriptions, load and check the scenario.
     flavour: "native" (C, build/<Model>.fmu) or "pythonfmu" (build/pythonfmu/<Model>.fmu)."""
-    from fmpy import read_model_description
-
     from ..fmi import build as _build
     fmus = _build.build_all(build_dir, log=log, flavour=flavour)
     paths = {p.stem: p for p in fmus}
-    models = {name: read_model_description(str(p)) for name, p in paths.items()}
+    models = _Descriptions(paths)
     sc = _spec.load(name_or_path, overrides, models)
     return sc, models, paths
