@@ -823,6 +823,12 @@ static fmi2Status inputs_set(fmu_instance *fi, const void *data, double *v, doub
     /* motion = 2 (a prescribed turning chamber): not refreshed, the next step computes them */
     if (b->mode == 2 || b->motion == 2 || !(isfinite(x) && isfinite(y) && isfinite(ax) && isfinite(ay)))
         return fmi2OK;
+    /* none of them set to a new value since the last step took them (another input was set):
+     * the published outputs (from the reconstruction's inputs at t) stay */
+    if (b->n_samples) {
+        const sample *s = &b->samples[b->n_samples - 1];
+        if (s->x == x && s->y == y && s->ax == ax && s->ay == ay) return fmi2OK;
+    }
     double nw[BM_NY], o[N_OUT];
     to_n(b, b->state.y, nw);
     memcpy(nw + 3, b->state.y + b->P.ny - 3, 3 * sizeof(double));

@@ -58,14 +58,16 @@ def crank(t, t0=2.5, l=0.5, n0=60.0):
 
 
 def run_crank(inst, names, h=0.002, steps=400):
-    """Crank-driven run (inputs set before each step); rows of `names` at every point."""
+    """Crank-driven run (inputs set before each step); rows of `names` at every point, read
+    right after the step (before the next inputs are set: motion = 1's forces feed through from
+    x1O, y1O, ax1O, ay1O when they are set, motion = 2's do not)."""
     inst.set(**crank(0.0))
     inst.initialize()
     rows = [inst.reals(names)]
     for k in range(steps):
         inst.fmu.doStep(currentCommunicationPoint=k * h, communicationStepSize=h)
-        inst.set(**crank((k + 1) * h))
         rows.append(inst.reals(names))
+        inst.set(**crank((k + 1) * h))
     return np.array(rows)
 
 
