@@ -58,9 +58,9 @@ from .outputs import Outputs
 __all__ = ["KERNEL_AVAILABLE", "KERNEL_REASON", "KERNEL_PATH", "KernelUnavailable", "applicable",
            "simulate"]
 
-ABI = 3
+ABI = 4
 NY = 6
-NYMAX = 8  # BM_NYMAX: the integrators' largest state
+NYMAX = 25  # BM_NYMAX: the integrators' largest state (the absorber's coupled one)
 NOUT = len(Outputs._fields)
 NS_MAX = 12
 SOURCE = Path(__file__).with_name("_kernel.c")
