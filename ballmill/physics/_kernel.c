@@ -206,6 +206,18 @@ static void bm_motion_state(const bm_problem *P, double t, double o[6])
 }
 
 /* -------------------------------------------------------------- equations.py */
+/* omega_dot(k, r, g, ...): k n x (a + r n' x omega + g e_z), a = (ax, ay, 0) */
+static void bm_omega_dot(double k, double r, double g, double nx, double ny, double nz, double wx, double wy,
+                         double wz, double ndx, double ndy, double ndz, double ax, double ay, double *wd)
+{
+    double bx = ax + r * (ndy * wz - ndz * wy);
+    double by = ay + r * (ndz * wx - ndx * wz);
+    double bz = g + r * (ndx * wy - ndy * wx);
+    wd[0] = k * (ny * bz - nz * by);
+    wd[1] = k * (nz * bx - nx * bz);
+    wd[2] = k * (nx * by - ny * bx);
+}
+
 /* omega_dot_lossy(c, ...) */
 static void bm_omega_dot_lossy(const double *c, double nx, double ny, double nz, double wx, double wy,
                                double wz, double ndx, double ndy, double ndz, double ax, double ay,
@@ -253,12 +265,7 @@ static void bm_derivative_paper(const bm_problem *P, const double *y, double ax,
         bm_omega_dot_lossy(P->rhs_loss, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, f + 2);
         return;
     }
-    double bx = ax + r * (ndy * wz - ndz * wy);
-    double by = ay + r * (ndz * wx - ndx * wz);
-    double bz = g + r * (ndx * wy - ndy * wx);
-    f[2] = k * (ny * bz - nz * by);
-    f[3] = k * (nz * bx - nx * bz);
-    f[4] = k * (nx * by - ny * bx);
+    bm_omega_dot(k, r, g, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, f + 2);
 }
 
 /* VectorFormulation.derivative / _derivative_lossy */
@@ -278,13 +285,7 @@ static void bm_derivative(const bm_problem *P, const double *y, double ax, doubl
         bm_omega_dot_lossy(P->rhs_loss, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, f + 3);
         return;
     }
-    double r = P->rhs_r, g = P->rhs_g, k = P->rhs_k;
-    double bx = ax + r * (ndy * wz - ndz * wy);
-    double by = ay + r * (ndz * wx - ndx * wz);
-    double bz = g + r * (ndx * wy - ndy * wx);
-    f[3] = k * (ny * bz - nz * by);
-    f[4] = k * (nz * bx - nx * bz);
-    f[5] = k * (nx * by - ny * bx);
+    bm_omega_dot(P->rhs_k, P->rhs_r, P->rhs_g, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, f + 3);
 }
 
 /* BallModel.rhs: f(t, y) = derivative(y, *motion.accel(t)) */
@@ -309,13 +310,7 @@ static void bm_outputs(const bm_problem *P, const double *y, double ax, double a
     if (P->out_lossy) {
         bm_omega_dot_lossy(P->o_loss, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, wd);
     } else { /* omega_dot(ball.k, r, g, ...) */
-        double k = P->o_k;
-        double bx = ax + r * (ndy * wz - ndz * wy);
-        double by = ay + r * (ndz * wx - ndx * wz);
-        double bz = g + r * (ndx * wy - ndy * wx);
-        wd[0] = k * (ny * bz - nz * by);
-        wd[1] = k * (nz * bx - nx * bz);
-        wd[2] = k * (nx * by - ny * bx);
+        bm_omega_dot(P->o_k, r, g, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, wd);
     }
     double wdx = wd[0], wdy = wd[1], wdz = wd[2];
     double nddx = lam * (ndy * wz - ndz * wy + ny * wdz - nz * wdy);
@@ -1101,12 +1096,7 @@ static void bma_load_affine(const bma_problem *A, const double *n, const double 
     if (A->lossy) {
         bm_omega_dot_lossy(A->loss_nr, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, 0.0, 0.0, wd);
     } else {
-        double bx = 0.0 + r * (ndy * wz - ndz * wy);
-        double by = 0.0 + r * (ndz * wx - ndx * wz);
-        double bz = g + r * (ndx * wy - ndy * wx);
-        wd[0] = k * (ny * bz - nz * by);
-        wd[1] = k * (nz * bx - nx * bz);
-        wd[2] = k * (nx * by - ny * bx);
+        bm_omega_dot(k, r, g, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, 0.0, 0.0, wd);
     }
     double wdx = wd[0], wdy = wd[1], wdz = wd[2], rho = 0.0;
     if (branch_rr) {
@@ -1167,13 +1157,7 @@ static void bma_rhs(const bma_problem *A, double t, const double *z, double *dz)
         if (A->lossy) {
             bm_omega_dot_lossy(A->loss, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, db + 3);
         } else {
-            double k = A->c[3];
-            double bx = ax + r * (ndy * wz - ndz * wy);
-            double by = ay + r * (ndz * wx - ndx * wz);
-            double bz = g + r * (ndx * wy - ndy * wx);
-            db[3] = k * (ny * bz - nz * by);
-            db[4] = k * (nz * bx - nx * bz);
-            db[5] = k * (nx * by - ny * bx);
+            bm_omega_dot(A->c[3], r, g, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, db + 3);
         }
     }
     double wdx = db[3], wdy = db[4], wdz = db[5];
