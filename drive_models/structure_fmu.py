@@ -121,12 +121,17 @@ class Structure(Slave):
         s, sy = math.sin(th), math.sin(th + self.phase_y)
         return (self.F0_x * s, self.F0_y * sy, self.ag0_x * s + u[2], self.ag0_y * sy + u[3])
 
-    def _rhs(self, t, z, u):
+    def _structure(self, t, z, u):
+        """(n_states, the structure's states, loads, their derivative) at t for the inputs u."""
         sm = self._sm
         ns = sm.n_states
         zs = z[:ns]
         loads = self._loads(t, u)
-        dz = sm.derivative(t, zs, u[0], u[1], loads)
+        return ns, zs, loads, sm.derivative(t, zs, u[0], u[1], loads)
+
+    def _rhs(self, t, z, u):
+        sm = self._sm
+        ns, zs, loads, dz = self._structure(t, z, u)
         _, _, vx, vy, _, _ = sm.cavity(t, zs, u[0], u[1], loads)
         P_exc, P_damp = sm.powers(zs, loads)
         return dz + [z[ns + 1], loads[2], z[ns + 3], loads[3], P_exc, P_damp, u[0] * vx + u[1] * vy]
@@ -149,10 +154,7 @@ class Structure(Slave):
 
     def _publish(self, t, z, u):
         sm = self._sm
-        ns = sm.n_states
-        zs = z[:ns]
-        loads = self._loads(t, u)
-        dz = sm.derivative(t, zs, u[0], u[1], loads)
+        ns, zs, loads, dz = self._structure(t, z, u)
         values = {}
         for k, (a, (cs, off, n)) in enumerate(zip(AXES, sm._axes)):
             g, vg = z[ns + 2 * k], z[ns + 2 * k + 1]

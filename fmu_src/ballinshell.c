@@ -127,6 +127,33 @@ static double ulp(double x)
     return ldexp(1.0, -52) * fmax(fabs(x), 1e-300);
 }
 
+/* the consistency check of two samples H apart over n axes (platform.worst_residual): p[k]
+ * and q[k] hold the samples' (x, v, a) of axis k, a_mag the larger |a| of the two. -1 when
+ * every axis agrees; else the axis whose residual exceeds its limit by the largest factor,
+ * with the residual in *r, its limit in *limit and *jump = 6 |r| / H^2 > a_tol + |a| */
+static int worst_residual(double a_tol, double H, double a_mag, int n, const double p[][3], const double q[][3],
+                          double *r_worst, double *limit_worst, int *jump)
+{
+    int worst = -1;
+    double worst_ratio = 0.0;
+    *r_worst = 0.0;
+    *limit_worst = 0.0;
+    *jump = 0;
+    for (int k = 0; k < n; k++) {
+        double r = q[k][0] - p[k][0] - 0.5 * H * (p[k][1] + q[k][1]) + H * H * (q[k][2] - p[k][2]) / 12.0;
+        double a_scale = a_tol + A_REL * a_mag;
+        double limit = a_scale * H * H / 6.0 + 8.0 * ulp(fmax(fabs(p[k][0]), fabs(q[k][0])));
+        if (fabs(r) > limit && (worst < 0 || fabs(r) / limit > worst_ratio)) {
+            worst = k;
+            worst_ratio = fabs(r) / limit;
+            *r_worst = r;
+            *limit_worst = limit;
+        }
+    }
+    if (worst >= 0) *jump = 6.0 * fabs(*r_worst) / (H * H) > a_tol + a_mag;
+    return worst;
+}
+
 /* the consistency of samples p and q (mode 1, platform.InputReconstruction.inconsistency):
  * 0, or 1 with the description in why and *jump set when the history must restart */
 static int recon_inconsistency(const ball_in_shell *b, const sample *p, const sample *q, int *jump, char *why,
@@ -136,22 +163,9 @@ static int recon_inconsistency(const ball_in_shell *b, const sample *p, const sa
     double a_mag = fmax(hypot(p->ax, p->ay), hypot(q->ax, q->ay));
     const double pv[2][3] = {{p->x, p->vx, p->ax}, {p->y, p->vy, p->ay}};
     const double qv[2][3] = {{q->x, q->vx, q->ax}, {q->y, q->vy, q->ay}};
-    int worst = -1;
-    double worst_ratio = 0.0, rw = 0.0, lw = 0.0;
-    for (int k = 0; k < 2; k++) {
-        double r = qv[k][0] - pv[k][0] - 0.5 * H * (pv[k][1] + qv[k][1]) + H * H * (qv[k][2] - pv[k][2]) / 12.0;
-        double a_scale = b->a_tol + A_REL * a_mag;
-        double limit = a_scale * H * H / 6.0 + 8.0 * ulp(fmax(fabs(pv[k][0]), fabs(qv[k][0])));
-        if (fabs(r) > limit && (worst < 0 || fabs(r) / limit > worst_ratio)) {
-            worst = k;
-            worst_ratio = fabs(r) / limit;
-            rw = r;
-            lw = limit;
-        }
-    }
-    *jump = 0;
+    double rw, lw;
+    int worst = worst_residual(b->a_tol, H, a_mag, 2, pv, qv, &rw, &lw, jump);
     if (worst < 0) return 0;
-    *jump = 6.0 * fabs(rw) / (H * H) > b->a_tol + a_mag;
     char c[6][32], tp[32], tq[32];
     const char ax = worst ? 'y' : 'x';
     snprintf(why, size, "inputs %c1O, v%c1O, a%c1O disagree between t = %s s (%c1O = %s m, v%c1O = %s m/s, "
@@ -178,22 +192,11 @@ static int general_inconsistency(const ball_in_shell *b, const sample *p, const 
     double H = q->t - p->t;
     double a_mag = fmax(sqrt(ap[0] * ap[0] + ap[1] * ap[1] + ap[2] * ap[2]),
                         sqrt(aq[0] * aq[0] + aq[1] * aq[1] + aq[2] * aq[2]));
-    int worst = -1;
-    double worst_ratio = 0.0, rw = 0.0, lw = 0.0;
-    for (int k = 0; k < 3; k++) {
-        double r = Aq[k] - Ap[k] - 0.5 * H * (vp[k] + vq[k]) + H * H * (aq[k] - ap[k]) / 12.0;
-        double a_scale = b->a_tol + A_REL * a_mag;
-        double limit = a_scale * H * H / 6.0 + 8.0 * ulp(fmax(fabs(Ap[k]), fabs(Aq[k])));
-        if (fabs(r) > limit && (worst < 0 || fabs(r) / limit > worst_ratio)) {
-            worst = k;
-            worst_ratio = fabs(r) / limit;
-            rw = r;
-            lw = limit;
-        }
-    }
-    *jump = 0;
+    const double pv[3][3] = {{Ap[0], vp[0], ap[0]}, {Ap[1], vp[1], ap[1]}, {Ap[2], vp[2], ap[2]}};
+    const double qv[3][3] = {{Aq[0], vq[0], aq[0]}, {Aq[1], vq[1], aq[1]}, {Aq[2], vq[2], aq[2]}};
+    double rw, lw;
+    int worst = worst_residual(b->a_tol, H, a_mag, 3, pv, qv, &rw, &lw, jump);
     if (worst < 0) return 0;
-    *jump = 6.0 * fabs(rw) / (H * H) > b->a_tol + a_mag;
     char e[6][32], tp[32], tq[32];
     const char c = "xyz"[worst];
     snprintf(why, size, "the chamber centre A = O + Q (0, 0, R) of the inputs (x1O..az1O, Omega, Omega_dot, Q) "

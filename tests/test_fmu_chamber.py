@@ -18,7 +18,6 @@ flavours (``built_fmus`` is parametrised over native and pythonfmu).
 from __future__ import annotations
 
 import hashlib
-import math
 import shutil
 import struct
 
@@ -30,6 +29,8 @@ from ballmill.physics import Ball
 from ballmill.physics.turning import Fig1Machine, Spin, simulate_chamber
 from chamber_master import drive, inputs_of
 from fmu_instance import Instance, Opened
+from tests.conformance.inputs import INPUTS as CRANK_INPUTS
+from tests.conformance.inputs import crank as crank_inputs
 
 OUTPUTS = [name for name, _, _ in BALL_OUTPUTS] + ["P_diss", "coupling_error"] + \
     [name for name, _, _ in BALL_MOTION_OUTPUTS]
@@ -45,16 +46,8 @@ def opened():
 
 
 def crank(t, t0=2.5, l=0.5, n0=60.0):
-    w0 = 2.0 * math.pi * n0 / 60.0
-    if t <= t0:
-        u = 1.0 - t / t0
-        p = -w0 * (t - t0) ** 3 / (3.0 * t0 * t0) + w0 * t - w0 * t0 / 3.0
-        pd, pdd = w0 * (1.0 - u * u), 2.0 * w0 * u / t0
-    else:
-        p, pd, pdd = 2.0 / 3.0 * w0 * t0 + w0 * (t - t0), w0, 0.0
-    c, s = math.cos(p), math.sin(p)
-    return dict(x1O=l * c, y1O=l * s, vx1O=-l * pd * s, vy1O=l * pd * c, ax1O=l * (-pdd * s - pd * pd * c),
-                ay1O=l * (pdd * c - pd * pd * s))
+    """The crank start-up law's inputs x1O..ay1O at t, by name."""
+    return dict(zip(CRANK_INPUTS, crank_inputs(t, t0, l, n0)))
 
 
 def run_crank(inst, names, h=0.002, steps=400):

@@ -22,7 +22,6 @@ integrator's SMALL_SYSTEM (16: its numpy path sums in another order) run in Pyth
 from __future__ import annotations
 
 import ctypes
-import math
 
 import numpy as np
 
@@ -34,20 +33,20 @@ from ballmill.physics.integrators import SMALL_SYSTEM, TABLEAUS, Integrator
 from .structure import HarmonicForce, HarmonicGround
 
 MODES = 4  # BMA_MODES
-NY = 4 * MODES + 9  # BMA_NY
+NY = 4 * MODES + 9  # BMA_NY (= BM_NYMAX, fast.NYMAX)
+FORM = 3  # BM_ABSORBER: the integrator projects the ball's n (StructureBall.project)
 
 
 class _AProblem(ctypes.Structure):
     """ctypes mirror of bma_problem in _kernel.c."""
 
     _fields_ = [
-        ("base", fast._Problem), ("ny", ctypes.c_int), ("nm", ctypes.c_int * 2),
+        ("base", fast._Problem), ("nm", ctypes.c_int * 2),
         ("mode", ctypes.c_double * (2 * MODES * 6)), ("G", ctypes.c_double * 2),
         ("ground", ctypes.c_int), ("exc", ctypes.c_double * 7), ("c", ctypes.c_double * 7),
         ("lossy", ctypes.c_int), ("delta", ctypes.c_double), ("J", ctypes.c_double),
         ("drag", ctypes.c_double), ("eps2", ctypes.c_double),
         ("loss_nr", ctypes.c_double * 9), ("loss", ctypes.c_double * 9),
-        ("scale", ctypes.c_double * NY), ("tols", ctypes.c_double * NY),
     ]
 
 
@@ -58,27 +57,12 @@ def _lib():
     """The kernel library with the bma_* functions declared, or None."""
     global _LIB
     if _LIB is None:
-        lib = fast._kernel()
-        reason = "" if lib is not None else f"compiled kernel unavailable: {fast._STATE[2]}"
-        if lib is not None:
-            try:
-                lib.bma_problem_size.restype = ctypes.c_size_t
-                size = lib.bma_problem_size()
-            except AttributeError:
-                lib, reason = None, "the built kernel has no absorber functions (rebuild: pip install -e .)"
-            else:
-                if size != ctypes.sizeof(_AProblem):
-                    lib, reason = None, (f"bma_problem size {size} != {ctypes.sizeof(_AProblem)} "
-                                         f"(stale build; rebuild: pip install -e .)")
-        if lib is not None:
-            A = ctypes.POINTER(_AProblem)
-            lib.bma_simulate.restype = ctypes.c_longlong
-            lib.bma_simulate.argtypes = [A, _dp, ctypes.c_longlong, _dp, _dp, _dp, ctypes.POINTER(_Stats)]
-            lib.bma_eval_rhs.restype = None
-            lib.bma_eval_rhs.argtypes = [A, ctypes.c_double, _dp, _dp]
-            lib.bma_eval_project.restype = ctypes.c_int
-            lib.bma_eval_project.argtypes = [A, _dp]
-        _LIB = (lib, reason)
+        A = ctypes.POINTER(_AProblem)
+        _LIB = fast.model_library("bma_problem", _AProblem, "absorber functions", {
+            "bma_simulate": (ctypes.c_longlong, [A, _dp, ctypes.c_longlong, _dp, _dp, _dp, ctypes.POINTER(_Stats)]),
+            "bma_eval_rhs": (None, [A, ctypes.c_double, _dp, _dp]),
+            "bma_eval_project": (ctypes.c_int, [A, _dp]),
+        })
     return _LIB[0]
 
 
@@ -112,22 +96,8 @@ def problem(system, integ) -> _AProblem:
     """The kernel's problem structure (check `applicable` first)."""
     A = _AProblem()
     P = A.base
-    tab = integ.tab
-    ns = tab.n_stages
-    P.ns, P.order, P.adaptive = ns, tab.order, int(integ.adaptive)
-    Am = np.zeros((ns, ns))
-    Am[:, :] = tab.A[:ns, :ns]
-    P.A[:ns * ns] = Am.ravel().tolist()
-    P.B[:ns] = [float(v) for v in tab.B]
-    P.C[:ns] = [float(v) for v in tab.C]
-    if tab.E is not None:
-        P.E[:ns + 1] = [float(v) for v in tab.E]
-    if tab.E3 is not None:
-        P.has_e3 = 1
-        P.E3[:ns + 1] = [float(v) for v in tab.E3]
-    P.tol, P.h_fixed, P.h_max = float(integ.tol), float(integ.h_fixed), float(integ.h_max)
-    P.max_steps = int(min(integ.max_steps, 2 ** 62))
-    A.ny = system.n_states
+    P.form, P.ny = FORM, system.n_states
+    fast.fill_integrator(P, integ)
     for a, (cs, off, nm) in enumerate(system.struct._axes):
         A.nm[a] = nm
         for j, c in enumerate(cs):  # (M, K, C, phi, psi, L)
@@ -144,15 +114,13 @@ def problem(system, integ) -> _AProblem:
     A.delta, A.J, A.drag, A.eps2 = float(system.delta), float(system.J), float(b.drag), ROLLING_EPS ** 2
     A.loss_nr[:] = [float(v) for v in system._loss_nr]
     A.loss[:] = [float(v) for v in loss_constants(b)]
-    A.scale[:A.ny] = integ.scale.tolist()
-    A.tols[:A.ny] = (integ.tol * integ.scale).tolist()  # as the Python kernel's tol * scale
     return A
 
 
 def eval_rhs(A: _AProblem, t: float, z) -> tuple:
     """The compiled right-hand side at one point (tests)."""
     zz = np.ascontiguousarray(z, dtype=float)
-    f = np.empty(A.ny)
+    f = np.empty(A.base.ny)
     _lib().bma_eval_rhs(ctypes.byref(A), t, zz.ctypes.data_as(_dp), f.ctypes.data_as(_dp))
     return tuple(f.tolist())
 
@@ -171,7 +139,7 @@ def simulate_grid(A: _AProblem, times: np.ndarray, zs: np.ndarray, start: int, h
     n = len(times) - start
     t = np.ascontiguousarray(times[start:], dtype=float)
     y = np.ascontiguousarray(zs[start], dtype=float).copy()
-    out = np.zeros((n, A.ny))
+    out = np.zeros((n, A.base.ny))
     hh = ctypes.c_double(h)
     st = _Stats(0, 0, 0)
     last = _lib().bma_simulate(ctypes.byref(A), t.ctypes.data_as(_dp), n, y.ctypes.data_as(_dp),

@@ -10,8 +10,9 @@ section). Quick mode: 10 s of simulated time instead of 20 s.
 """
 from __future__ import annotations
 
-import re
 from pathlib import Path
+
+from .report import splice_section
 
 BEGIN, END = "<!-- section: absorber -->", "<!-- end of section: absorber -->"
 
@@ -28,14 +29,7 @@ def report(rows, strong, t_end: float, quick: bool) -> str:
 
 def splice(path: Path, section: str):
     """Put the section into the report at path (replacing an earlier one, else appended)."""
-    text = path.read_text() if path.exists() else "# Benchmarks\n"
-    pat = re.compile(re.escape(BEGIN) + r".*?" + re.escape(END) + r"\n?", re.S)
-    if pat.search(text):
-        text = pat.sub(lambda _: section, text)
-    else:
-        text = text.rstrip("\n") + "\n\n" + section
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(text)
+    splice_section(path, section, BEGIN, END)
 
 
 def run_section(out: Path, quick: bool, progress=print) -> Path:

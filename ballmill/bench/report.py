@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import math
 import os
+import re
+from pathlib import Path
 
 from .problem import KERNEL_FAMILY
 
@@ -420,3 +422,16 @@ def _defaults(d) -> str:
              "the positions-only path is orders of magnitude less accurate on the crank law "
              "(table above, and docs/coupling.md).\n")
     return "\n".join(L) + "\n"
+
+
+def splice_section(path: Path, section: str, begin: str, end: str):
+    """Put a section (its text from the marker line `begin` to `end`) into the report at
+    path: replacing an earlier one between the same markers, else appended."""
+    text = path.read_text() if path.exists() else "# Benchmarks\n"
+    pat = re.compile(re.escape(begin) + r".*?" + re.escape(end) + r"\n?", re.S)
+    if pat.search(text):
+        text = pat.sub(lambda _: section, text)
+    else:
+        text = text.rstrip("\n") + "\n\n" + section
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text)

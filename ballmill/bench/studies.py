@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import shutil
 import socket
 import subprocess
@@ -41,6 +40,8 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+
+from .report import splice_section
 
 BEGIN, END = "<!-- section: studies -->", "<!-- end of section: studies -->"
 
@@ -306,14 +307,7 @@ def report(data: dict) -> str:
 
 def splice(path: Path, section: str):
     """Put the section into the report at path (replacing an earlier one, else appended)."""
-    text = path.read_text() if path.exists() else "# Benchmarks\n"
-    pat = re.compile(re.escape(BEGIN) + r".*?" + re.escape(END) + r"\n?", re.S)
-    if pat.search(text):
-        text = pat.sub(lambda _: section, text)
-    else:
-        text = text.rstrip("\n") + "\n\n" + section
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(text)
+    splice_section(path, section, BEGIN, END)
 
 
 def run_section(out: Path, quick: bool, progress=print) -> Path:

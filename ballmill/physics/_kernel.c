@@ -21,12 +21,13 @@
  * known, evaluated in the closure's operation order).
  *
  * The ball absorber (a modal structure carrying the cavity, absorber/model.py) has
- * functions of its own too, bma_*, reached through ballmill/absorber/kernel.py.
+ * a right-hand side of its own, bma_*, reached through ballmill/absorber/kernel.py,
+ * and runs on the same integrator (bm_advance, form BM_ABSORBER).
  *
  * The general model of a chamber that moves in 3-D and turns (turning/model.py and
  * turning/motions.py; DESIGN.md section 10) has functions of its own, bmg_* at the end
- * of the file, reached through ballmill/physics/turning/kernel.py; they share the
- * integrator helpers but leave the translation-only functions as they are.
+ * of the file, reached through ballmill/physics/turning/kernel.py; they run on the
+ * same integrator (bm_advance) but leave the translation-only functions as they are.
  *
  * Plain C99, no Python C API in the functions: ballmill/physics/fast.py calls
  * them through ctypes. Built by setup.py as the extension module
@@ -60,16 +61,17 @@
 #define BM_SOURCE_HASH 0ULL /* setup.py defines it: first 60 bits of this file's sha256 */
 #endif
 
-#define BM_ABI 3
+#define BM_ABI 4
 #define BM_NY 6      /* the ball's states, at most: nx, ny, nz, wx, wy, wz (vector); xC, yC, wx, wy, wz (paper) */
-#define BM_NYMAX 8   /* states the integrators carry, at most (the native induction motor FMU: 7) */
+#define BM_NYMAX 25  /* states the integrators carry, at most (the native induction motor FMU: 7;
+                        the absorber's coupled state: 4 * BMA_MODES + 9) */
 #define BM_NOUT 22   /* fields of outputs.Outputs */
 #define BM_NS_MAX 12 /* stages of the largest tableau (DOP853) */
 
 enum { BM_FIXED = 0, BM_CRANK = 1, BM_HARMONIC = 2, BM_CIRCLE = 3, BM_POLY = 4 };
 /* start-up laws of BM_CRANK, in the order of drives.LAWS */
 enum { BM_LAW_QUADRATIC = 0, BM_LAW_LINEAR = 1, BM_LAW_SCURVE = 2, BM_LAW_QUINTIC = 3 };
-enum { BM_VECTOR = 0, BM_PAPER = 1, BM_GENERIC = 2 }; /* formulations */
+enum { BM_VECTOR = 0, BM_PAPER = 1, BM_GENERIC = 2, BM_ABSORBER = 3 }; /* formulations */
 #define BM_NMP 9 /* motion parameters */
 
 /* Everything a run needs; filled by fast.py (ctypes mirror: fast._Problem). */
@@ -105,7 +107,8 @@ typedef struct {
      * (ny = 5, the paper's (xC, yC, omega) of equations.PaperFormulation with d = R - r
      * and its equator margin; the native BallInShell FMU uses it), or BM_GENERIC (any
      * ny <= BM_NYMAX, a right-hand side of the caller's, no projection: the native
-     * induction motor FMU) */
+     * induction motor FMU), or BM_ABSORBER (any ny <= BM_NYMAX, the absorber's right-hand
+     * side bma_rhs; the projection puts the ball's n, y[ny - 9 .. ny - 7], on the unit sphere) */
     int form, ny;
     double pap_d, pap_margin;
 } bm_problem;
@@ -203,6 +206,18 @@ static void bm_motion_state(const bm_problem *P, double t, double o[6])
 }
 
 /* -------------------------------------------------------------- equations.py */
+/* omega_dot(k, r, g, ...): k n x (a + r n' x omega + g e_z), a = (ax, ay, 0) */
+static void bm_omega_dot(double k, double r, double g, double nx, double ny, double nz, double wx, double wy,
+                         double wz, double ndx, double ndy, double ndz, double ax, double ay, double *wd)
+{
+    double bx = ax + r * (ndy * wz - ndz * wy);
+    double by = ay + r * (ndz * wx - ndx * wz);
+    double bz = g + r * (ndx * wy - ndy * wx);
+    wd[0] = k * (ny * bz - nz * by);
+    wd[1] = k * (nz * bx - nx * bz);
+    wd[2] = k * (nx * by - ny * bx);
+}
+
 /* omega_dot_lossy(c, ...) */
 static void bm_omega_dot_lossy(const double *c, double nx, double ny, double nz, double wx, double wy,
                                double wz, double ndx, double ndy, double ndz, double ax, double ay,
@@ -250,12 +265,7 @@ static void bm_derivative_paper(const bm_problem *P, const double *y, double ax,
         bm_omega_dot_lossy(P->rhs_loss, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, f + 2);
         return;
     }
-    double bx = ax + r * (ndy * wz - ndz * wy);
-    double by = ay + r * (ndz * wx - ndx * wz);
-    double bz = g + r * (ndx * wy - ndy * wx);
-    f[2] = k * (ny * bz - nz * by);
-    f[3] = k * (nz * bx - nx * bz);
-    f[4] = k * (nx * by - ny * bx);
+    bm_omega_dot(k, r, g, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, f + 2);
 }
 
 /* VectorFormulation.derivative / _derivative_lossy */
@@ -275,13 +285,7 @@ static void bm_derivative(const bm_problem *P, const double *y, double ax, doubl
         bm_omega_dot_lossy(P->rhs_loss, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, f + 3);
         return;
     }
-    double r = P->rhs_r, g = P->rhs_g, k = P->rhs_k;
-    double bx = ax + r * (ndy * wz - ndz * wy);
-    double by = ay + r * (ndz * wx - ndx * wz);
-    double bz = g + r * (ndx * wy - ndy * wx);
-    f[3] = k * (ny * bz - nz * by);
-    f[4] = k * (nz * bx - nx * bz);
-    f[5] = k * (nx * by - ny * bx);
+    bm_omega_dot(P->rhs_k, P->rhs_r, P->rhs_g, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, f + 3);
 }
 
 /* BallModel.rhs: f(t, y) = derivative(y, *motion.accel(t)) */
@@ -306,13 +310,7 @@ static void bm_outputs(const bm_problem *P, const double *y, double ax, double a
     if (P->out_lossy) {
         bm_omega_dot_lossy(P->o_loss, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, wd);
     } else { /* omega_dot(ball.k, r, g, ...) */
-        double k = P->o_k;
-        double bx = ax + r * (ndy * wz - ndz * wy);
-        double by = ay + r * (ndz * wx - ndx * wz);
-        double bz = g + r * (ndx * wy - ndy * wx);
-        wd[0] = k * (ny * bz - nz * by);
-        wd[1] = k * (nz * bx - nx * bz);
-        wd[2] = k * (nx * by - ny * bx);
+        bm_omega_dot(P->o_k, r, g, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, wd);
     }
     double wdx = wd[0], wdy = wd[1], wdz = wd[2];
     double nddx = lam * (ndy * wz - ndz * wy + ny * wdz - nz * wdy);
@@ -390,24 +388,31 @@ static void bm_ball_rhs(const bm_problem *P, const void *ctx, double t, const do
 static double bm_pymax(double a, double b) { return b > a ? b : a; } /* Python's max(a, b) */
 static double bm_pymin(double a, double b) { return b < a ? b : a; } /* Python's min(a, b) */
 
-/* A row of tableau coefficients without its zeros (integrators._dot leaves them out) */
+/* Python's x ** 2 is libm's pow, which rounds differently from x * x about once in a
+ * thousand; the exponent is read through a volatile so that the compiler cannot fold
+ * pow(x, 2.0) into x * x */
+static volatile double bm_two = 2.0;
+static double bm_sq(double x) { return pow(x, bm_two); }
+
+/* A row of tableau coefficients without its zeros (integrators._dot leaves them out);
+ * the stages they weigh as offsets into the packed stage derivatives K */
 typedef struct {
     int n;
-    int j[BM_NS_MAX + 1];
+    int j[BM_NS_MAX + 1]; /* stage j's derivative is K[j * ny .. j * ny + ny - 1] */
     double c[BM_NS_MAX + 1];
 } bm_row;
 
-/* the tableau as sparse rows, built once per run */
+/* the tableau as sparse rows for a problem's ny states, built once per run */
 typedef struct {
     bm_row A[BM_NS_MAX], B, E, E3;
 } bm_tab;
 
-static void bm_row_make(bm_row *row, const double *c, int count)
+static void bm_row_make(bm_row *row, const double *c, int count, int ny)
 {
     row->n = 0;
     for (int j = 0; j < count; j++)
         if (c[j] != 0.0) {
-            row->j[row->n] = j;
+            row->j[row->n] = j * ny;
             row->c[row->n] = c[j];
             row->n++;
         }
@@ -415,18 +420,22 @@ static void bm_row_make(bm_row *row, const double *c, int count)
 
 static void bm_tab_make(const bm_problem *P, bm_tab *T)
 {
-    for (int s = 0; s < P->ns; s++) bm_row_make(&T->A[s], P->A + s * P->ns, s);
-    bm_row_make(&T->B, P->B, P->ns);
-    bm_row_make(&T->E, P->E, P->ns + 1);
-    bm_row_make(&T->E3, P->E3, P->ns + 1);
+    for (int s = 0; s < P->ns; s++) bm_row_make(&T->A[s], P->A + s * P->ns, s, P->ny);
+    bm_row_make(&T->B, P->B, P->ns, P->ny);
+    bm_row_make(&T->E, P->E, P->ns + 1, P->ny);
+    bm_row_make(&T->E3, P->E3, P->ns + 1, P->ny);
 }
 
-/* sum of c * K[j][i] over the row, left to right; 0.0 for an empty row */
-static double bm_dot(const bm_row *row, double K[][BM_NYMAX], int i)
+/* The stages' derivatives K are packed: stage s's ny values at K + s * ny (a fixed
+ * stride of BM_NYMAX, the absorber's 25, cost the ball's 6 states 2-4 % in time) */
+#define BM_K(K, s, ny) ((K) + (size_t)(s) * (size_t)(ny))
+
+/* sum of c * K_j[i] over the row, left to right; 0.0 for an empty row */
+static double bm_dot(const bm_row *row, const double *K, int i)
 {
     if (row->n == 0) return 0.0;
-    double acc = row->c[0] * K[row->j[0]][i];
-    for (int q = 1; q < row->n; q++) acc += row->c[q] * K[row->j[q]][i];
+    double acc = row->c[0] * K[row->j[0] + i];
+    for (int q = 1; q < row->n; q++) acc += row->c[q] * K[row->j[q] + i];
     return acc;
 }
 
@@ -437,21 +446,21 @@ static int bm_all_finite(const double *v, int n)
     return 1;
 }
 
-/* The stages of one step (integrators._kernel): K[0] = f(t, y) on entry; K[1..ns-1], y_new. */
+/* The stages of one step (integrators._kernel): K_0 = f(t, y) on entry; K_1..K_ns-1, y_new. */
 static void bm_stages(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, const void *ctx, double t,
-                      const double *y, double h, double K[][BM_NYMAX], double *ynew)
+                      const double *y, double h, double *K, double *ynew)
 {
     int ns = P->ns, ny = P->ny;
     double yt[BM_NYMAX];
     for (int s = 1; s < ns; s++) {
         for (int i = 0; i < ny; i++) yt[i] = y[i] + bm_dot(&T->A[s], K, i) * h;
-        rhs(P, ctx, t + P->C[s] * h, yt, K[s]);
+        rhs(P, ctx, t + P->C[s] * h, yt, BM_K(K, s, ny));
     }
     for (int i = 0; i < ny; i++) ynew[i] = y[i] + h * bm_dot(&T->B, K, i);
 }
 
-/* error norm of the adaptive methods, K[ns] = f(t + h, y_new) (scaled tolerances) */
-static double bm_error(const bm_problem *P, const bm_tab *T, double K[][BM_NYMAX], double h, const double *y,
+/* error norm of the adaptive methods, K_ns = f(t + h, y_new) (scaled tolerances) */
+static double bm_error(const bm_problem *P, const bm_tab *T, const double *K, double h, const double *y,
                        const double *yn)
 {
     double sc[BM_NYMAX];
@@ -479,7 +488,8 @@ static double bm_error(const bm_problem *P, const bm_tab *T, double K[][BM_NYMAX
 
 /* after an accepted step: VectorFormulation.project (0 when Python's 1.0 / sqrt(0)
  * would raise), or PaperFormulation.check (0 within the equator margin, where Python
- * raises FormulationLimitError) */
+ * raises FormulationLimitError), or the absorber's StructureBall.project (as the vector
+ * formulation's, on the ball's part of the state, with model.py's ** 2) */
 static int bm_project(const bm_problem *P, double *y)
 {
     if (P->form == BM_PAPER) {
@@ -487,6 +497,14 @@ static int bm_project(const bm_problem *P, double *y)
         return s2 > 0.0 && !(sqrt(s2) < P->pap_margin * d);
     }
     if (P->form == BM_GENERIC) return 1;
+    if (P->form == BM_ABSORBER) {
+        double *n = y + P->ny - 9;
+        double q = sqrt(bm_sq(n[0]) + bm_sq(n[1]) + bm_sq(n[2])); /* model.py: z[ib] ** 2 + ... */
+        if (q == 0.0) return 0;
+        double s = 1.0 / q;
+        n[0] *= s; n[1] *= s; n[2] *= s;
+        return 1;
+    }
     double q = sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2]);
     if (q == 0.0) return 0;
     double s = 1.0 / q;
@@ -500,14 +518,14 @@ static int bm_project(const bm_problem *P, double *y)
 static int bm_advance(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, const void *ctx, double t,
                       double *y_io, double t_end, double *h_io, bm_stats *st)
 {
-    double K[BM_NS_MAX + 1][BM_NYMAX], y[BM_NYMAX], ynew[BM_NYMAX];
+    double K[(BM_NS_MAX + 1) * BM_NYMAX], y[BM_NYMAX], ynew[BM_NYMAX];
     size_t bytes = (size_t)P->ny * sizeof(double);
     double span = t_end - t;
     if (span <= 0.0) return 1;
     memcpy(y, y_io, bytes);
-    rhs(P, ctx, t, y, K[0]);
+    rhs(P, ctx, t, y, K);
     st->nfev++;
-    if (!bm_all_finite(K[0], P->ny)) return 0;
+    if (!bm_all_finite(K, P->ny)) return 0;
     int ns = P->ns;
     if (!P->adaptive) {
         double q = ceil(span / P->h_fixed - 1e-9);
@@ -517,7 +535,7 @@ static int bm_advance(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, const
         for (long long i = 0; i < count; i++) {
             double ti = t + (double)i * hh;
             if (i) {
-                rhs(P, ctx, ti, y, K[0]);
+                rhs(P, ctx, ti, y, K);
                 st->nfev++;
             }
             bm_stages(P, T, rhs, ctx, ti, y, hh, K, ynew);
@@ -542,7 +560,7 @@ static int bm_advance(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, const
         int last = t + h >= t_last;
         double hh = last ? t_end - t : h;
         bm_stages(P, T, rhs, ctx, t, y, hh, K, ynew);
-        rhs(P, ctx, t + hh, ynew, K[ns]);
+        rhs(P, ctx, t + hh, ynew, BM_K(K, ns, P->ny));
         st->nfev += ns;
         double err = bm_error(P, T, K, hh, y, ynew);
         if (!(bm_all_finite(ynew, P->ny) && isfinite(err))) {
@@ -556,7 +574,7 @@ static int bm_advance(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, const
             t = last ? t_end : t + hh;
             memcpy(y, ynew, bytes);
             if (!bm_project(P, y)) return 0;
-            memcpy(K[0], K[ns], sizeof K[0]);
+            memcpy(K, BM_K(K, ns, P->ny), bytes);
             st->steps++;
             h = last ? bm_pymax(h, hh * factor) : hh * factor;
         } else {
@@ -698,8 +716,9 @@ BM_EXPORT void bm_eval_outputs(const bm_problem *P, const double *y, double ax, 
 /* ======================================================================
  * The general model: a chamber with any rigid motion (turning/model.py, turning/motions.py;
  * DESIGN.md section 10). Functions bmg_*, reached through turning/kernel.py; they
- * reuse the integrator helpers above (tableau rows, error norm, projection) but
- * none of the translation-only functions' code paths, which stay as they are.
+ * run on the integrator above (bm_advance with the right-hand side bmg_rhs_cb, the
+ * vector formulation's projection) but none of the translation-only functions' code
+ * paths, which stay as they are.
  *
  *   n'     = (R/d) Omega x n + lambda n x omega
  *   omega' = k n x (a_A - g + R (Omega' x n + Omega x n') + r n' x omega)
@@ -911,90 +930,11 @@ static void bmg_outputs(const double *c, const double *y, const double *cs, doub
     o[27] = (contact && Ft <= mu * N) ? 1.0 : 0.0;
 }
 
-/* bm_stages for the general right-hand side */
-static void bmg_stages(const bmg_problem *G, const bm_tab *T, double t, const double *y, double h,
-                       double K[][BM_NYMAX], double *ynew)
+/* the general right-hand side as an integrator calls it (ctx: the bmg_problem) */
+static void bmg_rhs_cb(const bm_problem *P, const void *ctx, double t, const double *y, double *f)
 {
-    int ns = G->base.ns;
-    double yt[BM_NY];
-    for (int s = 1; s < ns; s++) {
-        for (int i = 0; i < BM_NY; i++) yt[i] = y[i] + bm_dot(&T->A[s], K, i) * h;
-        bmg_rhs(G, t + G->base.C[s] * h, yt, K[s]);
-    }
-    for (int i = 0; i < BM_NY; i++) ynew[i] = y[i] + h * bm_dot(&T->B, K, i);
-}
-
-/* bm_advance (Integrator.advance, the small-system path) for the general right-hand side */
-static int bmg_advance(const bmg_problem *G, const bm_tab *T, double t, double *y_io, double t_end,
-                       double *h_io, bm_stats *st)
-{
-    const bm_problem *P = &G->base;
-    double K[BM_NS_MAX + 1][BM_NYMAX], y[BM_NY], ynew[BM_NY];
-    double span = t_end - t;
-    if (span <= 0.0) return 1;
-    memcpy(y, y_io, sizeof y);
-    bmg_rhs(G, t, y, K[0]);
-    st->nfev++;
-    if (!bm_all_finite(K[0], BM_NY)) return 0;
-    int ns = P->ns;
-    if (!P->adaptive) {
-        double q = ceil(span / P->h_fixed - 1e-9);
-        long long count = q < 1.0 ? 1 : (long long)q;
-        double hh = span / (double)count;
-        for (long long i = 0; i < count; i++) {
-            double ti = t + (double)i * hh;
-            if (i) {
-                bmg_rhs(G, ti, y, K[0]);
-                st->nfev++;
-            }
-            bmg_stages(G, T, ti, y, hh, K, ynew);
-            st->nfev += ns - 1;
-            if (!bm_all_finite(ynew, BM_NY)) return 0;
-            memcpy(y, ynew, sizeof y);
-            if (!bm_project(P, y)) return 0;
-            st->steps++;
-        }
-        memcpy(y_io, y, sizeof y);
-        *h_io = P->h_fixed;
-        return 1;
-    }
-    double h = *h_io;
-    if (!(h > 0.0 && isfinite(h))) return 0;
-    double order = (double)P->order;
-    double h_min_abs = 1e-14 * bm_pymax(1.0, fabs(t_end));
-    double t_last = t_end - 1e-12 * bm_pymax(1.0, fabs(t_end));
-    while (t < t_end) {
-        if (st->steps + st->rejected >= P->max_steps) return 0;
-        h = bm_pymin(h, P->h_max);
-        int last = t + h >= t_last;
-        double hh = last ? t_end - t : h;
-        bmg_stages(G, T, t, y, hh, K, ynew);
-        bmg_rhs(G, t + hh, ynew, K[ns]);
-        st->nfev += ns;
-        double err = bm_error(P, T, K, hh, y, ynew);
-        if (!(bm_all_finite(ynew, BM_NY) && isfinite(err))) {
-            st->rejected++;
-            h = 0.2 * hh;
-            if (!(h >= h_min_abs)) return 0;
-            continue;
-        }
-        if (err <= 1.0) {
-            double factor = err == 0.0 ? 10.0 : bm_pymin(10.0, 0.9 * pow(err, -1.0 / order));
-            t = last ? t_end : t + hh;
-            memcpy(y, ynew, sizeof y);
-            if (!bm_project(P, y)) return 0;
-            memcpy(K[0], K[ns], sizeof K[0]);
-            st->steps++;
-            h = last ? bm_pymax(h, hh * factor) : hh * factor;
-        } else {
-            st->rejected++;
-            h = hh * bm_pymax(0.2, 0.9 * pow(err, -1.0 / order));
-            if (!(h >= h_min_abs)) return 0;
-        }
-    }
-    memcpy(y_io, y, sizeof y);
-    *h_io = h;
-    return 1;
+    (void)P;
+    bmg_rhs(ctx, t, y, f);
 }
 
 /* turning.simulate_general's loop, as bm_simulate (same contract; outputs: 28 per point) */
@@ -1008,7 +948,7 @@ BM_EXPORT long long bmg_simulate(const bmg_problem *G, const double *times, long
     for (long long i = start; i < n; i++) {
         if (i > start) {
             bm_stats st = {0, 0, 0};
-            if (!bmg_advance(G, &T, times[i - 1], y, times[i], h, &st)) return i - 1;
+            if (!bm_advance(&G->base, &T, bmg_rhs_cb, G, times[i - 1], y, times[i], h, &st)) return i - 1;
             total->steps += st.steps;
             total->rejected += st.rejected;
             total->nfev += st.nfev;
@@ -1091,17 +1031,16 @@ BM_EXPORT size_t bmg_problem_size(void) { return sizeof(bmg_problem); }
  * the ball (n, omega), the quadratures (W_exc, W_damp, W_ball). The cavity's acceleration
  * is solved with the ball's load at each instant (the 2x2 system of model.py, on the
  * rolling-resistance branch that is consistent). Written in the Python code's operation
- * order; the integrator loop is bm_advance's for the longer state.
+ * order; integrated by bm_advance (form BM_ABSORBER: the projection of n).
  * ====================================================================== */
 #define BMA_MODES 4                   /* modes per axis, at most */
-#define BMA_NY (4 * BMA_MODES + 9)     /* states, at most */
+#define BMA_NY (4 * BMA_MODES + 9)     /* states, at most (BM_NYMAX is this) */
 #define BMA_PI 3.141592653589793       /* math.pi */
 
 /* Everything a run needs; filled by absorber/kernel.py (ctypes mirror: _AProblem). */
 typedef struct {
-    bm_problem base; /* integrator settings (tableau, tol, h_fixed, h_max, max_steps); its ny,
-                        scale and tols are not read (the state is longer than BM_NYMAX) */
-    int ny;          /* states: 2 (nm[0] + nm[1]) + 9 */
+    bm_problem base; /* the integrator's settings: tableau, tol, h_fixed, h_max, max_steps, scale,
+                        tols, form = BM_ABSORBER, ny = 2 (nm[0] + nm[1]) + 9 */
     int nm[2];       /* modes of the x and y axes (0: the axis does not move) */
     double mode[2][BMA_MODES][6]; /* per mode: M, K, C, phi, psi, L */
     double G[2];     /* flexibility of each axis: sum phi^2 / M */
@@ -1112,14 +1051,7 @@ typedef struct {
     double delta, J, drag, eps2;
     double loss_nr[9]; /* loss constants without the rolling resistance (StructureBall._loss_nr) */
     double loss[9];    /* equations.loss_constants (the formulation's lossy derivative) */
-    double scale[BMA_NY], tols[BMA_NY];
 } bma_problem;
-
-/* Python's x ** 2 is libm's pow, which rounds differently from x * x about once in a
- * thousand; the exponent is read through a volatile so that the compiler cannot fold
- * pow(x, 2.0) into x * x */
-static volatile double bma_two = 2.0;
-static double bma_sq(double x) { return pow(x, bma_two); }
 
 /* excitation.loads(t): (F_x, F_y, a_gx, a_gy) */
 static void bma_loads(const bma_problem *A, double t, double L[4])
@@ -1164,12 +1096,7 @@ static void bma_load_affine(const bma_problem *A, const double *n, const double 
     if (A->lossy) {
         bm_omega_dot_lossy(A->loss_nr, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, 0.0, 0.0, wd);
     } else {
-        double bx = 0.0 + r * (ndy * wz - ndz * wy);
-        double by = 0.0 + r * (ndz * wx - ndx * wz);
-        double bz = g + r * (ndx * wy - ndy * wx);
-        wd[0] = k * (ny * bz - nz * by);
-        wd[1] = k * (nz * bx - nx * bz);
-        wd[2] = k * (nx * by - ny * bx);
+        bm_omega_dot(k, r, g, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, 0.0, 0.0, wd);
     }
     double wdx = wd[0], wdy = wd[1], wdz = wd[2], rho = 0.0;
     if (branch_rr) {
@@ -1196,7 +1123,7 @@ static void bma_load_affine(const bma_problem *A, const double *n, const double 
 static void bma_rhs(const bma_problem *A, double t, const double *z, double *dz)
 {
     double L[4], a0[2], rr[2][BMA_MODES], F[6];
-    int ns = A->ny - 9, ib = ns;
+    int ns = A->base.ny - 9, ib = ns;
     const double *n = z + ib, *w = z + ib + 3;
     double lam = A->c[0], r = A->c[1], g = A->c[2], m = A->c[4], d = A->c[5];
     double nd[3] = {lam * (n[1] * w[2] - n[2] * w[1]), lam * (n[2] * w[0] - n[0] * w[2]),
@@ -1216,7 +1143,7 @@ static void bma_rhs(const bma_problem *A, double t, const double *z, double *dz)
         ax = (b1 * a22 - a12 * b2) / det;
         ay = (a11 * b2 - a21 * b1) / det;
         if (nb == 1) break;
-        double N = m * (d * (bma_sq(nd[0]) + bma_sq(nd[1]) + bma_sq(nd[2])) - ax * n[0] - ay * n[1] - g * n[2]);
+        double N = m * (d * (bm_sq(nd[0]) + bm_sq(nd[1]) + bm_sq(nd[2])) - ax * n[0] - ay * n[1] - g * n[2]);
         if ((N > 0.0) == branch) break;
     }
     /* the ball's derivative (VectorFormulation.derivative / _derivative_lossy) at a_O */
@@ -1230,13 +1157,7 @@ static void bma_rhs(const bma_problem *A, double t, const double *z, double *dz)
         if (A->lossy) {
             bm_omega_dot_lossy(A->loss, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, db + 3);
         } else {
-            double k = A->c[3];
-            double bx = ax + r * (ndy * wz - ndz * wy);
-            double by = ay + r * (ndz * wx - ndx * wz);
-            double bz = g + r * (ndx * wy - ndy * wx);
-            db[3] = k * (ny * bz - nz * by);
-            db[4] = k * (nz * bx - nx * bz);
-            db[5] = k * (nx * by - ny * bx);
+            bm_omega_dot(A->c[3], r, g, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, db + 3);
         }
     }
     double wdx = db[3], wdy = db[4], wdz = db[5];
@@ -1269,14 +1190,14 @@ static void bma_rhs(const bma_problem *A, double t, const double *z, double *dz)
     dz[ns + 7] = P_damp;
     double Pb = 0.0;
     if (A->lossy) { /* StructureBall._ball_dissipation */
-        double nd2 = bma_sq(nd[0]) + bma_sq(nd[1]) + bma_sq(nd[2]);
+        double nd2 = bm_sq(nd[0]) + bm_sq(nd[1]) + bm_sq(nd[2]);
         Pb = A->drag * d * d * nd2;
         if (A->delta != 0.0) {
             double N = m * (d * nd2 - ax * n[0] - ay * n[1] - g * n[2]);
             if (N > 0.0) {
                 double s = n[0] * w[0] + n[1] * w[1] + n[2] * w[2];
                 double e0 = w[0] - s * n[0], e1 = w[1] - s * n[1], e2 = w[2] - s * n[2];
-                double t2 = bma_sq(e0) + bma_sq(e1) + bma_sq(e2);
+                double t2 = bm_sq(e0) + bm_sq(e1) + bm_sq(e2);
                 Pb += A->delta * N * t2 / sqrt(t2 + A->eps2);
             }
         }
@@ -1284,140 +1205,11 @@ static void bma_rhs(const bma_problem *A, double t, const double *z, double *dz)
     dz[ns + 8] = Pb;
 }
 
-static double bma_dot(const bm_row *row, double K[][BMA_NY], int i)
+/* the absorber's right-hand side as an integrator calls it (ctx: the bma_problem) */
+static void bma_rhs_cb(const bm_problem *P, const void *ctx, double t, const double *z, double *dz)
 {
-    if (row->n == 0) return 0.0;
-    double acc = row->c[0] * K[row->j[0]][i];
-    for (int q = 1; q < row->n; q++) acc += row->c[q] * K[row->j[q]][i];
-    return acc;
-}
-
-static void bma_stages(const bma_problem *A, const bm_tab *T, double t, const double *y, double h,
-                       double K[][BMA_NY], double *ynew)
-{
-    int ns = A->base.ns, ny = A->ny;
-    double yt[BMA_NY];
-    for (int s = 1; s < ns; s++) {
-        for (int i = 0; i < ny; i++) yt[i] = y[i] + bma_dot(&T->A[s], K, i) * h;
-        bma_rhs(A, t + A->base.C[s] * h, yt, K[s]);
-    }
-    for (int i = 0; i < ny; i++) ynew[i] = y[i] + h * bma_dot(&T->B, K, i);
-}
-
-/* bm_error for the longer state */
-static double bma_error(const bma_problem *A, const bm_tab *T, double K[][BMA_NY], double h, const double *y,
-                        const double *yn)
-{
-    const bm_problem *P = &A->base;
-    double sc[BMA_NY];
-    int ny = A->ny;
-    for (int i = 0; i < ny; i++)
-        sc[i] = P->tol * bm_pymax(bm_pymax(fabs(y[i]), fabs(yn[i])), A->scale[i]) + A->tols[i];
-    if (!P->has_e3) {
-        double sum = 0.0;
-        for (int i = 0; i < ny; i++) {
-            double e = bma_dot(&T->E, K, i) * h / sc[i];
-            sum = i ? sum + e * e : e * e;
-        }
-        return sqrt(sum / ny);
-    }
-    double e5n = 0.0, e3n = 0.0;
-    for (int i = 0; i < ny; i++) {
-        double e = bma_dot(&T->E, K, i) / sc[i];
-        double g = bma_dot(&T->E3, K, i) / sc[i];
-        e5n = i ? e5n + e * e : e * e;
-        e3n = i ? e3n + g * g : g * g;
-    }
-    if (e5n == 0.0 && e3n == 0.0) return 0.0;
-    return fabs(h) * e5n / sqrt((e5n + 0.01 * e3n) * ny);
-}
-
-/* StructureBall.project: n back on the unit sphere (0 where Python's 1.0 / sqrt(0) raises) */
-static int bma_project(const bma_problem *A, double *z)
-{
-    double *n = z + A->ny - 9;
-    double q = sqrt(bma_sq(n[0]) + bma_sq(n[1]) + bma_sq(n[2])); /* model.py: z[ib] ** 2 + ... */
-    if (q == 0.0) return 0;
-    double s = 1.0 / q;
-    n[0] *= s; n[1] *= s; n[2] *= s;
-    return 1;
-}
-
-/* bm_advance for the absorber: Integrator.advance from t to t_end. 1: y and *h updated;
- * 0: Python must do this interval (it fails there, or needs the initial step). */
-static int bma_advance(const bma_problem *A, const bm_tab *T, double t, double *y_io, double t_end,
-                       double *h_io, bm_stats *st)
-{
-    const bm_problem *P = &A->base;
-    double K[BM_NS_MAX + 1][BMA_NY], y[BMA_NY], ynew[BMA_NY];
-    int ny = A->ny;
-    size_t bytes = (size_t)ny * sizeof(double);
-    double span = t_end - t;
-    if (span <= 0.0) return 1;
-    memcpy(y, y_io, bytes);
-    bma_rhs(A, t, y, K[0]);
-    st->nfev++;
-    if (!bm_all_finite(K[0], ny)) return 0;
-    int ns = P->ns;
-    if (!P->adaptive) {
-        double q = ceil(span / P->h_fixed - 1e-9);
-        if (!(q <= (double)P->max_steps)) return 0;
-        long long count = q < 1.0 ? 1 : (long long)q;
-        double hh = span / (double)count;
-        for (long long i = 0; i < count; i++) {
-            double ti = t + (double)i * hh;
-            if (i) {
-                bma_rhs(A, ti, y, K[0]);
-                st->nfev++;
-            }
-            bma_stages(A, T, ti, y, hh, K, ynew);
-            st->nfev += ns - 1;
-            if (!bm_all_finite(ynew, ny)) return 0;
-            memcpy(y, ynew, bytes);
-            if (!bma_project(A, y)) return 0;
-            st->steps++;
-        }
-        memcpy(y_io, y, bytes);
-        *h_io = P->h_fixed;
-        return 1;
-    }
-    double h = *h_io;
-    if (!(h > 0.0 && isfinite(h))) return 0;
-    double order = (double)P->order;
-    double h_min_abs = 1e-14 * bm_pymax(1.0, fabs(t_end));
-    double t_last = t_end - 1e-12 * bm_pymax(1.0, fabs(t_end));
-    while (t < t_end) {
-        if (st->steps + st->rejected >= P->max_steps) return 0;
-        h = bm_pymin(h, P->h_max);
-        int last = t + h >= t_last;
-        double hh = last ? t_end - t : h;
-        bma_stages(A, T, t, y, hh, K, ynew);
-        bma_rhs(A, t + hh, ynew, K[ns]);
-        st->nfev += ns;
-        double err = bma_error(A, T, K, hh, y, ynew);
-        if (!(bm_all_finite(ynew, ny) && isfinite(err))) {
-            st->rejected++;
-            h = 0.2 * hh;
-            if (!(h >= h_min_abs)) return 0;
-            continue;
-        }
-        if (err <= 1.0) {
-            double factor = err == 0.0 ? 10.0 : bm_pymin(10.0, 0.9 * pow(err, -1.0 / order));
-            t = last ? t_end : t + hh;
-            memcpy(y, ynew, bytes);
-            if (!bma_project(A, y)) return 0;
-            memcpy(K[0], K[ns], sizeof K[0]);
-            st->steps++;
-            h = last ? bm_pymax(h, hh * factor) : hh * factor;
-        } else {
-            st->rejected++;
-            h = hh * bm_pymax(0.2, 0.9 * pow(err, -1.0 / order));
-            if (!(h >= h_min_abs)) return 0;
-        }
-    }
-    memcpy(y_io, y, bytes);
-    *h_io = h;
-    return 1;
+    (void)P;
+    bma_rhs(ctx, t, z, dz);
 }
 
 /* simulate_absorber's loop over output points times[1..n-1] from the state y (at times[0])
@@ -1431,17 +1223,17 @@ BM_EXPORT long long bma_simulate(const bma_problem *A, const double *times, long
     bm_tab_make(&A->base, &T);
     for (long long i = 1; i < n; i++) {
         bm_stats st = {0, 0, 0};
-        if (!bma_advance(A, &T, times[i - 1], y, times[i], h, &st)) return i - 1;
+        if (!bm_advance(&A->base, &T, bma_rhs_cb, A, times[i - 1], y, times[i], h, &st)) return i - 1;
         total->steps += st.steps;
         total->rejected += st.rejected;
         total->nfev += st.nfev;
-        memcpy(ys + (size_t)A->ny * (size_t)i, y, (size_t)A->ny * sizeof(double));
+        memcpy(ys + (size_t)A->base.ny * (size_t)i, y, (size_t)A->base.ny * sizeof(double));
     }
     return n - 1;
 }
 
 BM_EXPORT void bma_eval_rhs(const bma_problem *A, double t, const double *z, double *dz) { bma_rhs(A, t, z, dz); }
-BM_EXPORT int bma_eval_project(const bma_problem *A, double *z) { return bma_project(A, z); }
+BM_EXPORT int bma_eval_project(const bma_problem *A, double *z) { return bm_project(&A->base, z); }
 BM_EXPORT size_t bma_problem_size(void) { return sizeof(bma_problem); }
 
 /* what fast.py checks before it trusts this build */

@@ -58,9 +58,9 @@ from .outputs import Outputs
 __all__ = ["KERNEL_AVAILABLE", "KERNEL_REASON", "KERNEL_PATH", "KernelUnavailable", "applicable",
            "simulate"]
 
-ABI = 3
+ABI = 4
 NY = 6
-NYMAX = 8  # BM_NYMAX: the integrators' largest state
+NYMAX = 25  # BM_NYMAX: the integrators' largest state (the absorber's coupled one)
 NOUT = len(Outputs._fields)
 NS_MAX = 12
 SOURCE = Path(__file__).with_name("_kernel.c")
@@ -168,19 +168,45 @@ def _open(path: Path, source: Path = SOURCE):
     if src_hash is not None and built_hash != src_hash:
         return None, (f"{path.name} is stale: it was built from a different _kernel.c than the one "
                       f"beside it; rebuild it: pip install -e .")
-    lib.bm_simulate.restype = ctypes.c_longlong
-    lib.bm_simulate.argtypes = [ctypes.POINTER(_Problem), _dp, ctypes.c_longlong, ctypes.c_longlong,
-                                ctypes.c_int, _dp, _dp, _dp, _dp, ctypes.POINTER(_Stats)]
-    lib.bm_advance_interval.restype = ctypes.c_int
-    lib.bm_advance_interval.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p]
-    lib.bm_initial_step.restype = ctypes.c_double
-    lib.bm_initial_step.argtypes = [ctypes.POINTER(_Problem), ctypes.c_double, _dp, ctypes.c_double]
-    lib.bm_eval_rhs.restype = None
-    lib.bm_eval_rhs.argtypes = [ctypes.POINTER(_Problem), ctypes.c_double, _dp, _dp]
-    lib.bm_eval_motion.restype = None
-    lib.bm_eval_motion.argtypes = [ctypes.POINTER(_Problem), ctypes.c_double, _dp]
-    lib.bm_eval_outputs.restype = None
-    lib.bm_eval_outputs.argtypes = [ctypes.POINTER(_Problem), _dp] + [ctypes.c_double] * 4 + [_dp]
+    P = ctypes.POINTER(_Problem)
+    _declare(lib, {
+        "bm_simulate": (ctypes.c_longlong, [P, _dp, ctypes.c_longlong, ctypes.c_longlong, ctypes.c_int,
+                                            _dp, _dp, _dp, _dp, ctypes.POINTER(_Stats)]),
+        "bm_advance_interval": (ctypes.c_int, [ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p]),
+        "bm_initial_step": (ctypes.c_double, [P, ctypes.c_double, _dp, ctypes.c_double]),
+        "bm_eval_rhs": (None, [P, ctypes.c_double, _dp, _dp]),
+        "bm_eval_motion": (None, [P, ctypes.c_double, _dp]),
+        "bm_eval_outputs": (None, [P, _dp] + [ctypes.c_double] * 4 + [_dp]),
+    })
+    return lib, ""
+
+
+def _declare(lib, functions: dict) -> None:
+    """Give the library's functions their types: name -> (restype, argtypes)."""
+    for name, (restype, argtypes) in functions.items():
+        fn = getattr(lib, name)
+        fn.restype, fn.argtypes = restype, argtypes
+
+
+def model_library(c_name: str, structure: type, what: str, functions: dict):
+    """(library, '') with the functions of one of the kernel's other models declared
+    (name -> (restype, argtypes)), after checking that the build's C structure of that
+    model, ``c_name`` (its size: ``<c_name>_size()``), is the size of ``structure``, its
+    ctypes mirror; or (None, why not). `what` names the functions in the message (e.g.
+    "absorber functions")."""
+    lib = _kernel()
+    if lib is None:
+        return None, f"compiled kernel unavailable: {_STATE[2]}"
+    try:
+        size_of = getattr(lib, c_name + "_size")
+    except AttributeError:
+        return None, f"the built kernel has no {what} (rebuild: pip install -e .)"
+    size_of.restype = ctypes.c_size_t
+    size = size_of()
+    if size != ctypes.sizeof(structure):
+        return None, (f"{c_name} size {size} != {ctypes.sizeof(structure)} "
+                      f"(stale build; rebuild: pip install -e .)")
+    _declare(lib, functions)
     return lib, ""
 
 
@@ -297,7 +323,13 @@ def _problem(model, motion) -> _Problem:
         P.o_cd = b.drag * b.d
         P.o_delta = b.rolling_resistance
         P.o_loss[:] = [float(v) for v in loss_constants(b)]
-    integ = model.integrator
+    fill_integrator(P, model.integrator)
+    return P
+
+
+def fill_integrator(P: _Problem, integ) -> None:
+    """The integrator's part of a problem structure (tableau, tolerances, step bounds,
+    scale of P.ny states), as the Python integrator computes with them."""
     tab = integ.tab
     ns = tab.n_stages
     P.ns, P.order, P.adaptive = ns, tab.order, int(integ.adaptive)
@@ -313,9 +345,8 @@ def _problem(model, motion) -> _Problem:
         P.E3[:ns + 1] = [float(v) for v in tab.E3]
     P.tol, P.h_fixed, P.h_max = float(integ.tol), float(integ.h_fixed), float(integ.h_max)
     P.max_steps = int(min(integ.max_steps, 2 ** 62))
-    P.scale[:NY] = integ.scale.tolist()
-    P.tols[:NY] = (integ.tol * integ.scale).tolist()  # as the Python kernel's tol * scale
-    return P
+    P.scale[:P.ny] = integ.scale.tolist()
+    P.tols[:P.ny] = (integ.tol * integ.scale).tolist()  # as the Python kernel's tol * scale
 
 
 def problem(model, motion) -> _Problem:

@@ -74,7 +74,88 @@ def ulp(x: float) -> float:
     return ULP * max(abs(x), 1e-300)
 
 
-class InputReconstruction:
+def worst_residual(a_tol: float, H: float, a_mag: float, axes):
+    """The consistency check of two samples H apart (module docstring): ``axes`` gives per
+    axis (key, (x_p, x_q, v_p, v_q, a_p, a_q)), a_mag the larger |a| of the two samples.
+    None where every axis agrees; else (key, r, limit, jump) of the axis whose residual r
+    exceeds its limit by the largest factor, jump: 6 |r| / H^2 > a_tol + |a|."""
+    worst = None
+    for key, (xp, xq, vp, vq, ap, aq) in axes:
+        r = xq - xp - 0.5 * H * (vp + vq) + H * H * (aq - ap) / 12.0
+        a_scale = a_tol + A_REL * a_mag
+        limit = a_scale * H * H / 6.0 + 8.0 * ulp(max(abs(xp), abs(xq)))
+        if abs(r) > limit and (worst is None or abs(r) / limit > worst[0]):
+            worst = (abs(r) / limit, key, r, limit)
+    if worst is None:
+        return None
+    _, key, r, limit = worst
+    return key, r, limit, 6.0 * abs(r) / (H * H) > a_tol + a_mag
+
+
+class SampleHistory:
+    """The history of input samples (time first, oldest first) and the fit's node choice
+    (module docstring), shared by `InputReconstruction` and the turning chamber's
+    reconstruction. A subclass sets ``mode``, ``points``, ``samples``, ``h_next`` and
+    ``_dirty``, and says what its samples are: ``WHAT`` (for messages), ``NSAMPLE`` (values
+    per sample, time included) and `sample_problem` (what is wrong with a stored sample
+    besides its length and finiteness)."""
+
+    WHAT = "platform"
+    NSAMPLE = 7
+
+    def sample_problem(self, smp) -> str | None:
+        return None
+
+    def get_state(self):
+        return {"mode": self.mode, "points": self.points, "samples": [list(s) for s in self.samples]}
+
+    def set_state(self, state):
+        """Take back `get_state`'s data (ValueError if it does not fit this reconstruction)."""
+        if state.get("mode") != self.mode or state.get("points") != self.points:
+            raise ValueError(f"input reconstruction state for mode {state.get('mode')!r} with "
+                             f"{state.get('points')!r} points, expected {self.mode!r} with {self.points}")
+        samples = [tuple(float(v) for v in smp) for smp in state["samples"]]
+        if not 1 <= len(samples) <= self.points + HISTORY_EXTRA:
+            raise ValueError(f"input history of {len(samples)} samples, expected 1 to "
+                             f"{self.points + HISTORY_EXTRA}")
+        for smp in samples:
+            if len(smp) != self.NSAMPLE or not all(math.isfinite(v) for v in smp):
+                raise ValueError(f"input sample {smp!r}: expected {self.NSAMPLE} finite values")
+            problem = self.sample_problem(smp)
+            if problem:
+                raise ValueError(f"input sample at t = {smp[0]!r} s: {problem}")
+        if any(b[0] <= a[0] for a, b in zip(samples, samples[1:])):
+            raise ValueError("input samples are not in increasing time order")
+        self.samples = samples
+        self._dirty = True
+
+    def set_horizon(self, h: float):
+        """The coming step [s]: the fit's nodes are chosen for it."""
+        if h != self.h_next:
+            self.h_next = float(h)
+            self._dirty = True
+
+    def nodes(self) -> list[tuple]:
+        """The samples the fit uses (see the node choice in the module docstring)."""
+        s = self.samples
+        if not s:
+            raise InputError(f"no {self.WHAT} sample has been set yet")
+        spacing = 0.5 * self.h_next
+        nodes = [s[-1]]
+        for smp in reversed(s[:-1]):
+            if len(nodes) == self.points:
+                break
+            if nodes[-1][0] - smp[0] >= spacing:
+                nodes.append(smp)
+        return nodes[::-1]
+
+    def window(self) -> list[float]:
+        """Times of the history samples from the fit's oldest node to the newest."""
+        t_first = self.nodes()[0][0]
+        return [smp[0] for smp in self.samples if smp[0] >= t_first]
+
+
+class InputReconstruction(SampleHistory):
     """Polynomial reconstruction of (x, y) of the platform from its samples."""
 
     def __init__(self, mode: str = "derivatives", points: int | None = None, a_tol: float = 1e-2):
@@ -138,69 +219,19 @@ class InputReconstruction:
         what disagrees, with the values and the threshold."""
         H = q[0] - p[0]
         a_mag = max(math.hypot(p[5], p[6]), math.hypot(q[5], q[6]))
-        worst = None
-        for axis, (i, j, k) in (("x", (1, 3, 5)), ("y", (2, 4, 6))):
-            r = q[i] - p[i] - 0.5 * H * (p[j] + q[j]) + H * H * (q[k] - p[k]) / 12.0
-            a_scale = self.a_tol + A_REL * a_mag
-            limit = a_scale * H * H / 6.0 + 8.0 * ulp(max(abs(p[i]), abs(q[i])))
-            if abs(r) > limit and (worst is None or abs(r) / limit > worst[0]):
-                worst = (abs(r) / limit, axis, r, limit, i, j, k)
+        axes = (("x", (1, 3, 5)), ("y", (2, 4, 6)))
+        worst = worst_residual(self.a_tol, H, a_mag,
+                               (((axis, i, j, k), (p[i], q[i], p[j], q[j], p[k], q[k])) for axis, (i, j, k) in axes))
         self._jump = False
         if worst is None:
             return None
-        _, axis, r, limit, i, j, k = worst
-        self._jump = 6.0 * abs(r) / (H * H) > self.a_tol + a_mag
+        (axis, i, j, k), r, limit, self._jump = worst
         restart = "; the reconstruction restarts at the newer sample" if self._jump else ""
         return (f"inputs {axis}1O, v{axis}1O, a{axis}1O disagree between t = {p[0]!r} s "
                 f"({axis}1O = {p[i]!r} m, v{axis}1O = {p[j]!r} m/s, a{axis}1O = {p[k]!r} m/s2) and "
                 f"t = {q[0]!r} s ({axis}1O = {q[i]!r} m, v{axis}1O = {q[j]!r} m/s, a{axis}1O = {q[k]!r} m/s2): "
                 f"position residual {r:.3g} m, accepted |r| <= {limit:.3g} m "
                 f"(input_tol = {self.a_tol:g} m/s2 + {A_REL:g} |a| of acceleration){restart}")
-
-    def get_state(self):
-        return {"mode": self.mode, "points": self.points, "samples": [list(s) for s in self.samples]}
-
-    def set_state(self, state):
-        """Take back `get_state`'s data (ValueError if it does not fit this reconstruction)."""
-        if state.get("mode") != self.mode or state.get("points") != self.points:
-            raise ValueError(f"input reconstruction state for mode {state.get('mode')!r} with "
-                             f"{state.get('points')!r} points, expected {self.mode!r} with {self.points}")
-        samples = [tuple(float(v) for v in smp) for smp in state["samples"]]
-        if not 1 <= len(samples) <= self.points + HISTORY_EXTRA:
-            raise ValueError(f"input history of {len(samples)} samples, expected 1 to "
-                             f"{self.points + HISTORY_EXTRA}")
-        for smp in samples:
-            if len(smp) != 7 or not all(math.isfinite(v) for v in smp):
-                raise ValueError(f"input sample {smp!r}: expected 7 finite values")
-        if any(b[0] <= a[0] for a, b in zip(samples, samples[1:])):
-            raise ValueError("input samples are not in increasing time order")
-        self.samples = samples
-        self._dirty = True
-
-    def set_horizon(self, h: float):
-        """The coming step [s]: the fit's nodes are chosen for it."""
-        if h != self.h_next:
-            self.h_next = float(h)
-            self._dirty = True
-
-    def nodes(self) -> list[tuple]:
-        """The samples the fit uses (see the node choice in the module docstring)."""
-        s = self.samples
-        if not s:
-            raise InputError("no platform sample has been set yet")
-        spacing = 0.5 * self.h_next
-        nodes = [s[-1]]
-        for smp in reversed(s[:-1]):
-            if len(nodes) == self.points:
-                break
-            if nodes[-1][0] - smp[0] >= spacing:
-                nodes.append(smp)
-        return nodes[::-1]
-
-    def window(self) -> list[float]:
-        """Times of the history samples from the fit's oldest node to the newest."""
-        t_first = self.nodes()[0][0]
-        return [smp[0] for smp in self.samples if smp[0] >= t_first]
 
     # -- fit -----------------------------------------------------------
     def _fit(self):

@@ -790,7 +790,7 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state)
         memcpy(fi->v_work, v, nv); /* outputs and inputs as they were saved */
         memcpy(fi->data_work + FMU_MODEL.dyn_offset, data + FMU_MODEL.dyn_offset,
                FMU_MODEL.data_size - FMU_MODEL.dyn_offset);
-        if (FMU_MODEL.check(fi, fi->data_work, fi->v_work) > fmi2Warning) goto refused;
+        if (FMU_MODEL.check && FMU_MODEL.check(fi, fi->data_work, fi->v_work) > fmi2Warning) goto refused;
         memcpy(fi->data, fi->data_work, FMU_MODEL.data_size); /* both copies hold the configuration */
     } else {
         memset(fi->data, 0, FMU_MODEL.data_size);

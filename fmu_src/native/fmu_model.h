@@ -55,7 +55,8 @@ typedef struct {
     fmi2Status (*step)(fmu_instance *fi, void *data, double *v, double t, double t_end);
     /* A dynamic state restored from an FMU state into a freshly set up configuration:
      * fmi2OK when it is one this configuration can continue from, else fmi2Error after
-     * fmu_log said why. */
+     * fmu_log said why. NULL: nothing to check (no dynamic state beyond the plumbing's
+     * time; the configuration is setup's, which has checked it). */
     fmi2Status (*check)(fmu_instance *fi, const void *data, const double *v);
     /* Direct feedthrough (NULL: none): inputs were set between steps (stepComplete);
      * recompute, at the instance's time t, the outputs the interface declares as

@@ -51,32 +51,15 @@ def _lib():
     """The kernel library with the bmg_* functions declared, or None."""
     global _LIB
     if _LIB is None:
-        lib = fast._kernel()
-        reason = "" if lib is not None else f"compiled kernel unavailable: {fast._STATE[2]}"
-        if lib is not None:
-            try:
-                lib.bmg_problem_size.restype = ctypes.c_size_t
-                size = lib.bmg_problem_size()
-            except AttributeError:
-                lib, reason = None, "the built kernel has no general-model functions (rebuild: pip install -e .)"
-            else:
-                if size != ctypes.sizeof(_GProblem):
-                    lib, reason = None, (f"bmg_problem size {size} != {ctypes.sizeof(_GProblem)} "
-                                         f"(stale build; rebuild: pip install -e .)")
-        if lib is not None:
-            G = ctypes.POINTER(_GProblem)
-            lib.bmg_simulate.restype = ctypes.c_longlong
-            lib.bmg_simulate.argtypes = [G, _dp, ctypes.c_longlong, ctypes.c_longlong, ctypes.c_int,
-                                         _dp, _dp, _dp, _dp, ctypes.POINTER(_Stats)]
-            lib.bmg_eval_rhs.restype = None
-            lib.bmg_eval_rhs.argtypes = [G, ctypes.c_double, _dp, _dp]
-            lib.bmg_eval_state.restype = None
-            lib.bmg_eval_state.argtypes = [G, ctypes.c_double, _dp]
-            lib.bmg_advance_poly.restype = ctypes.c_int
-            lib.bmg_advance_poly.argtypes = [G, _dp, ctypes.POINTER(_Stats)]
-            lib.bmg_eval_outputs.restype = None
-            lib.bmg_eval_outputs.argtypes = [G, _dp, _dp, _dp]
-        _LIB = (lib, reason)
+        G = ctypes.POINTER(_GProblem)
+        _LIB = fast.model_library("bmg_problem", _GProblem, "general-model functions", {
+            "bmg_simulate": (ctypes.c_longlong, [G, _dp, ctypes.c_longlong, ctypes.c_longlong, ctypes.c_int,
+                                                 _dp, _dp, _dp, _dp, ctypes.POINTER(_Stats)]),
+            "bmg_eval_rhs": (None, [G, ctypes.c_double, _dp, _dp]),
+            "bmg_eval_state": (None, [G, ctypes.c_double, _dp]),
+            "bmg_advance_poly": (ctypes.c_int, [G, _dp, ctypes.POINTER(_Stats)]),
+            "bmg_eval_outputs": (None, [G, _dp, _dp, _dp]),
+        })
     return _LIB[0]
 
 

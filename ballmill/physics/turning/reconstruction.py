@@ -44,7 +44,7 @@ from __future__ import annotations
 import math
 
 from ..errors import InputError
-from ..platform import A_REL, ulp
+from ..platform import A_REL, SampleHistory, worst_residual
 
 MODES = ("derivatives", "hold")
 POINTS = {"derivatives": 2, "hold": 1}
@@ -122,9 +122,15 @@ def inputs_of(cs, R):
             ox, oy, oz, px, py, pz, *q)
 
 
-class ChamberReconstruction:
+class ChamberReconstruction(SampleHistory):
     """The chamber's motion between communication points from its samples (module docstring).
     ``R``: the chamber's radius [m] (A = O + Q (0, 0, R))."""
+
+    WHAT = "chamber"
+    NSAMPLE = NSAMPLE
+
+    def sample_problem(self, smp) -> str | None:
+        return rotation_problem(smp[16:25])
 
     def __init__(self, mode: str = "derivatives", R: float = 0.25, a_tol: float = 1e-2):
         if mode not in MODES:
@@ -185,17 +191,11 @@ class ChamberReconstruction:
         H = q[0] - p[0]
         a_mag = max(math.sqrt(ap[0] * ap[0] + ap[1] * ap[1] + ap[2] * ap[2]),
                     math.sqrt(aq[0] * aq[0] + aq[1] * aq[1] + aq[2] * aq[2]))
-        worst = None
-        for k in range(3):
-            r = Aq[k] - Ap[k] - 0.5 * H * (vp[k] + vq[k]) + H * H * (aq[k] - ap[k]) / 12.0
-            a_scale = self.a_tol + A_REL * a_mag
-            limit = a_scale * H * H / 6.0 + 8.0 * ulp(max(abs(Ap[k]), abs(Aq[k])))
-            if abs(r) > limit and (worst is None or abs(r) / limit > worst[0]):
-                worst = (abs(r) / limit, k, r, limit)
+        worst = worst_residual(self.a_tol, H, a_mag,
+                               ((k, (Ap[k], Aq[k], vp[k], vq[k], ap[k], aq[k])) for k in range(3)))
         if worst is None:
             return None, False
-        _, k, r, limit = worst
-        jump = 6.0 * abs(r) / (H * H) > self.a_tol + a_mag
+        k, r, limit, jump = worst
         c = "xyz"[k]
         restart = "; the reconstruction restarts at the newer sample" if jump else ""
         return (f"the chamber centre A = O + Q (0, 0, R) of the inputs (x1O..az1O, Omega, Omega_dot, Q) "
@@ -203,52 +203,6 @@ class ChamberReconstruction:
                 f"aA{c} = {ap[k]!r} m/s2) and t = {q[0]!r} s (A{c} = {Aq[k]!r} m, vA{c} = {vq[k]!r} m/s, "
                 f"aA{c} = {aq[k]!r} m/s2): position residual {r:.3g} m, accepted |r| <= {limit:.3g} m "
                 f"(input_tol = {self.a_tol:g} m/s2 + {A_REL:g} |a| of acceleration){restart}"), jump
-
-    def get_state(self):
-        return {"mode": self.mode, "points": self.points, "samples": [list(s) for s in self.samples]}
-
-    def set_state(self, state):
-        """Take back `get_state`'s data (ValueError if it does not fit this reconstruction)."""
-        if state.get("mode") != self.mode or state.get("points") != self.points:
-            raise ValueError(f"input reconstruction state for mode {state.get('mode')!r} with "
-                             f"{state.get('points')!r} points, expected {self.mode!r} with {self.points}")
-        samples = [tuple(float(v) for v in smp) for smp in state["samples"]]
-        if not 1 <= len(samples) <= self.points + HISTORY_EXTRA:
-            raise ValueError(f"input history of {len(samples)} samples, expected 1 to "
-                             f"{self.points + HISTORY_EXTRA}")
-        for smp in samples:
-            if len(smp) != NSAMPLE or not all(math.isfinite(v) for v in smp):
-                raise ValueError(f"input sample {smp!r}: expected {NSAMPLE} finite values")
-            problem = rotation_problem(smp[16:25])
-            if problem:
-                raise ValueError(f"input sample at t = {smp[0]!r} s: {problem}")
-        if any(b[0] <= a[0] for a, b in zip(samples, samples[1:])):
-            raise ValueError("input samples are not in increasing time order")
-        self.samples = samples
-        self._dirty = True
-
-    def set_horizon(self, h: float):
-        if h != self.h_next:
-            self.h_next = float(h)
-            self._dirty = True
-
-    def nodes(self) -> list[tuple]:
-        """The samples the fit uses (platform.InputReconstruction.nodes' rule)."""
-        s = self.samples
-        if not s:
-            raise InputError("no chamber sample has been set yet")
-        spacing = 0.5 * self.h_next
-        nodes = [s[-1]]
-        for smp in reversed(s[:-1]):
-            if len(nodes) == self.points:
-                break
-            if nodes[-1][0] - smp[0] >= spacing:
-                nodes.append(smp)
-        return nodes[::-1]
-
-    def window(self) -> list[float]:
-        t_first = self.nodes()[0][0]
-        return [smp[0] for smp in self.samples if smp[0] >= t_first]
 
     # -- fit -------------------------------------------------------------
     def _fit(self):
