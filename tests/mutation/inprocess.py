@@ -164,3 +164,57 @@ def write_model_descriptions(directory: Path) -> dict:
         ElementTree(slave.to_xml()).write(path, encoding="utf-8", xml_declaration=True)
         paths[model] = path
     return paths
+
+
+class _Calls:
+    """fmpy FMU2Slave's doStep on an InProcessFmu: a status other than fmi2OK raises."""
+
+    def __init__(self, owner):
+        self.owner = owner
+
+    def doStep(self, currentCommunicationPoint, communicationStepSize, noSetFMUStatePriorToCurrentPoint=True):
+        st = self.owner.step(communicationStepSize, t=currentCommunicationPoint)
+        if st != OK:
+            raise RuntimeError(f"doStep returned status {st}: {self.owner.messages()}")
+
+
+class Instance(InProcessFmu):
+    """tests/fmu_instance.Instance's API (md, set, get, initialize, fmu.doStep) over a slave
+    in this process; `path` is the model's name."""
+
+    _md_cache: dict = {}
+
+    def __init__(self, path, name, **parameters):
+        super().__init__(str(path), name, **parameters)
+        self.fmu = _Calls(self)
+        if self.model_name not in Instance._md_cache:
+            import tempfile
+
+            from fmpy import read_model_description
+            with tempfile.TemporaryDirectory() as d:
+                paths = write_model_descriptions(Path(d))
+                for model, p in paths.items():
+                    Instance._md_cache[model] = read_model_description(str(p))
+        self.md = Instance._md_cache[self.model_name]
+
+    def set(self, **values):
+        st = super().set(**values)
+        if st != OK:
+            raise RuntimeError(f"set{values} returned status {st}: {self.messages()}")
+        return st
+
+    def initialize(self, start=0.0):
+        st = self.init(start)
+        if st != OK:
+            raise RuntimeError(f"initialisation returned status {st}: {self.messages()}")
+
+    def close(self):
+        pass
+
+
+class Opened:
+    def open(self, path, name, **parameters):
+        return Instance(path, name, **parameters)
+
+    def close_all(self):
+        pass
