@@ -109,6 +109,10 @@ def test_a_jump_restarts_the_history_and_says_so():
     r = (0.75 + 3.0) * H * H / 6.0
     below = rec.inconsistency(accelerating(0.0), accelerating(H, 0.99 * r))
     assert below.endswith("of acceleration)") and rec._jump is False
+    # exactly at the edge (6 r / H^2 = 3.75 m/s2, all exact in binary): not a jump
+    assert r == 0.15625
+    assert rec.inconsistency(accelerating(0.0), accelerating(H, r)).endswith("of acceleration)")
+    assert rec._jump is False
     above = rec.inconsistency(accelerating(0.0), accelerating(H, 1.01 * r))
     assert above.endswith("of acceleration); the reconstruction restarts at the newer sample")
     assert rec._jump is True
@@ -180,6 +184,8 @@ def test_a_state_that_does_not_fit_is_refused_state_kept(edit, message):
     with pytest.raises(ValueError) as info:
         b.set_state(state)
     assert message in str(info.value)
+    if message == "input samples are not in increasing time order":
+        assert str(info.value) == message
     assert (b.samples, b.accel(0.1)) == before
 
 
