@@ -304,3 +304,35 @@ def test_a_new_horizon_refits_with_its_nodes(fresh):
 def test_ulp_is_relative_with_a_floor():
     from ballmill.physics.platform import ulp
     assert ulp(1.0) == 2.0 ** -52 and ulp(-8.0) == 2.0 ** -49 and ulp(0.0) == 2.0 ** -52 * 1e-300
+
+
+def _kind(w, x=0.0, y=0.0, vx=0.0, vy=0.0, ax=0.0, ay=0.0):
+    """The data a derivatives fit through two samples w apart takes (the resolution rule of
+    the module docstring), read from the fresh cache of inverses: "xva", "va" or "a"."""
+    rec = InputReconstruction("derivatives", a_tol=1e300)
+    rec.push(0.0, x, y, vx, vy, ax, ay)
+    rec.push(w, x, y, vx, vy, ax, ay)
+    rec.set_horizon(w)
+    rec.accel(w)
+    (kind,) = {k[0] for k in InputReconstruction._ROWS}
+    return kind, rec.dropped
+
+
+@pytest.mark.parametrize("w, values, kind", [
+    # positions: 6 ulp(X) / w^2 <= 1e-6 m/s2, X = 2^20 m (ulp 2^-32): w >= 0.0374 s
+    (0.039, {"x": 2.0 ** 20}, "xva"),
+    (0.037, {"x": 2.0 ** 20}, "va"),
+    (0.037, {"y": -2.0 ** 20}, "va"),
+    (0.037, {"vx": 1e6, "vy": -1e6, "ax": 1e9, "ay": 1e9}, "xva"),  # X is of x and y only
+    # velocities: 4 ulp(V) / w <= 1e-6 m/s2, V = 2^30 m/s (ulp 2^-22): w >= 0.95 s
+    (0.037, {"x": 2.0 ** 20, "vx": 2.0 ** 30}, "a"),
+    (0.037, {"x": 2.0 ** 20, "vy": 2.0 ** 30}, "a"),
+    (0.037, {"x": 2.0 ** 20, "ax": 2.0 ** 40, "ay": 2.0 ** 40}, "va"),  # V is of vx and vy only
+])
+def test_the_resolution_rule_chooses_the_data(fresh, w, values, kind):
+    got, dropped = _kind(w, **values)
+    assert got == kind
+    if kind == "xva":
+        assert dropped is None
+    else:
+        assert dropped == (max(abs(values.get("x", 0.0)), abs(values.get("y", 0.0))), w)
