@@ -328,6 +328,8 @@ def _kind(w, x=0.0, y=0.0, vx=0.0, vy=0.0, ax=0.0, ay=0.0):
     (0.037, {"x": 2.0 ** 20, "vx": 2.0 ** 30}, "a"),
     (0.037, {"x": 2.0 ** 20, "vy": 2.0 ** 30}, "a"),
     (0.037, {"x": 2.0 ** 20, "ax": 2.0 ** 40, "ay": 2.0 ** 40}, "va"),  # V is of vx and vy only
+    (1.0, {"x": 2.0 ** 30, "vx": 2.0 ** 30}, "va"),
+    (0.9, {"x": 2.0 ** 30, "vx": 2.0 ** 30}, "a"),
 ])
 def test_the_resolution_rule_chooses_the_data(fresh, w, values, kind):
     got, dropped = _kind(w, **values)
