@@ -215,3 +215,52 @@ def test_a_percent_reaches_the_logger_as_a_percent():
     assert slave.discard("d") is False
     assert [(m.msg, m.status.name) for m in slave.log_queue] == [
         ("50%% of 10%%", "warning"), ("e", "error"), ("d", "discard")]
+
+
+# -- the declaration's constructors (they run at import, before mutmut's workers fork: called
+# here again so that their mutants are seen) -------------------------------------------------
+def test_a_variable_is_refused_with_its_name_and_what_is_wrong():
+    from ballmill.fmi.interface import Variable
+    for kwargs, text in (
+            (dict(name="a", causality="state", start=1.0, description="d", unit="m"),
+             "a: causality 'state' not in ('parameter', 'input', 'output')"),
+            (dict(name="a", causality="input", start="x", description="d"), "a: start 'x' is not a float, int or bool"),
+            (dict(name="a", causality="input", start=1.0, description="d"), "Real variable 'a' needs a unit"),
+            (dict(name="a", causality="input", start=1.0, description="d", unit="parsec"),
+             "unit 'parsec' of 'a' is not in UNITS"),
+            (dict(name="a", causality="input", start=1, description="d", unit="furlong"),
+             "unit 'furlong' of 'a' is not in UNITS"),
+            (dict(name="a", causality="input", start=1.0, description="  ", unit="m"), "a: no description")):
+        with pytest.raises(ValueError) as info:
+            Variable(**kwargs)
+        assert str(info.value) == text
+    # an Integer or a Boolean needs no unit, a Real with a known one is taken
+    assert Variable("k", "parameter", 2, "count").type == "Integer"
+    assert Variable("b", "output", True, "flag").type == "Boolean"
+    assert Variable("x", "output", 1.0, "x", unit="m").fmi_variability == "continuous"
+    assert Variable("k", "output", 1, "k").fmi_variability == "discrete"
+    assert Variable("p", "parameter", 1.0, "p", unit="m").fmi_variability == "fixed"
+    assert Variable("p", "parameter", 1.0, "p", unit="m", variability="tunable").fmi_variability == "tunable"
+
+
+def test_an_interface_is_refused_with_what_is_wrong():
+    from ballmill.fmi.interface import Interface, Variable, _interface
+    x = Variable("x", "input", 0.0, "x", unit="m")
+    y = Variable("y", "output", 0.0, "y", unit="m", depends=("x",))
+    p = Variable("p", "parameter", 0.0, "p", unit="m")
+    with pytest.raises(ValueError) as info:
+        Interface("M", "d", (x, y, x, p, p))
+    assert str(info.value) == "M: variables declared twice: ['p', 'x']"
+    with pytest.raises(ValueError) as info:
+        Interface("M", "d", (x, p, Variable("z", "output", 0.0, "z", unit="m", depends=("x", "p", "q"))))
+    assert str(info.value) == "M.z depends on non-inputs ['p', 'q']"
+    m = Interface("M", "d", (x, y, p))
+    assert m["y"] is y and m.value_reference("p") == 2 and m.of("input") == [x]
+    with pytest.raises(KeyError) as info:
+        m["w"]
+    assert info.value.args[0] == "M has no variable 'w'"
+    built = _interface("N", "desc", [("x", "input", 0.0, "x", dict(unit="m")), ("k", "parameter", 1, "k")],
+                       default_experiment=(0.0, 1.0, 0.1))
+    assert built.name == "N" and built.description == "desc" and built.default_experiment == (0.0, 1.0, 0.1)
+    assert built.variables == (x, Variable("k", "parameter", 1, "k"))
+    assert built.log_categories == Interface("Q", "q", ()).log_categories and built.log_categories
