@@ -105,6 +105,7 @@ MORE_EDITS = {
     "ball_time": ("BallInShell", "state['__internal__']['state']['t'] = 99.0",
                   "the ball state is at t = 99.0 s but the FMU time is 0.003 s"),
     "ball_h": ("BallInShell", "state['__internal__']['state']['h'] = -1.0", "is not finite"),
+    "ball_h_zero": ("BallInShell", "state['__internal__']['state']['h'] = 0.0", "is not finite"),
     "ball_nan": ("BallInShell", "state['__internal__']['state']['y'][3] = float('nan')", "is not finite"),
     "ball_text": ("BallInShell", "state['__internal__']['state']['y'][3] = 'x'",
                   "expected 6 numbers for formulation 1"),

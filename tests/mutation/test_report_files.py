@@ -195,3 +195,11 @@ def test_long_series_are_drawn_thinner(tmp_path, figures):
                     message="")
     report.plot(res, tmp_path)
     assert figures[-1].axes[0].get_lines()[0].get_linewidth() == 0.8
+
+
+def test_write_all_reads_the_window_start_from_the_models(tmp_path):
+    """after = "ball.t0" with t0 not set in the scenario: the model description's start."""
+    sc = scenario(summary={"after": "ball.t0"})
+    models = {"BallInShell": SimpleNamespace(modelVariables=[SimpleNamespace(name="t0", start=0.3)])}
+    summary = report.write_all(result(sc), models, tmp_path)
+    assert summary["after_s"] == 0.3 and summary["N"]["after"] == {"min": 1.0, "max": 2.0, "range": 1.0}

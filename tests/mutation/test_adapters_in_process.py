@@ -1,0 +1,145 @@
+"""The pythonfmu adapters' own arithmetic and memory, in-process (tests/mutation/inprocess.py),
+for mutants the conformance suite and the outputs-against-library tests let through
+(docs/mutation.md): the drive's torque balance with every inertia, the load's linear
+extrapolation, and an FMU state that carries everything the coming steps depend on (the
+noise estimate of the measured-motion modes, the warnings already given)."""
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+
+import pytest
+
+_TESTS = str(Path(__file__).resolve().parents[1])
+if _TESTS not in sys.path:
+    sys.path.insert(0, _TESTS)
+
+from conformance.inputs import crank, feed, run_ball  # noqa: E402
+from inprocess import OK, InProcessFmu  # noqa: E402
+
+from ballmill.physics.drives.induction import CrankDrive, InductionMotor as MotorData  # noqa: E402
+
+H = 2e-3
+
+
+def open_fmu(model, **p):
+    return InProcessFmu(model, model.lower(), **p)
+
+
+@pytest.mark.parametrize("J_crank, m_platform, l, i", [(3.0, 5.0, 0.3, 10.0), (0.0, 40.0, 0.7, 25.0)])
+def test_the_motor_balances_torque_with_every_inertia(J_crank, m_platform, l, i):
+    """J_total psi'' = i T_motor + M_reaction, J_total = J_crank + m_platform l^2 + i^2 J_rotor
+    (the library's CrankDrive), at every communication point, with a load that rises linearly
+    (M_input = 2: extrapolated linearly, so exact from the second step on)."""
+    drive = CrankDrive(motor=MotorData(), i=i, J_crank=J_crank, m_platform=m_platform, l=l)
+    assert drive.J_total == pytest.approx(J_crank + m_platform * l * l + i * i * MotorData().J_rotor, rel=1e-15)
+    fmu = open_fmu("InductionMotor", J_crank=J_crank, m_platform=m_platform, l=l, i=i, M_input=2)
+
+    def M(t):
+        return 40.0 + 300.0 * t  # positive and above t: a filter on the wrong column would drop it
+    assert fmu.set(M_reaction=M(0.0)) == OK and fmu.init() == OK
+    t = 0.0
+    for k in range(40):
+        assert fmu.step(H, t) == OK
+        t += H
+        if k >= 1:
+            lhs = drive.J_total * fmu.get("psi_ddot")
+            rhs = i * fmu.get("T_motor") + M(t)
+            assert lhs == pytest.approx(rhs, rel=1e-12, abs=1e-9), (k, lhs, rhs)
+        assert fmu.set(M_reaction=M(t)) == OK
+
+
+def _state_round_trip_is_exact(fmu, feed_at, n_after=8):
+    """Save, go on n_after steps, restore the serialised state, go on again: bit for bit the
+    same outputs and log."""
+    blob = fmu.serialize(fmu.get_state())
+    t0 = fmu.time
+    n_log = len(fmu.log)
+
+    def go_on():
+        t = t0
+        out = []
+        for _ in range(n_after):
+            feed_at(t)
+            assert fmu.step(H, t) == OK, fmu.messages()
+            t += H
+            out.append(fmu.outputs())
+        return out
+    first = go_on()
+    log_first = fmu.log[n_log:]
+    st, s = fmu.deserialize(blob)
+    assert st == OK and fmu.set_state(s) == OK, fmu.messages()
+    n_log = len(fmu.log)
+    assert go_on() == first
+    assert fmu.log[n_log:] == log_first
+    return first
+
+
+@pytest.mark.parametrize("mode", [2, 4])
+def test_a_state_carries_the_noise_estimate_of_the_measured_modes(mode):
+    """Positions (2) and accelerations (4) with noisy inputs: the coupling error estimate sums
+    the fit's changes (noise_sum); a restored state goes on with the same sum."""
+    fmu = open_fmu("BallInShell", input_mode=mode, corrector=1, coupling_warn=1e9)
+
+    def noisy(t):
+        k = round(t / H)
+        eps = 1e-9 * ((k * 7919) % 13 - 6)
+        values = dict(zip(("x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O"), crank(t)))
+        values["x1O"] += eps
+        values["ax1O"] += 1e3 * eps
+        assert fmu.set(**values) == OK
+    noisy(0.0)
+    assert fmu.init() == OK
+    t = 0.0
+    for _ in range(30):
+        assert fmu.step(H, t) == OK
+        t += H
+        noisy(t)
+    assert fmu.get("coupling_error") > 0.0
+    state = json.loads(fmu.serialize(fmu.get_state()).decode())
+    assert state["__internal__"]["noise_sum"] > 0.0
+    out = _state_round_trip_is_exact(fmu, noisy)
+    assert out[-1]["coupling_error"] > 0.0
+    # a state written before the noise estimate existed (no noise_sum): the sum starts at 0
+    old = json.loads(fmu.serialize(fmu.get_state()).decode())
+    del old["__internal__"]["noise_sum"]
+    zero = json.loads(json.dumps(old))
+    zero["__internal__"]["noise_sum"] = 0.0
+    results = []
+    t_saved = fmu.time
+    for s in (old, zero):
+        assert fmu.set_state(s) == OK
+        t = fmu.time = t_saved
+        for _ in range(5):
+            noisy(t)
+            assert fmu.step(H, t) == OK
+            t += H
+        results.append(fmu.outputs())
+    assert results[0] == results[1]
+
+
+def test_a_state_remembers_the_warnings_already_given():
+    """The resolution and inconsistency warnings are given once; a restored state does not
+    give them again."""
+    fmu, st = run_ball(open_fmu, [1e-6] * 3)  # steps too short for the positions: warned
+    assert st == OK and "the reconstruction uses the velocity and acceleration inputs" in fmu.messages()
+    _state_round_trip_is_exact(fmu, lambda t: feed(fmu, t), n_after=3)
+    assert fmu.messages().count("the reconstruction uses the velocity and acceleration inputs") == 1
+    fmu, st = run_ball(open_fmu, [H] * 5)
+    t = fmu.time
+    feed(fmu, t, offset=1.0)  # a jump: warned once
+    assert fmu.step(H, t) == OK and "flagged: valid = false (warned once)" in fmu.messages()
+    state = fmu.get_state()
+    n = len(fmu.log)
+    t += H
+    feed(fmu, t, offset=2.0)  # another jump: not warned again
+    assert fmu.step(H, t) == OK
+    assert "warned once" not in fmu.messages(n)
+    assert fmu.set_state(state) == OK
+    n = len(fmu.log)
+    feed(fmu, t, offset=2.0)
+    assert fmu.step(H, t) == OK
+    assert "warned once" not in fmu.messages(n)
+    assert math.isfinite(fmu.get("t_invalid"))
