@@ -143,3 +143,51 @@ def test_a_state_remembers_the_warnings_already_given():
     assert fmu.step(H, t) == OK
     assert "warned once" not in fmu.messages(n)
     assert math.isfinite(fmu.get("t_invalid"))
+
+
+# -- MotorStartup ------------------------------------------------------------------------------
+@pytest.mark.parametrize("law", [1, 2, 3, 4])
+def test_the_drive_follows_the_chosen_law(law):
+    from ballmill.physics import CrankStartup
+    from drive_models.motorstartup_fmu import LAWS
+    ref = CrankStartup(l=0.4, n0=45.0, t0=1.5, law=LAWS[law])
+    fmu = open_fmu("MotorStartup", l=0.4, n0=45.0, t0=1.5, law=law)
+    assert fmu.init() == OK
+    t = 0.0
+    for _ in range(10):
+        assert fmu.step(0.1, t) == OK
+        t += 0.1
+        psi, wd, wdd = ref.angle(t)
+        assert (fmu.get("psi"), fmu.get("psi_dot"), fmu.get("psi_ddot")) == (psi, wd, wdd)
+        assert tuple(fmu.get(n) for n in ("x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O")) == ref.state(t)
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+def test_a_non_finite_load_is_refused_state_kept(bad):
+    fmu = open_fmu("MotorStartup")
+    assert fmu.init() == OK and fmu.step(0.1) == OK
+    before = fmu.outputs()
+    assert fmu.set(M_reaction=bad) == OK  # an input may be anything; the step refuses it
+    n = len(fmu.log)
+    assert fmu.step(0.1) == 2  # fmi2Discard
+    assert fmu.messages(n) == (f"MotorStartup 'motorstartup': input M_reaction must be finite, got {bad!r} N.m at "
+                               f"t = 0.1 s; step refused, last good state kept")
+    assert fmu.outputs() == before
+    assert fmu.set(M_reaction=0.0) == OK and fmu.step(0.1) == OK
+
+
+def test_an_output_that_would_overflow_refuses_the_step_state_kept():
+    """M_reaction = -1e308 N.m at rest (psi' = 0: P_drive = 0) then a step to where psi' = 4 rad/s:
+    the drive power T_drive psi' is beyond the largest double; the step is refused and the
+    platform's motion stays where it was."""
+    fmu = open_fmu("MotorStartup")
+    assert fmu.init() == OK and fmu.set(M_reaction=-1e308) == OK
+    kinematics = ("psi", "psi_dot", "psi_ddot", "x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O")
+    before = [fmu.get(k) for k in kinematics]
+    n = len(fmu.log)
+    assert fmu.step(1.0) == 2
+    assert fmu.messages(n) == ("MotorStartup 'motorstartup': step to t = 1 s refused, last good state kept: "
+                               "output P_drive would be inf")
+    assert [fmu.get(k) for k in kinematics] == before
+    assert fmu.get("T_drive") == 1e308 and fmu.get("P_drive") == 0.0
+    assert fmu.set(M_reaction=0.0) == OK and fmu.step(1.0) == OK and fmu.get("psi_dot") > 3.9
