@@ -191,3 +191,96 @@ def test_an_output_that_would_overflow_refuses_the_step_state_kept():
     assert [fmu.get(k) for k in kinematics] == before
     assert fmu.get("T_drive") == 1e308 and fmu.get("P_drive") == 0.0
     assert fmu.set(M_reaction=0.0) == OK and fmu.step(1.0) == OK and fmu.get("psi_dot") > 3.9
+
+
+# -- the slave base class (ballmill.fmi.slave) ---------------------------------------------------
+def test_a_range_without_a_bound_reads_minus_or_plus_infinity():
+    from inprocess import slave_class
+    slave = slave_class("MotorStartup")(instance_name="r")
+    slave.add("q", "parameter", 1.0, "q", "m", vmax=2.0)
+    slave.add("w", "parameter", 1.0, "w", "1", vmin=0.5)
+    slave.q = 3.0
+    with pytest.raises(ValueError) as info:
+        slave.check_parameters()
+    assert str(info.value) == "parameter q = 3.0 m is outside its accepted range [-inf, 2] m"
+    slave.q, slave.w = 1.0, 0.25
+    with pytest.raises(ValueError) as info:
+        slave.check_parameters()
+    assert str(info.value) == "parameter w = 0.25 is outside its accepted range [0.5, inf]"
+
+
+def test_a_refused_step_is_logged_as_an_error():
+    fmu = open_fmu("MotorStartup")
+    assert fmu.init() == OK
+    n = len(fmu.log)
+    assert fmu.step(-1.0) == 2
+    assert [st for st, _ in fmu.log[n:]] == [3]  # fmi2Error
+    fmu2 = open_fmu("BallInShell", max_step=0.01)
+    fmu2.set(x1O=0.5)
+    assert fmu2.init() == OK
+    n = len(fmu2.log)
+    assert fmu2.step(0.02) == 2
+    assert [st for st, _ in fmu2.log[n:]] == [2]  # fmi2Discard: longer than max_step
+
+
+def test_a_state_saved_after_terminate_restores_the_model():
+    a = open_fmu("InductionMotor")
+    assert a.init() == OK
+    for _ in range(5):
+        assert a.step(1e-3) == OK
+    assert a.terminate() == OK
+    s = a.get_state()
+    assert s["__phase__"] == "terminated" and s["__internal__"] is not None
+    b = open_fmu("InductionMotor")
+    assert b.init() == OK and b.step(1e-3) == OK
+    assert b.set_state(s) == OK, b.messages()
+    assert b.get_state()["__internal__"] == s["__internal__"] and b.outputs() == a.outputs()
+    assert b.step(1e-3) == 2  # refused after fmi2Terminate (fmi2Discard, logged as an error)
+    assert "after fmi2Terminate" in b.messages()
+
+
+def test_a_state_saved_in_initialisation_mode_is_taken():
+    fmu = open_fmu("MotorStartup")
+    slave = fmu.slave
+    slave.setup_experiment(0.0, None, None)
+    slave.enter_initialization_mode()
+    s = fmu.get_state()
+    assert s["__phase__"] == "initialisation" and s["__internal__"] is None
+    assert fmu.set_state(s) == OK
+    slave.exit_initialization_mode()
+    assert fmu.step(0.1) == OK
+
+
+def test_a_state_that_is_not_a_mapping_is_refused():
+    fmu = open_fmu("MotorStartup")
+    assert fmu.init() == OK
+    n = len(fmu.log)
+    assert fmu.set_state(["not", "a", "dict"]) == 4
+    assert fmu.messages(n) == ("MotorStartup 'motorstartup': FMU state refused, the instance keeps its state: "
+                               "an FMU state must be a mapping, got list")
+
+
+def test_an_input_may_be_anything_in_a_state():
+    fmu, st = run_ball(open_fmu, [1e-3] * 3)
+    s = fmu.get_state()
+    s["x1O"] = math.nan  # inputs are checked when a step uses them, not when a state is restored
+    assert fmu.set_state(s) == OK, fmu.messages()
+    s["xC"] = math.nan  # an output is not
+    assert fmu.set_state(s) == 4 and "variable xC = nan is not finite" in fmu.messages()
+
+
+def test_a_slave_without_outputs_or_model():
+    from ballmill.fmi.slave import Slave
+
+    class Bare(Slave):
+        def __init__(self, **kw):
+            super().__init__(**kw)
+            self.add("p", "parameter", 1.0, "p", "m")
+    bare = Bare(instance_name="bare")
+    root = bare.to_xml()
+    structure = root.find("ModelStructure")
+    assert structure.find("Outputs") is None and structure.find("InitialUnknowns") is None
+    bare.setup_experiment(0.0, None, None)
+    bare.enter_initialization_mode()
+    bare.exit_initialization_mode()
+    assert bare.do_step(0.0, 0.5) is True and bare._time == 0.5  # the base step accepts
