@@ -284,3 +284,12 @@ def test_a_slave_without_outputs_or_model():
     bare.enter_initialization_mode()
     bare.exit_initialization_mode()
     assert bare.do_step(0.0, 0.5) is True and bare._time == 0.5  # the base step accepts
+
+
+@pytest.mark.parametrize("f_start, slip", [(0.002, 1.0), (0.0, 0.0), (0.05, 1.0)])
+def test_slip_at_rest_on_a_slow_supply(f_start, slip):
+    """At rest slip = (ws - 0) / ws = 1 for any supply frequency above zero (here down to
+    0.1 Hz: ws = 0.31 rad/s); with no supply frequency at all it is reported as 0."""
+    fmu = open_fmu("InductionMotor", start_mode=3, f_start=f_start)
+    assert fmu.init() == OK
+    assert fmu.get("slip") == slip
