@@ -293,3 +293,53 @@ def test_slip_at_rest_on_a_slow_supply(f_start, slip):
     fmu = open_fmu("InductionMotor", start_mode=3, f_start=f_start)
     assert fmu.init() == OK
     assert fmu.get("slip") == slip
+
+
+def test_the_coupling_warning_is_remembered_and_old_states_warn_again():
+    fmu, st = run_ball(open_fmu, [H] * 5, coupling_warn=0.0)
+    assert st == OK and fmu.messages().count("(warned once)") == 1
+    state = fmu.get_state()
+    assert state["__internal__"]["warned"] is True
+    t = fmu.time
+    _state_round_trip_is_exact(fmu, lambda tt: feed(fmu, tt), n_after=3)
+    assert fmu.messages().count("off by") == 1
+    # a state from before the resolution and inconsistency flags existed: both start false
+    fmu, st = run_ball(open_fmu, [H] * 5)
+    t = fmu.time
+    feed(fmu, t, offset=1.0)
+    assert fmu.step(H, t) == OK and fmu.messages().count("flagged: valid = false (warned once)") == 1
+    old = fmu.get_state()
+    assert old["__internal__"]["inconsistency_warned"] is True
+    del old["__internal__"]["inconsistency_warned"], old["__internal__"]["resolution_warned"]
+    assert fmu.set_state(old) == OK
+    fmu.time = t + H
+    feed(fmu, fmu.time, offset=2.0)
+    assert fmu.step(H) == OK
+    assert fmu.messages().count("flagged: valid = false (warned once)") == 2
+
+
+@pytest.mark.parametrize("t_end, offset, ok", [
+    (0.006, 0.5e-9, True), (0.006, -0.9e-9, True), (0.006, 1.5e-9, False), (0.006, -1.5e-9, False),
+    (2.0, 1.5e-9, True), (2.0, -1.9e-9, True), (2.0, 2.5e-9, False),  # beyond 1 s: 1e-9 |t|
+])
+def test_the_ball_states_time_must_be_the_fmus(t_end, offset, ok):
+    h = 0.006 if t_end < 1 else 0.04
+    fmu, st = run_ball(open_fmu, [h] * round(t_end / h), max_step=0.05)
+    assert st == OK
+    s = fmu.get_state()
+    s["__internal__"]["state"]["t"] += offset
+    assert (fmu.set_state(s) == OK) is ok, fmu.messages()
+    if not ok:
+        assert "the ball state is at t = " in fmu.messages()
+
+
+@pytest.mark.parametrize("stretch, ok", [(1 + 0.5e-6, True), (1 - 0.9e-6, True), (1 + 2e-6, False),
+                                         (1 - 2e-6, False)])
+def test_the_ball_states_direction_must_be_a_unit_vector(stretch, ok):
+    fmu, st = run_ball(open_fmu, [H] * 3)
+    s = fmu.get_state()
+    y = s["__internal__"]["state"]["y"]
+    y[:3] = [v * stretch for v in y[:3]]
+    assert (fmu.set_state(s) == OK) is ok, fmu.messages()
+    if not ok:
+        assert "n = y[0:3] must be a unit vector" in fmu.messages()
