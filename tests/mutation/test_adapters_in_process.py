@@ -24,8 +24,8 @@ from ballmill.physics.drives.induction import CrankDrive, InductionMotor as Moto
 H = 2e-3
 
 
-def open_fmu(model, **p):
-    return InProcessFmu(model, model.lower(), **p)
+def open_fmu(model_name, /, **p):
+    return InProcessFmu(model_name, model_name.lower(), **p)
 
 
 @pytest.mark.parametrize("J_crank, m_platform, l, i", [(3.0, 5.0, 0.3, 10.0), (0.0, 40.0, 0.7, 25.0)])
@@ -343,3 +343,81 @@ def test_the_ball_states_direction_must_be_a_unit_vector(stretch, ok):
     assert (fmu.set_state(s) == OK) is ok, fmu.messages()
     if not ok:
         assert "n = y[0:3] must be a unit vector" in fmu.messages()
+
+
+# -- InductionMotor: every datasheet value reaches the motor, and the work bound -------------------
+DATASHEET = dict(P_rated=1100.0, n_rated=1140.0, U_rated=380.0, f_rated=60.0, pole_pairs=3, I_rated=2.6,
+                 cos_phi=0.8, eta=0.79, Tb_ratio=2.9, J_rotor=0.004, Rs_share=0.35)
+LIBRARY_NAMES = dict(P_rated="rated_power", n_rated="rated_speed", U_rated="rated_voltage",
+                     f_rated="rated_frequency", pole_pairs="pole_pairs", I_rated="rated_current",
+                     cos_phi="power_factor", eta="efficiency", Tb_ratio="breakdown_ratio", J_rotor="J_rotor",
+                     Rs_share="stator_copper_share")
+
+
+@pytest.mark.parametrize("start_mode, model, extra", [
+    (1, 1, {}), (2, 1, dict(u_start=0.45, ramp_time=0.3)), (3, 1, dict(f_start=0.1, ramp_time=0.3)),
+    (1, 2, {}), (3, 2, dict(f_start=0.2, ramp_time=0.2, u_start=0.5)),
+])
+def test_every_datasheet_value_reaches_the_motor(start_mode, model, extra):
+    """A motor unlike the default one in every datasheet value, against the library's run-up
+    (scipy at rtol 1e-11) of the same motor: the motor's torque and speed after 0.1 s."""
+    from ballmill.physics.drives.induction import simulate_runup
+    from drive_models.inductionmotor_fmu import MODELS, STARTS
+    H, n, M = 2e-3, 50, -0.8
+    fmu = open_fmu("InductionMotor", start_mode=start_mode, model=model, tolerance=1e-11, **DATASHEET, **extra)
+    assert fmu.set(M_reaction=M) == OK and fmu.init() == OK
+    for k in range(n):
+        assert fmu.step(H, k * H) == OK, fmu.messages()
+    lib_extra = {k: v for k, v in extra.items()}
+    motor = MotorData(start=STARTS[start_mode], **{LIBRARY_NAMES[k]: v for k, v in DATASHEET.items()}, **lib_extra)
+    drive = CrankDrive(motor=motor, model=MODELS[model])
+    res = simulate_runup(drive, n * H, load_torque=lambda t, psi, psid: M, rtol=1e-11, atol=1e-12, n_out=2)
+    o = drive.outputs(res.y[:, -1], n * H, M)
+    for name in ("psi_dot", "w_motor", "T_motor"):
+        assert fmu.get(name) == pytest.approx(o[name], rel=1e-6, abs=1e-9), name
+
+
+def test_the_tolerance_reaches_the_integrator():
+    """The motor's run-up at tolerance 1e-3 is further from the library's (rtol 1e-11) than at
+    1e-11, and at 1e-11 within 1e-8."""
+    from ballmill.physics.drives.induction import simulate_runup
+    H, n = 2e-3, 50
+    errors = []
+    drive = CrankDrive(motor=MotorData(), model="dq")
+    res = simulate_runup(drive, n * H, load_torque=lambda t, psi, psid: 0.0, rtol=1e-11, atol=1e-12, n_out=2)
+    ref = drive.outputs(res.y[:, -1], n * H, 0.0)["psi_dot"]
+    for tol in (1e-3, 1e-11):
+        fmu = open_fmu("InductionMotor", model=2, tolerance=tol)
+        assert fmu.init() == OK
+        for k in range(n):
+            assert fmu.step(H, k * H) == OK
+        errors.append(abs(fmu.get("psi_dot") - ref))
+    assert errors[1] < 1e-8 * abs(ref) and errors[0] > 10 * errors[1], errors
+
+
+def test_the_loads_slope_comes_from_a_sample_half_a_step_back():
+    """M_input = 2 with a quadratic load and irregular steps: the load over a step is the line
+    through the last sample at least half the step back (or, if none, the last one before) and
+    the present one, from the samples kept (the last three before the present)."""
+    from ballmill.physics.drives.induction import CrankDrive as CD
+    fmu = open_fmu("InductionMotor", M_input=2)
+    drive = CD(motor=MotorData())
+
+    def M(t):
+        return 2.0 + 40.0 * t * t
+    steps = [H, H, H, 0.1 * H, 0.1 * H, 0.1 * H, 0.1 * H, H, 0.3 * H, H, H]
+    assert fmu.set(M_reaction=M(0.0)) == OK and fmu.init() == OK
+    t, kept = 0.0, []
+    for h in steps:
+        assert fmu.set(M_reaction=M(t)) == OK
+        assert fmu.step(h, t) == OK
+        older = [s for s in kept if s <= t - 0.5 * h] or [s for s in kept if s < t]
+        if older:
+            s = older[-1]
+            load_end = M(t) + (M(t) - M(s)) / (t - s) * h
+        else:
+            load_end = M(t)
+        kept = [s for s in kept if s < t][-3:] + [t]
+        t += h
+        got = drive.J_total * fmu.get("psi_ddot") - drive.i * fmu.get("T_motor")
+        assert got == pytest.approx(load_end, rel=1e-12, abs=1e-9), (t, got, load_end)
