@@ -6,6 +6,7 @@ noise estimate of the measured-motion modes, the warnings already given)."""
 from __future__ import annotations
 
 import json
+import re
 import math
 import sys
 from pathlib import Path
@@ -421,3 +422,84 @@ def test_the_loads_slope_comes_from_a_sample_half_a_step_back():
         t += h
         got = drive.J_total * fmu.get("psi_ddot") - drive.i * fmu.get("T_motor")
         assert got == pytest.approx(load_end, rel=1e-12, abs=1e-9), (t, got, load_end)
+
+
+# -- BallInShell: messages and the coupling estimate -------------------------------------------------
+def _noisy_run(mode, corrector, amplitude, n=40):
+    fmu = open_fmu("BallInShell", input_mode=mode, corrector=corrector, coupling_warn=1e9)
+
+    def noisy(t):
+        k = round(t / H)
+        eps = amplitude * ((k * 7919) % 13 - 6) / 6.0
+        values = dict(zip(("x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O"), crank(t)))
+        values["x1O"] += eps
+        values["ax1O"] += 1e3 * eps
+        assert fmu.set(**values) == OK
+    noisy(0.0)
+    assert fmu.init() == OK
+    t = 0.0
+    for _ in range(n):
+        assert fmu.step(H, t) == OK, fmu.messages()
+        t += H
+        noisy(t)
+    return fmu
+
+
+@pytest.mark.parametrize("mode", [2, 4])
+def test_the_coupling_estimate_is_dominated_by_the_noise_drift(mode):
+    """With noisy measured inputs the estimate's drift part R (5/7) sqrt(noise_sum) / (d omega0)
+    (noise_sum from the FMU's own state) dominates: the published coupling_error is the
+    quadrature sum of it and a much smaller step error; without the corrector it is 0."""
+    from ballmill.physics import Ball
+    fmu = _noisy_run(mode, 1, 1e-7)
+    ns = json.loads(fmu.serialize(fmu.get_state()).decode())["__internal__"]["noise_sum"]
+    ball = Ball()
+    drift = ball.R * (5.0 / 7.0) * math.sqrt(ns) / (ball.d * ball.omega_small)
+    assert drift > 0.0
+    assert drift <= fmu.get("coupling_error") <= 1.05 * drift
+    assert _noisy_run(mode, 0, 1e-7).get("coupling_error") == 0.0
+
+
+def test_a_step_the_physics_refuses_is_discarded_with_the_reason():
+    """The paper formulation driven hard climbs to the equator: the step is discarded, the
+    message says which step and why, the state is the last good one."""
+    fmu = open_fmu("BallInShell", formulation=2)
+    t, t0 = 0.0, 1.0
+    feed(fmu, 0.0, t0=t0)
+    assert fmu.init() == OK
+    for _ in range(1000):
+        before = fmu.outputs()
+        n = len(fmu.log)
+        st = fmu.step(H, t)
+        if st:
+            break
+        t += H
+        for k, v in zip(("x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O"), crank(t, t0=t0, n0=90.0)):
+            fmu.set(**{k: v})
+    assert st == 2
+    msg = fmu.messages(n)
+    assert msg.startswith(f"BallInShell 'ballinshell': step from t = {t:.9g} s refused, last good state kept: ")
+    assert "equator" in msg and "XX" not in msg
+    assert fmu.outputs() == before
+
+
+def test_validity_messages_name_the_interval_and_the_reason():
+    fmu, st = run_ball(open_fmu, [], t0=0.5)
+    t = 0.0
+    for _ in range(1000):
+        assert fmu.step(H, t) == OK
+        t += H
+        feed(fmu, t, t0=0.5)
+    msg = fmu.messages()
+    first = next(m for _, m in fmu.log if "valid = false from t = " in m)
+    assert first.startswith(f"BallInShell 'ballinshell': valid = false from t = {fmu.get('t_invalid'):.9g} s "
+                            f"(latched until reset): ")
+    assert first.split("(latched until reset): ")[1].startswith(("slip: |F_t|/N = ", "contact lost (N = "))
+    assert "slip at t = 0 s: |F_t|/N = 0.366 > mu = 0.3; the ball would slide" in msg
+    assert re.search(r"slip between t = [0-9.]+ s and [0-9.]+ s: \|F_t\|/N = ", msg)
+
+
+def test_the_resolution_warning_names_the_positions_and_their_resolution():
+    fmu, st = run_ball(open_fmu, [1e-6] * 3)
+    msg = fmu.messages()
+    assert "the positions (|x1O|, |y1O| up to 0.5 m, resolution 1.11e-16 m) over a window of" in msg
