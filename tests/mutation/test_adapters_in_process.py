@@ -52,7 +52,7 @@ def test_the_motor_balances_torque_with_every_inertia(J_crank, m_platform, l, i)
         assert fmu.set(M_reaction=M(t)) == OK
 
 
-def _state_round_trip_is_exact(fmu, feed_at, n_after=8):
+def _state_round_trip_is_exact(fmu, feed_at, n_after=8, h=H):
     """Save, go on n_after steps, restore the serialised state, go on again: bit for bit the
     same outputs and log."""
     blob = fmu.serialize(fmu.get_state())
@@ -64,8 +64,8 @@ def _state_round_trip_is_exact(fmu, feed_at, n_after=8):
         out = []
         for _ in range(n_after):
             feed_at(t)
-            assert fmu.step(H, t) == OK, fmu.messages()
-            t += H
+            assert fmu.step(h, t) == OK, fmu.messages()
+            t += h
             out.append(fmu.outputs())
         return out
     first = go_on()
@@ -126,8 +126,16 @@ def test_a_state_remembers_the_warnings_already_given():
     give them again."""
     fmu, st = run_ball(open_fmu, [1e-6] * 3)  # steps too short for the positions: warned
     assert st == OK and "the reconstruction uses the velocity and acceleration inputs" in fmu.messages()
-    _state_round_trip_is_exact(fmu, lambda t: feed(fmu, t), n_after=3)
+    _state_round_trip_is_exact(fmu, lambda t: feed(fmu, t), n_after=3, h=1e-6)
     assert fmu.messages().count("the reconstruction uses the velocity and acceleration inputs") == 1
+    # a state from before the flag existed: the warning is given again
+    old = fmu.get_state()
+    del old["__internal__"]["resolution_warned"]
+    assert fmu.set_state(old) == OK
+    t = fmu.time
+    feed(fmu, t)
+    assert fmu.step(1e-6, t) == OK
+    assert fmu.messages().count("the reconstruction uses the velocity and acceleration inputs") == 2
     fmu, st = run_ball(open_fmu, [H] * 5)
     t = fmu.time
     feed(fmu, t, offset=1.0)  # a jump: warned once
