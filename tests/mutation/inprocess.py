@@ -1,4 +1,4 @@
-"""The pythonfmu flavour's three slaves driven in this process, with the API of
+"""The pythonfmu flavour's slaves driven in this process, with the API of
 tests/conformance/harness.Fmu, so that the conformance suite runs on them without building
 an FMU (and, under mutmut, on the mutated copies of ballmill/fmi/slave.py, fmu_src/ and
 drive_models/: a built FMU would bundle the unmutated tree, and its host would not report
@@ -22,7 +22,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 OK, WARNING, DISCARD, ERROR, FATAL = 0, 1, 2, 3, 4
 SCRIPTS = {"BallInShell": "fmu_src.ballinshell_fmu", "MotorStartup": "drive_models.motorstartup_fmu",
-           "InductionMotor": "drive_models.inductionmotor_fmu"}
+           "InductionMotor": "drive_models.inductionmotor_fmu", "Fig1Drive": "drive_models.fig1drive_fmu",
+           "Structure": "drive_models.structure_fmu"}
 
 
 def slave_class(model: str):

@@ -100,7 +100,8 @@ def test_no_instances(tmp_path, models):
 
 def test_an_unknown_model(tmp_path, models):
     assert problems_of(tmp_path, GOOD_EXPERIMENT + '[instances.x]\nfmu = "Nope"\n', models) == [
-        "instances.x.fmu: unknown model 'Nope' (built models: BallInShell, InductionMotor, MotorStartup)"]
+        f"instances.x.fmu: unknown model 'Nope' (built models: {', '.join(sorted(models))})"]
+    assert {"BallInShell", "MotorStartup"} <= set(models)
 
 
 def test_parameter_types(tmp_path, models):
