@@ -26,6 +26,7 @@ from ballmill.physics import CrankStartup
 
 KINEMATICS = CRANK_KINEMATICS
 LAWS = {1: "quadratic", 2: "scurve", 3: "linear", 4: "quintic"}  # CrankStartup.law
+PUBLISHED = tuple(name for name, _, _ in KINEMATICS) + ("T_drive", "P_drive")  # what a step writes
 
 
 class MotorStartup(Slave):
@@ -62,13 +63,14 @@ class MotorStartup(Slave):
         return True
 
     def step(self, t, t_end):
-        if not self._update_torque():
+        m_r = self.M_reaction
+        if m_r != m_r or m_r in (float("inf"), float("-inf")):
             return self.discard(f"{self.who}: input M_reaction must be finite, "
                                 f"got {self.M_reaction!r} N.m at t = {t:.9g} s; step refused, last good state kept")
-        backup = {name: getattr(self, name) for name, _, _ in KINEMATICS}
+        backup = {name: getattr(self, name) for name in PUBLISHED}
         try:
             self._publish(t_end)
-        except ArithmeticError as e:
+        except (ArithmeticError, ValueError) as e:  # ValueError: math.cos of an infinite angle
             for name, v in backup.items():
                 setattr(self, name, v)
             return self.discard(f"{self.who}: step to t = {t_end:.9g} s refused, last good state kept: {e}")

@@ -88,6 +88,28 @@ def test_a_non_finite_input_refuses_the_step_and_keeps_the_state(open_fmu, flavo
     assert fmu.step(0.01) == 0
 
 
+def test_motor_startup_refuses_a_torque_whose_power_overflows(open_fmu, flavour):
+    """M_reaction = -1e308 N.m is finite, but T_drive psi' is not: the step is refused
+    (fmi2Discard, both flavours) and every output keeps its last good value (the pythonfmu
+    flavour raised out of the step: fmi2Fatal)."""
+    fmu = open_fmu("MotorStartup")
+    assert fmu.init() == 0
+    for _ in range(100):
+        assert fmu.step(0.01) == 0
+    before = fmu.outputs()
+    assert before["psi_dot"] > 1.0  # 1 s into the paper's start-up: 4.0 rad/s
+    assert fmu.set(M_reaction=-1e308) == 0
+    n = len(fmu.log)
+    assert fmu.step(0.002) == 2
+    assert "P_drive" in fmu.messages(n)
+    if flavour.usable_after_refusal:
+        after = fmu.outputs()
+        assert {k: after[k] for k in after if k != "M_reaction"} == \
+            {k: before[k] for k in before if k != "M_reaction"}
+        assert fmu.set(M_reaction=0.0) == 0
+        assert fmu.step(0.002) == 0
+
+
 def test_fmu_state_restores_the_input_history(open_fmu):
     """A state saved mid-run and restored gives the same next steps (the extrapolation's
     samples are part of the state)."""
