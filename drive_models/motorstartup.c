@@ -94,8 +94,25 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
     return fmi2OK;
 }
 
+/* direct feedthrough: T_drive and P_drive follow M_reaction set between steps (publish's
+ * arithmetic at the instance's time); left as they are if they would not be finite (the
+ * next step refuses such an input or output) */
+static fmi2Status inputs_set(fmu_instance *fi, const void *data, double *v, double t)
+{
+    const motor_startup *m = data;
+    (void)fi;
+    (void)t;
+    double torque = m->j_total * v[VR_psi_ddot] - v[VR_M_reaction];
+    double power = torque * v[VR_psi_dot];
+    if (isfinite(torque) && isfinite(power)) {
+        v[VR_T_drive] = torque;
+        v[VR_P_drive] = power;
+    }
+    return fmi2OK;
+}
+
 const fmu_model FMU_MODEL = {
     FMU_IDENTIFIER, FMU_GUID, FMU_N_VARS, FMU_VARIABLES,
     sizeof(motor_startup), offsetof(motor_startup, unused),
-    setup, step, NULL, NULL, /* no dynamic state to check, no feedthrough */
+    setup, step, NULL, inputs_set, /* no dynamic state to check */
 };

@@ -58,9 +58,18 @@ class MotorStartup(Slave):
         if m_r != m_r or m_r in (float("inf"), float("-inf")):
             return False
         j_total = self.J_crank + self.m_platform * self.l ** 2
-        self.T_drive = self.finite("T_drive", j_total * self.psi_ddot - m_r)
-        self.P_drive = self.finite("P_drive", self.T_drive * self.psi_dot)
+        t_drive = self.finite("T_drive", j_total * self.psi_ddot - m_r)
+        p_drive = self.finite("P_drive", t_drive * self.psi_dot)
+        self.T_drive, self.P_drive = t_drive, p_drive
         return True
+
+    def inputs_set(self):
+        """Direct feedthrough: T_drive and P_drive follow M_reaction set between steps; left
+        as they are when they would not be finite (the next step refuses that)."""
+        try:
+            self._update_torque()
+        except ArithmeticError:
+            pass
 
     def step(self, t, t_end):
         m_r = self.M_reaction

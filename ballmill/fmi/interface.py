@@ -181,9 +181,9 @@ MOTOR_STARTUP = _interface(
          dict(unit="N.m")),
         *[(name, "output", 0.0, desc, dict(unit=unit)) for name, unit, desc in CRANK_KINEMATICS],
         ("T_drive", "output", 0.0, "Torque the drive must supply: J_total psi'' - M_reaction",
-         dict(unit="N.m", depends=("M_reaction",))),
+         dict(unit="N.m", depends=("M_reaction",), feedthrough=("M_reaction",))),
         ("P_drive", "output", 0.0, "Power the drive must supply: T_drive psi'",
-         dict(unit="W", depends=("M_reaction",))),
+         dict(unit="W", depends=("M_reaction",), feedthrough=("M_reaction",))),
         # declared last: earlier value references stay as they were
         ("law", "parameter", 1, "Shape of the speed rise to n0 in t0: 1 = quadratic (the paper's), "
          "2 = S-curve (cubic smoothstep, zero acceleration at both ends), 3 = linear (constant "

@@ -88,6 +88,29 @@ def test_a_non_finite_input_refuses_the_step_and_keeps_the_state(open_fmu, flavo
     assert fmu.step(0.01) == 0
 
 
+def test_motor_startup_torque_follows_the_ball_torque_without_a_step(open_fmu):
+    """T_drive = J_total psi'' - M_reaction and P_drive = T_drive psi' (declared feedthrough from
+    M_reaction): setting M_reaction between steps recomputes both at once, the crank's motion
+    untouched; the next step is the same as a twin's that never read."""
+    fmu, twin = open_fmu("MotorStartup", J_crank=0.3, m_platform=2.0), open_fmu("MotorStartup", J_crank=0.3,
+                                                                                   m_platform=2.0)
+    for f in (fmu, twin):
+        assert f.init() == 0
+        for _ in range(30):
+            assert f.step(0.01) == 0
+    before = fmu.outputs()
+    assert fmu.set(M_reaction=1.5) == 0 and twin.set(M_reaction=1.5) == 0
+    after = fmu.outputs()
+    j_total = 0.3 + 2.0 * 0.5 ** 2
+    assert after["T_drive"] == j_total * before["psi_ddot"] - 1.5
+    assert after["P_drive"] == after["T_drive"] * before["psi_dot"]
+    assert after["T_drive"] != before["T_drive"]
+    assert {k: after[k] for k in after if k not in ("T_drive", "P_drive", "M_reaction")} == \
+        {k: before[k] for k in before if k not in ("T_drive", "P_drive", "M_reaction")}
+    assert fmu.step(0.01) == 0 and twin.step(0.01) == 0
+    assert fmu.outputs() == twin.outputs()
+
+
 def test_motor_startup_refuses_a_torque_whose_power_overflows(open_fmu, flavour):
     """M_reaction = -1e308 N.m is finite, but T_drive psi' is not: the step is refused
     (fmi2Discard, both flavours) and every output keeps its last good value (the pythonfmu
