@@ -319,3 +319,47 @@ def test_the_loads_slope_takes_a_sample_exactly_half_a_step_back():
     load_end = M(t_k) + slope * (t - t_k)
     got = s._drive.J_total * fmu.get("psi_ddot") - s._drive.i * fmu.get("T_motor")
     assert got == pytest.approx(load_end, rel=1e-12)
+
+
+def test_slip_at_the_end_of_a_step_is_latched_there():
+    """mu = 1: the friction ratio rises through mu between two points (N still > 0): the
+    latch names the step's end and the reason."""
+    g = Ball().g
+    a_crit = g / math.tan(math.radians(60.0))
+    fmu = _contact_lost_run(jerk=a_crit / (10 * H), steps=12, mu=1.0)
+    first = next(m for _, m in fmu.log if "valid = false from t = " in m)
+    t_inv = fmu.get("t_invalid")
+    assert first.startswith(f"BallInShell 'ballinshell': valid = false from t = {t_inv:.9g} s (latched until "
+                            f"reset): slip: |F_t|/N = ")
+    assert first.endswith(" > mu = 1 at the end of the step")
+
+
+def test_an_inconsistent_input_is_latched_with_its_description():
+    from conformance.inputs import feed
+    fmu = open_fmu("BallInShell")
+    feed(fmu, 0.0)
+    assert fmu.init() == OK
+    t = 0.0
+    for k in range(12):
+        assert fmu.step(H, t) == OK
+        t += H
+        feed(fmu, t, noise=(lambda tt: {"vx1O": 1.0}) if k == 10 else None)
+    warning = next(m for _, m in fmu.log if "flagged: valid = false (warned once)" in m)
+    problem = warning.split(f"at t = {fmu.get('t_invalid'):.9g} s ", 1)[1].rsplit("; flagged", 1)[0]
+    assert problem
+    assert (f"valid = false from t = {fmu.get('t_invalid'):.9g} s (latched until reset): {problem}"
+            in fmu.messages())
+
+
+@pytest.mark.parametrize("mode", [2, 4])
+def test_the_noise_sum_only_grows(mode):
+    """The noise estimate is a running sum of squares: it never decreases, and it grows by
+    more than the last term alone."""
+    import json
+    from test_adapters_in_process import _noisy_run
+    sums = []
+    for n in (20, 25, 30, 35, 40):
+        fmu = _noisy_run(mode, 1, 1e-7, n=n)
+        sums.append(json.loads(fmu.serialize(fmu.get_state()).decode())["__internal__"]["noise_sum"])
+    assert sums[0] > 0.0
+    assert all(b > a for a, b in zip(sums, sums[1:])), sums
