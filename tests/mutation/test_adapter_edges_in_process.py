@@ -367,3 +367,24 @@ def test_the_noise_sum_only_grows(mode):
         sums.append(json.loads(fmu.serialize(fmu.get_state()).decode())["__internal__"]["noise_sum"])
     assert sums[0] > 0.0
     assert all(b > a for a, b in zip(sums, sums[1:])), sums
+
+
+@pytest.mark.parametrize("name, value, unit", [("Omega_z", 0.5, " rad/s"), ("Q12", 0.1, ""), ("z1O", 1e-3, " m"),
+                                               ("Q11", 0.5, "")])
+def test_motion_1_refuses_a_chamber_input_away_from_its_default(name, value, unit):
+    """motion = 1 takes a horizontal translation only: any other input away from its default
+    refuses the step (named, with its unit, state kept) and the initialisation."""
+    default = 1.0 if name == "Q11" else 0.0
+    text = (f"input {name} = {value!r}{unit} is away from its default {default!r}, but motion = 1 (horizontal "
+            f"translation) does not use it: set motion = 2 for a chamber that moves vertically or turns")
+    fmu = open_fmu("BallInShell")
+    assert fmu.init() == OK and fmu.step(H) == OK
+    before = fmu.outputs()
+    assert fmu.set(**{name: value}) == OK
+    n = len(fmu.log)
+    assert fmu.step(H) == DISCARD
+    assert fmu.messages(n).endswith(text)
+    assert fmu.outputs() == before
+    assert fmu.set(**{name: default}) == OK and fmu.step(H) == OK
+    fmu = open_fmu("BallInShell", **{name: value})
+    assert fmu.init() == FATAL and text in fmu.messages()
