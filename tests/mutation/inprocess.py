@@ -167,6 +167,17 @@ def write_model_descriptions(directory: Path) -> dict:
     return paths
 
 
+def _step_failed(status, text):
+    """What fmpy raises for a doStep that is not fmi2OK (FMICallException, with its status),
+    also a RuntimeError as before, with the log's text."""
+    from fmpy.fmi1 import FMICallException
+
+    class StepFailed(FMICallException, RuntimeError):
+        def __str__(self):
+            return f"doStep returned status {self.status}: {text}"
+    return StepFailed("fmi2DoStep", status)
+
+
 class _Calls:
     """fmpy FMU2Slave's doStep on an InProcessFmu: a status other than fmi2OK raises."""
 
@@ -176,7 +187,7 @@ class _Calls:
     def doStep(self, currentCommunicationPoint, communicationStepSize, noSetFMUStatePriorToCurrentPoint=True):
         st = self.owner.step(communicationStepSize, t=currentCommunicationPoint)
         if st != OK:
-            raise RuntimeError(f"doStep returned status {st}: {self.owner.messages()}")
+            raise _step_failed(st, self.owner.messages())
 
 
 class Instance(InProcessFmu):
@@ -203,6 +214,9 @@ class Instance(InProcessFmu):
         if st != OK:
             raise RuntimeError(f"set{values} returned status {st}: {self.messages()}")
         return st
+
+    def reals(self, names):
+        return [float(self.get(n)) for n in names]
 
     def initialize(self, start=0.0):
         st = self.init(start)

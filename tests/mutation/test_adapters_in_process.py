@@ -191,7 +191,7 @@ def test_an_output_that_would_overflow_refuses_the_step_state_kept():
     output stays where it was."""
     fmu = open_fmu("MotorStartup")
     assert fmu.init() == OK and fmu.set(M_reaction=-1e308) == OK
-    kinematics = ("psi", "psi_dot", "psi_ddot", "x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O")
+    kinematics = ("psi", "psi_dot", "psi_ddot", "x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O", "T_drive", "P_drive")
     before = [fmu.get(k) for k in kinematics]
     n = len(fmu.log)
     assert fmu.step(1.0) == 2

@@ -23,6 +23,7 @@ if _TESTS not in sys.path:
 from conformance.conftest import FATAL, DISCARD, MODELS, OK, Flavour  # noqa: E402
 from conformance.inputs import run_ball  # noqa: E402
 from conformance.test_inputs import *  # noqa: E402,F401,F403
+from conformance.test_motion import *  # noqa: E402,F401,F403
 from conformance.test_parameters import *  # noqa: E402,F401,F403
 from conformance.test_state import *  # noqa: E402,F401,F403
 from conformance.test_state import EDITS  # noqa: E402
