@@ -176,15 +176,10 @@ class NoExcitation:
 
 
 @dataclass(frozen=True)
-class HarmonicForce:
-    """F_x = amplitude_x sin(theta(t)), F_y = amplitude_y sin(theta(t) + phase_y), with
-
-        theta(t) = phase + 2 pi (frequency (t - t0) + 1/2 sweep_rate (t - t0)^2)
-
-    i.e. an instantaneous frequency frequency + sweep_rate (t - t0) [Hz] that
-    may vary slowly (a linear chirp; sweep_rate in Hz/s, 0 for a steady
-    harmonic). ``phase`` [rad] lets a stepped sweep continue with the phase it
-    had. Amplitudes in N."""
+class _Harmonic:
+    """What a harmonic force and a harmonic ground acceleration share: the amplitudes
+    per axis (in ``UNIT``), the phase law theta(t) of a linear chirp and its
+    instantaneous frequency, and the retuning that continues it (see `HarmonicForce`)."""
 
     amplitude_x: float = 0.0
     frequency: float = 1.0
@@ -194,13 +189,13 @@ class HarmonicForce:
     sweep_rate: float = 0.0
     t0: float = 0.0
 
+    UNIT = ""  # of the amplitudes
+
     def __post_init__(self):
-        for name, unit in (("amplitude_x", "N"), ("amplitude_y", "N"), ("phase", "rad"),
+        for name, unit in (("amplitude_x", self.UNIT), ("amplitude_y", self.UNIT), ("phase", "rad"),
                            ("phase_y", "rad"), ("sweep_rate", "Hz/s"), ("t0", "s")):
             object.__setattr__(self, name, _finite(name, getattr(self, name), unit))
         object.__setattr__(self, "frequency", _finite("frequency", self.frequency, "Hz", positive=True))
-
-    kind = "force"
 
     def theta(self, t: float) -> float:
         s = t - self.t0
@@ -210,48 +205,47 @@ class HarmonicForce:
         """[Hz]"""
         return self.frequency + self.sweep_rate * (t - self.t0)
 
-    def loads(self, t: float):
+    def _components(self, t: float):
         th = self.theta(t)
-        return (self.amplitude_x * math.sin(th), self.amplitude_y * math.sin(th + self.phase_y),
-                0.0, 0.0)
+        return self.amplitude_x * math.sin(th), self.amplitude_y * math.sin(th + self.phase_y)
 
-    def retuned(self, frequency: float, t: float) -> "HarmonicForce":
-        """The same force continuing at time t with a new steady frequency and the
+    def retuned(self, frequency: float, t: float):
+        """The same excitation continuing at time t with a new steady frequency and the
         phase it has at t (for stepped sweeps)."""
-        return HarmonicForce(self.amplitude_x, frequency, self.amplitude_y,
-                             math.fmod(self.theta(t), 2.0 * math.pi), self.phase_y, 0.0, t)
+        return type(self)(self.amplitude_x, frequency, self.amplitude_y,
+                          math.fmod(self.theta(t), 2.0 * math.pi), self.phase_y, 0.0, t)
 
 
 @dataclass(frozen=True)
-class HarmonicGround:
+class HarmonicForce(_Harmonic):
+    """F_x = amplitude_x sin(theta(t)), F_y = amplitude_y sin(theta(t) + phase_y), with
+
+        theta(t) = phase + 2 pi (frequency (t - t0) + 1/2 sweep_rate (t - t0)^2)
+
+    i.e. an instantaneous frequency frequency + sweep_rate (t - t0) [Hz] that
+    may vary slowly (a linear chirp; sweep_rate in Hz/s, 0 for a steady
+    harmonic). ``phase`` [rad] lets a stepped sweep continue with the phase it
+    had. Amplitudes in N."""
+
+    UNIT = "N"
+    kind = "force"
+
+    def loads(self, t: float):
+        fx, fy = self._components(t)
+        return fx, fy, 0.0, 0.0
+
+
+@dataclass(frozen=True)
+class HarmonicGround(_Harmonic):
     """Ground acceleration a_gx = amplitude_x sin(theta(t)), a_gy = amplitude_y
     sin(theta(t) + phase_y) [m/s2]; theta(t) as in `HarmonicForce`."""
 
-    amplitude_x: float = 0.0
-    frequency: float = 1.0
-    amplitude_y: float = 0.0
-    phase: float = 0.0
-    phase_y: float = 0.0
-    sweep_rate: float = 0.0
-    t0: float = 0.0
-
-    def __post_init__(self):
-        for name, unit in (("amplitude_x", "m/s2"), ("amplitude_y", "m/s2"), ("phase", "rad"),
-                           ("phase_y", "rad"), ("sweep_rate", "Hz/s"), ("t0", "s")):
-            object.__setattr__(self, name, _finite(name, getattr(self, name), unit))
-        object.__setattr__(self, "frequency", _finite("frequency", self.frequency, "Hz", positive=True))
-
+    UNIT = "m/s2"
     kind = "ground"
-    theta = HarmonicForce.theta
-    instantaneous_frequency = HarmonicForce.instantaneous_frequency
 
     def loads(self, t: float):
-        th = self.theta(t)
-        return (0.0, 0.0, self.amplitude_x * math.sin(th), self.amplitude_y * math.sin(th + self.phase_y))
-
-    def retuned(self, frequency: float, t: float) -> "HarmonicGround":
-        return HarmonicGround(self.amplitude_x, frequency, self.amplitude_y,
-                              math.fmod(self.theta(t), 2.0 * math.pi), self.phase_y, 0.0, t)
+        ax, ay = self._components(t)
+        return 0.0, 0.0, ax, ay
 
 
 @dataclass(frozen=True)
