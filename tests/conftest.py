@@ -12,6 +12,8 @@ pytest has reported, the session leaves with ``os._exit`` and pytest's own exit 
 that the defect cannot turn a green run red at random. The defect itself is asserted on its
 own, in a host process (tests/test_fmu_standalone.py, tests/conformance/test_exit.py).
 """
+import json
+import math
 import os
 import sys
 from pathlib import Path
@@ -83,9 +85,27 @@ def pytest_unconfigure(config):
 def pytest_collection_modifyitems(config, items):
     """Under mutmut (docs/mutation.md) a test that starts a dask cluster hangs in mutmut's
     forked worker (the cluster's processes never report back, and a sleeping worker never
-    reaches mutmut's CPU-time limit): such tests are skipped there."""
-    if not os.environ.get("MUTANT_UNDER_TEST"):
+    reaches mutmut's CPU-time limit): such tests are skipped there. And a mutant's tests run
+    fastest first (their durations from mutmut's stats run): mutmut stops at the first
+    failure, so a mutant is killed by its cheapest catching test, not by whichever came first."""
+    mutant = os.environ.get("MUTANT_UNDER_TEST")
+    if not mutant:
         return
+    if "__mutmut_" in mutant:
+        items.sort(key=lambda item: _mutmut_durations().get(item.nodeid, math.inf))
     for item in items:
         if "dask" in item.name:
             item.add_marker(pytest.mark.skip(reason="no dask cluster in a mutmut worker"))
+
+
+def _mutmut_durations() -> dict:
+    """test node id -> its duration in mutmut's stats run: the forked worker inherits them from
+    mutmut's process; otherwise (a mutant run by hand) they are read from mutmut-stats.json."""
+    try:
+        from mutmut.state import state
+        durations = state().duration_by_test
+    except ImportError:
+        durations = {}
+    if not durations and Path("mutmut-stats.json").is_file():
+        durations = json.loads(Path("mutmut-stats.json").read_text())["duration_by_test"]
+    return durations
