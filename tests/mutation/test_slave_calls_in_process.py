@@ -20,7 +20,8 @@ if _TESTS not in sys.path:
 
 from inprocess import DISCARD, ERROR, FATAL, OK, InProcessFmu  # noqa: E402
 
-POSITIVE = "refused: communicationStepSize must be positive and finite, accepted range (0, inf] s; state kept at t = 0.5 s"
+POSITIVE = ("refused: communicationStepSize must be positive and finite, accepted range (0, inf] s; state kept "
+            "at t = 0.5 s")
 
 
 @pytest.mark.parametrize("h, t, text", [
