@@ -1044,8 +1044,8 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
     double c_max = DRAG_LIMIT * m * omega_small;
     if (cdrag > c_max) {
         snprintf(msg, sizeof msg, "parameter c_drag = %s N.s/m is outside its accepted range [0, %.6g] N.s/m "
-                 "(1e4 m omega0: a drag time m/c_drag below 1e-4/omega0 makes the equations too stiff for the "
-                 "explicit integrators)", fmu_repr(cdrag, a), c_max);
+                 "(1e4 m omega0: a viscous time constant m/c_drag below 1e-4/omega0 makes the equations too "
+                 "stiff for the explicit integrators)", fmu_repr(cdrag, a), c_max);
         return init_error(fi, msg, "");
     }
     P->form = formulation == 2 ? BM_PAPER : BM_VECTOR;

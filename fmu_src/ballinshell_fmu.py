@@ -53,7 +53,7 @@ FORMULATIONS = {1: "vector", 2: "paper"}
 METHODS = {1: "DOP853", 2: "RK45", 3: "RK4"}
 INPUT_MODES = {1: "derivatives", 2: "positions", 3: "hold", 4: "accelerations"}
 MAX_INTERNAL_STEPS = 20000  # work bound: internal steps of one integration in a doStep
-DRAG_LIMIT = 1e4  # c_drag <= DRAG_LIMIT m omega0 (drag time m/c_drag >= 1e-4 / omega0)
+DRAG_LIMIT = 1e4  # c_drag <= DRAG_LIMIT m omega0 (viscous time constant m/c_drag >= 1e-4 / omega0)
 OUTPUTS = BALL_OUTPUTS
 INPUTS = BALL_INPUTS
 MOTIONS = {1: "translation", 2: "general"}
@@ -90,8 +90,8 @@ class BallInShell(Slave):
         c_max = DRAG_LIMIT * ball.m * ball.omega_small
         if self.c_drag > c_max:
             raise ValueError(f"parameter c_drag = {self.c_drag!r} N.s/m is outside its accepted range "
-                             f"[0, {c_max:.6g}] N.s/m (1e4 m omega0: a drag time m/c_drag below 1e-4/omega0 "
-                             f"makes the equations too stiff for the explicit integrators)")
+                             f"[0, {c_max:.6g}] N.s/m (1e4 m omega0: a viscous time constant m/c_drag below "
+                             f"1e-4/omega0 makes the equations too stiff for the explicit integrators)")
         self._max_step = self.max_step or 0.05 * 2.0 * math.pi / ball.omega_small
         method = self.choice("integrator", METHODS)
         if method == "RK4" and self._max_step / self.h_fixed > MAX_INTERNAL_STEPS:
