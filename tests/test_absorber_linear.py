@@ -160,3 +160,17 @@ def test_tower_absorber_scenario_is_tuned_as_its_comment_says():
     ball = Ball(r=p["r"], R=p["R"], m=p["m"], drag=p["c_drag"])
     assert ball.omega_small / (2 * math.pi) == pytest.approx(0.4424, abs=5e-4)  # the comment's number
     assert "no damping is modelled" not in text
+
+
+def test_an_unknown_load_is_refused_not_read_as_ground():
+    """response/frf/ball_frf/peaks/steady_state take load = 'force' or 'ground'; anything
+    else (a typo) is refused with the value named, not answered with the ground response."""
+    la = LinearAbsorber(STRUCT.x, TUNED)
+    for bad in ("Force", "forse", None, "ground "):
+        for call in (lambda: la.response([0.8], bad), lambda: la.frf([0.8], bad),
+                     lambda: la.ball_frf([0.8], bad), lambda: la.peaks(0.6, 1.0, bad, n=11),
+                     lambda: la.steady_state(1.0, 0.8, 0.0, bad)):
+            with pytest.raises(ValueError) as err:
+                call()
+            assert str(err.value) == f"load must be 'force' or 'ground', got load = {bad!r}"
+    assert np.abs(la.frf([0.8], "ground") / la.frf([0.8], "force")).item() > 50  # they differ

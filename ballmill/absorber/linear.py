@@ -179,6 +179,8 @@ class LinearAbsorber:
     def response(self, frequency, load: str = "force"):
         """Complex amplitudes of all coordinates per unit load (force [N] at psi, or
         ground acceleration [m/s2]), shape (len(frequency), n_coords)."""
+        if load not in ("force", "ground"):
+            raise ValueError(f"load must be 'force' or 'ground', got load = {load!r}")
         f = np.atleast_1d(np.asarray(frequency, dtype=float))
         Q = self.psi if load == "force" else self.ground
         out = np.empty((f.size, self.M.shape[0]), dtype=complex)
