@@ -199,6 +199,15 @@ def test_ground_record_from_csv(tmp_path):
     refused(lambda: GroundRecord.from_csv(empty), f"{empty}: no data rows")
     refused(lambda: GroundRecord.from_csv(q), f"{q}: column 'time' missing, found ['a_x', 's']")
     refused(lambda: GroundRecord.from_csv(q, time="s"), f"{q}: column 'ax' missing, found ['a_x', 's']")
+    # one data row: the record's own refusal, naming the file
+    one = tmp_path / "one.csv"
+    one.write_text("time,ax,ay\n0,1,2\n")
+    refused(lambda: GroundRecord.from_csv(one), "a ground record needs at least 2 samples and columns of "
+                                                 f"equal length, got 1 times, 1 ax, 1 ay ({one})")
+    # the csv module's own line handling: a quoted name with a CR LF inside is read verbatim
+    crlf = tmp_path / "crlf.csv"
+    crlf.write_bytes(b'time,"a\r\nx",ay\r\n0,1,2\r\n1,3,4\r\n')
+    assert GroundRecord.from_csv(crlf, ax="a\r\nx").ax == (1.0, 3.0)
     bad = tmp_path / "b.csv"
     bad.write_text("time,ax,ay\n0,1,2\n1,x,2\n")
     refused(lambda: GroundRecord.from_csv(bad), f"{bad}: could not convert string to float: 'x'")
