@@ -197,7 +197,7 @@ def test_measured_ground_record_drives_structure_and_ball_as_the_monolithic_mode
 def test_tower_absorber_summary_is_a_tower_engineers(fmu_build_dir, tmp_path):
     """`ballmill run tower_absorber`: the tower's peak/RMS displacement and acceleration with
     the ball and bare (a second run without it), the reduction, the ball's excursion and
-    validity; no crank torque. The numbers against the linear theory: with the ball 0.01153 m,
+    validity; no crank torque. The numbers against the linear theory: with the ball 0.01167 m,
     bare 0.1225 m (steady amplitudes at 0.45 Hz in x, 2 N), within 2 %."""
     import json
 
@@ -214,7 +214,7 @@ def test_tower_absorber_summary_is_a_tower_engineers(fmu_build_dir, tmp_path):
     st = s["structure"]
     M = 204.20352248333654
     axis = StructureAxis.single(M, 0.45, 0.005)
-    ball = Ball(r=0.05, R=0.957, m=4.084070449666731, drag=2.27)
+    ball = Ball(r=0.05, R=0.957, m=4.084070449666731, drag=2.30)
     f = np.array([0.45])
     assert st["displacement_x_peak_m"] == pytest.approx(2.0 * abs(LinearAbsorber(axis, ball).frf(f)[0]), rel=0.02)
     assert st["bare_displacement_x_peak_m"] == pytest.approx(2.0 * abs(LinearAbsorber(axis).frf(f)[0]), rel=0.02)

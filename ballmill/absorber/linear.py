@@ -31,7 +31,9 @@ u = v / (1 + iota) the kinetic energy becomes 1/2 M' x'^2 + 1/2 m_a (x' + v')^2 
 
 So Den Hartog's optimum for an undamped main system applies with this mu and
 the main frequency sqrt(K / M'): f_a = f_main / (1 + mu),
-zeta_a = sqrt(3 mu / (8 (1 + mu)^3)), peak |x| K / F = sqrt(1 + 2 / mu).
+zeta_a = sqrt(3 mu / (8 (1 + mu))), peak |x| K / F = sqrt(1 + 2 / mu). (zeta_a is the
+absorber's own ratio c_a / (2 m_a omega_a); Den Hartog's c_a / (2 m_a omega_main) =
+sqrt(3 mu / (8 (1 + mu)^3)) is the same damper referred to the main frequency.)
 The rolling resistance delta is not linear (a Coulomb-type moment delta N):
 over a cycle of ball amplitude U at Omega it dissipates what a drag
 c_eq = 4 delta m g / (pi r Omega U) would, so it damps small motions much
@@ -126,8 +128,11 @@ def equivalent_tmd(axis: StructureAxis, ball: Ball) -> EquivalentTMD:
 
 def den_hartog(mu: float):
     """Den Hartog's optimum TMD for an undamped main system and mass ratio mu:
-    (frequency ratio f_a / f_main, damping ratio zeta_a, peak |x| k / F)."""
-    return (1.0 / (1.0 + mu), math.sqrt(3.0 * mu / (8.0 * (1.0 + mu) ** 3)), math.sqrt(1.0 + 2.0 / mu))
+    (frequency ratio f_a / f_main, the absorber's own damping ratio
+    zeta_a = c_a / (2 m_a omega_a) = sqrt(3 mu / (8 (1 + mu))), peak |x| k / F).
+    (Den Hartog's sqrt(3 mu / (8 (1 + mu)^3)) is c_a / (2 m_a omega_main), the same damper
+    referred to the main system's frequency omega_main = (1 + mu) omega_a.)"""
+    return (1.0 / (1.0 + mu), math.sqrt(3.0 * mu / (8.0 * (1.0 + mu))), math.sqrt(1.0 + 2.0 / mu))
 
 
 def den_hartog_ball(axis: StructureAxis, r: float, m: float, g: float = 9.81,
@@ -179,6 +184,8 @@ class LinearAbsorber:
     def response(self, frequency, load: str = "force"):
         """Complex amplitudes of all coordinates per unit load (force [N] at psi, or
         ground acceleration [m/s2]), shape (len(frequency), n_coords)."""
+        if load not in ("force", "ground"):
+            raise ValueError(f"load must be 'force' or 'ground', got load = {load!r}")
         f = np.atleast_1d(np.asarray(frequency, dtype=float))
         Q = self.psi if load == "force" else self.ground
         out = np.empty((f.size, self.M.shape[0]), dtype=complex)

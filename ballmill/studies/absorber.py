@@ -588,7 +588,8 @@ def report(file, frf_rows, sweep_rows, trows, ground_summary, opt_rows, timings,
         "The cavity radius that tunes the ball to a structure mode of frequency f: "
         "R = r + 5 g / (7 (2 pi f)^2) (`cavity_radius`). The reference is the classic tuned-mass damper "
         "optimum of Den Hartog for an undamped structure, applied to the equivalent absorber "
-        "(mu = 5/7 m / (M + 2/7 m)): f_ball = f_main / (1 + mu), zeta = sqrt(3 mu / (8 (1 + mu)^3)), "
+        "(mu = 5/7 m / (M + 2/7 m)): f_ball = f_main / (1 + mu), zeta = sqrt(3 mu / (8 (1 + mu))) "
+        "(the ball's own damping ratio), "
         "peak |x| k / F = sqrt(1 + 2/mu). The search (`optimum`) minimises the highest peak of the "
         "linear model with the structure's own damping, over the ball's frequency (R) and damping ratio "
         "(realised by the drag c_drag = 2 (7/5) m omega_b zeta).",
