@@ -135,3 +135,17 @@ def test_an_empty_or_backward_interval_returns_the_state_as_floats(method):
     # from a negative time: y' = 1 over 3 s
     y, _, stats = integ.advance(lambda t, y: 1.0, -2.0, [0.0], 1.0, 0.5)
     assert y.tolist() == pytest.approx([3.0], abs=1e-11) and stats.steps >= 1  # RK4: 3000 steps of round-off
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"tol": 0.5}, "tolerance must be within [1e-15, 0.1], got 0.5"),
+    ({"tol": 1e-16}, "tolerance must be within [1e-15, 0.1], got 1e-16"),
+    ({"h_fixed": 0.0}, "fixed step h_fixed must be positive and finite, got 0.0 s"),
+    ({"h_fixed": -1e-3}, "fixed step h_fixed must be positive and finite, got -0.001 s"),
+    ({"h_fixed": math.inf}, "fixed step h_fixed must be positive and finite, got inf s"),
+])
+def test_the_integrator_refuses_its_settings_word_for_word(kwargs, message):
+    with pytest.raises(ValueError) as info:
+        Integrator("RK4", **kwargs)
+    assert str(info.value) == message
+    assert Integrator("RK4", tol=0.1, h_fixed=5e-324).tol == 0.1  # the edges themselves are taken
