@@ -323,7 +323,8 @@ class Integrator:
             finite = bool(np.all(np.isfinite(y_new)))
             if not adaptive:
                 return y_new.tolist(), finite
-            k = np.asarray(f(t + h, y_new), dtype=float)
+            # a scalar right-hand side is broadcast to every state, as `_as_seq` does
+            k = np.broadcast_to(np.asarray(f(t + h, y_new), dtype=float), y.shape)
             K[-1] = k
             err = self._error_norm(K, h, y, y_new)
             return y_new.tolist(), tuple(k.tolist()), err, finite and math.isfinite(err)

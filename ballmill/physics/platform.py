@@ -32,9 +32,10 @@ The step-size policy of the fit (docs/conformance.md, "reconstruction"):
   of the older nodes are left out when the round-off of the positions,
   6 ulp(X) / w^2 (X the largest |x| of the nodes, w the window span), would
   exceed A_RES = 1e-6 m/s2 of acceleration (the fit then takes v and a), and
-  the velocity rows too when 4 ulp(V) / w > A_RES; in mode "positions" a new
-  sample closer than s_res = sqrt(187 ulp(X) / A_RES) to the one before
-  replaces it in the history (187: the 6-node quintic's noise gain);
+  the velocity rows too when 4 ulp(V) / w > A_RES; in mode "positions" the
+  newest history sample, when closer than s_res = sqrt(187 ulp(X) / A_RES) to
+  the one before it (X over those two and the new sample), leaves the history
+  when the next sample arrives (187: the 6-node quintic's noise gain);
 * consistency (mode "derivatives"): each new sample k is checked against the
   previous one with the Euler-Maclaurin residual
   r = x_k - x_{k-1} - H (v_{k-1} + v_k)/2 + H^2 (a_k - a_{k-1})/12 per axis
