@@ -1,0 +1,216 @@
+"""The co-simulation master's algebraic loops (ballmill/scenario/runner.py) with native FMUs
+where mutmut sees them (tests/mutation/native_fmus.py): which loops `algebraic_loops` finds
+from the model descriptions' direct feedthrough, the initialisation order, the Gauss-Seidel
+iteration (its fixed point, checked against the structure's equation of motion; the number
+of sweeps), "ignore" (the plain Jacobi exchange and its warning) and a loop that does not
+converge (the run stops with a message naming the loops, the variable and its residual,
+word for word). Loops through a variable and its own instance are built without the
+scenario checker, which refuses their mixed units."""
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from ballmill.scenario import runner, spec
+from runner_cases import direct, quadratic_law, table
+
+FAST_START = [("drive", v, "ball", v) for v in ("x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O")] + \
+    [("ball", "M_reaction", "drive", "M_reaction")]
+
+
+def _md(inputs, outputs):
+    """A stand-in for fmpy's ModelDescription: outputs name -> list of inputs it depends on
+    (None: the attribute is absent, i.e. every input)."""
+    variables = [SimpleNamespace(name=n, causality="input") for n in inputs] + \
+        [SimpleNamespace(name=n, causality="output") for n in outputs] + \
+        [SimpleNamespace(name="p", causality="parameter")]
+    unknowns = [SimpleNamespace(variable=SimpleNamespace(name=n),
+                                dependencies=None if d is None else [SimpleNamespace(name=x) for x in d])
+                for n, d in outputs.items()]
+    return SimpleNamespace(modelVariables=variables, outputs=unknowns)
+
+
+def _scenario(instances, connections):
+    return direct({n: spec.Instance(n, fmu=m) if m else spec.Instance(n) for n, m in instances.items()}, connections)
+
+
+def test_loops_are_the_cycles_through_connections_and_declared_feedthrough():
+    models = {"F": _md(["u", "w"], {"y": ["u"], "z": []}),  # y follows u, z follows nothing
+              "A": _md(["u", "w"], {"y": None, "z": ["w"]})}  # y follows every input
+    loops = runner.algebraic_loops
+    # F.y -> G.u -> G.y -> F.u: a loop; the z's carry no feedthrough
+    sc = _scenario({"f": "F", "g": "F"}, [("f", "y", "g", "u"), ("g", "z", "f", "w"), ("g", "y", "f", "u")])
+    assert loops(sc, models) == [[("f", "y", "g", "u"), ("g", "y", "f", "u")]]
+    # through z only: no feedthrough, no loop
+    sc = _scenario({"f": "F", "g": "F"}, [("f", "z", "g", "u"), ("g", "z", "f", "u")])
+    assert loops(sc, models) == []
+    # an output without dependencies depends on every input: A.y through w
+    sc = _scenario({"a": "A", "b": "A"}, [("a", "y", "b", "w"), ("b", "z", "a", "w")])
+    assert loops(sc, models) == [[("a", "y", "b", "w"), ("b", "z", "a", "w")]]
+    # a self-loop, and two separate loops listed in the order of their first connection
+    sc = _scenario({"f": "F", "a": "A", "b": "A", "t": None},
+                   [("a", "z", "b", "w"), ("f", "y", "f", "u"), ("t", "x", "f", "w"), ("b", "z", "a", "w")])
+    assert loops(sc, models) == [[("a", "z", "b", "w"), ("b", "z", "a", "w")], [("f", "y", "f", "u")]]
+    # a chain of three through feedthrough, closed: one loop with its connections in the file's order
+    sc = _scenario({"x": "F", "y": "F", "z": "F"},
+                   [("z", "y", "x", "u"), ("x", "y", "y", "u"), ("y", "y", "z", "u"), ("x", "z", "z", "w")])
+    assert loops(sc, models) == [[("z", "y", "x", "u"), ("x", "y", "y", "u"), ("y", "y", "z", "u")]]
+    # an instance whose model is unknown, and a table, add no edges
+    assert loops(_scenario({"f": "F", "q": "Q"}, [("f", "y", "q", "u"), ("q", "y", "f", "u")]), models) == []
+
+
+def test_loops_of_the_project_fmus_from_their_model_descriptions(native_models):
+    """Direct feedthrough while stepping (ModelStructure/Outputs): BallInShell's reaction
+    torque and forces follow the chamber's position and acceleration, the Structure's
+    accelerations follow the ball's force; MotorStartup's and InductionMotor's motion outputs
+    do not follow their torque input (InductionMotor's only in initialisation mode)."""
+    sc = _scenario({"drive": "MotorStartup", "ball": "BallInShell"}, FAST_START)
+    assert runner.algebraic_loops(sc, native_models) == []
+    sc = _scenario({"drive": "InductionMotor", "ball": "BallInShell"}, FAST_START)
+    assert runner.algebraic_loops(sc, native_models) == []
+    # the drive's torque output follows its input: fed to the ball's position input, a loop
+    sc = _scenario({"drive": "MotorStartup", "ball": "BallInShell"}, FAST_START + [("drive", "T_drive", "ball", "x1O")])
+    assert runner.algebraic_loops(sc, native_models) == [
+        [("ball", "M_reaction", "drive", "M_reaction"), ("drive", "T_drive", "ball", "x1O")]]
+    absorber = [("structure", v, "ball", v) for v in ("x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O")] + \
+        [("ball", "Fx", "structure", "Fx_ball"), ("ball", "Fy", "structure", "Fy_ball")]
+    sc = _scenario({"structure": "Structure", "ball": "BallInShell"}, absorber)
+    assert runner.algebraic_loops(sc, native_models) == [
+        [("structure", "ax1O", "ball", "ax1O"), ("structure", "ay1O", "ball", "ay1O"), ("ball", "Fx", "structure", "Fx_ball"),
+         ("ball", "Fy", "structure", "Fy_ball")]]
+
+
+def test_initialisation_order_puts_sources_first():
+    order = runner._order
+    inst = lambda *names: {n: spec.Instance(n) for n in names}  # noqa: E731
+    assert order(direct(inst("c", "b", "a"), [("a", "x", "b", "y"), ("b", "x", "c", "y")])) == ["a", "b", "c"]
+    assert order(direct(inst("c", "b", "a"), [("b", "x", "c", "y"), ("a", "x", "c", "z")])) == ["b", "a", "c"]
+    # a loop is broken at the first instance of the file; self-connections are no dependency
+    assert order(direct(inst("p", "q", "r"), [("p", "x", "q", "y"), ("q", "x", "p", "y"), ("q", "x", "r", "y"),
+                                              ("r", "x", "r", "y")])) == ["p", "q", "r"]
+    assert order(direct(inst("r", "q", "p"), [("p", "x", "q", "y"), ("q", "x", "p", "y"), ("q", "x", "r", "y")])) \
+        == ["r", "q", "p"]
+    assert order(direct(inst("s"), [])) == ["s"]
+
+
+def _self_loop(mode, M=10.0, master=None, stop=0.1):
+    """The structure's acceleration fed back as its own ball force, under a harmonic force:
+    M a = F_exc - C v - K x + a at every instant, so a = (F_exc - C v - K x) / (M - 1)."""
+    st = spec.Instance("structure", fmu="Structure",
+                       parameters={"M_x1": M, "L_x1": M, "f_x1": 2.0, "zeta_x1": 0.1, "F0_x": 3.0, "f_exc": 5.0,
+                                   "input_order": 0, "h_max": 0.002})
+    rec = [("structure", v) for v in ("ax1O", "x_rel", "vx1O", "Fx_exc")]
+    return direct({"structure": st}, [("structure", "ax1O", "structure", "Fx_ball")], rec, stop=stop,
+                  master={"algebraic_loops": mode, **(master or {})})
+
+
+def _residual_terms(res, M):
+    c = res.column
+    K, C = M * (2 * math.pi * 2.0) ** 2, 2 * 0.1 * M * 2 * math.pi * 2.0
+    return c("structure.ax1O"), c("structure.Fx_exc") - C * c("structure.vx1O") - K * c("structure.x_rel")
+
+
+def test_an_iterated_loop_meets_both_ends_at_every_point(native_models, native_fmus):
+    sc = _self_loop("iterate")
+    res = runner.run(sc, native_models, native_fmus, progress=False, echo=False)
+    assert (res.success, res.message, res.steps) == (True, "completed", 10)
+    assert res.loops == [["structure.ax1O -> structure.Fx_ball"]]
+    a, R = _residual_terms(res, 10.0)
+    assert np.max(np.abs(R)) > 0.5  # the force acts
+    assert np.allclose(a * (10.0 - 1.0), R, rtol=1e-9, atol=1e-12)
+    # gain 1/M = 0.1 a sweep from the value of the step before: 9 to 12 sweeps to 1e-10
+    assert 11 * 9 <= res.loop_sweeps <= 11 * 12
+    assert not [m for m in res.messages if m["category"] == "master"]
+    # an absolute tolerance above every change: one sweep a point
+    loose = runner.run(_self_loop("iterate", master={"loop_atol": 1e3}), native_models, native_fmus,
+                       progress=False, echo=False)
+    assert loose.success and loose.loop_sweeps == 11
+    # a relative tolerance of 1e-3: fewer sweeps, the equation met to about that
+    rel = runner.run(_self_loop("iterate", master={"loop_tol": 1e-3}), native_models, native_fmus,
+                     progress=False, echo=False)
+    a, R = _residual_terms(rel, 10.0)
+    assert 11 * 2 <= rel.loop_sweeps < res.loop_sweeps
+    assert np.allclose(a * 9.0, R, rtol=2e-3, atol=1e-12)
+    assert not np.allclose(a * 9.0, R, rtol=1e-9, atol=1e-12)
+
+
+def test_an_ignored_loop_exchanges_values_one_step_late_and_says_so(native_models, native_fmus):
+    sc = _self_loop("ignore")
+    res = runner.run(sc, native_models, native_fmus, progress=False, echo=False)
+    assert (res.success, res.steps, res.loop_sweeps) == (True, 10, 0)
+    assert res.loops == [["structure.ax1O -> structure.Fx_ball"]]
+    assert res.messages[0] == {"time": 0.0, "instance": "", "status": "warning", "category": "master",
+                               "message": "algebraic loop(s) not iterated (master.algebraic_loops = 'ignore'): "
+                                          "structure.ax1O -> structure.Fx_ball"}
+    a, R = _residual_terms(res, 10.0)
+    # after t_0 the ball force held over a step is the acceleration read at the point before
+    assert np.allclose(10.0 * a[1:], R[1:] + a[:-1], rtol=1e-12, atol=1e-12)
+    assert not np.allclose(9.0 * a[1:], R[1:], rtol=1e-6, atol=1e-12)
+
+
+def test_a_loop_that_does_not_settle_stops_the_run_naming_it(native_models, native_fmus, capsys):
+    """The drive's torque fed back as its own input: T = J psi'' - T has the fixed point
+    J psi''/2, but each sweep maps T to J psi'' - T, so the values alternate between T and
+    J psi'' - T for ever. A converging loop beside it (the structure's) is named in the
+    message too; the residual is the drive's, J psi''(t) here (the initialisation's five
+    passes leave T = J psi'', J = 0.5 kg.m2). Nothing is recorded: the first point fails."""
+    drive = spec.Instance("drive", fmu="MotorStartup", parameters={"J_crank": 0.5, "n0": 60.0, "t0": 1.0, "l": 0.2})
+    st = _self_loop("iterate").instances["structure"]
+    sc = direct({"structure": st, "drive": drive},
+                [("structure", "ax1O", "structure", "Fx_ball"), ("drive", "T_drive", "drive", "M_reaction")],
+                [("drive", "T_drive"), ("structure", "ax1O")], start=0.123456789012, stop=0.2, step=0.01,
+                master={"loop_max_iter": 3, "loop_tol": 1e-6, "loop_atol": 1e-9})
+    res = runner.run(sc, native_models, native_fmus, progress=False, echo=True)
+    pdd = quadratic_law(60.0, 1.0, 0.123456789012)[2]
+    residual = 0.5 * pdd  # J psi''
+    message = ("AlgebraicLoopError: algebraic loop structure.ax1O -> structure.Fx_ball; drive.T_drive -> "
+               "drive.M_reaction did not converge at t = 0.123456789 s after loop_max_iter = 3 sweeps: "
+               f"drive.T_drive still changed by {residual:.3g} (accepted: loop_tol = 1e-06 relative + "
+               "loop_atol = 1e-09); the loop's gain is too large for a fixed-point iteration, or an FMU does "
+               "not recompute its outputs when its inputs are set")
+    assert f"{residual:.3g}" == "5.51"
+    assert (res.success, res.message, res.steps, res.loop_sweeps) == (False, message, 0, 0)
+    assert res.data.shape == (0, 3)
+    assert res.loops == [["structure.ax1O -> structure.Fx_ball"], ["drive.T_drive -> drive.M_reaction"]]
+    assert capsys.readouterr().err == f"\nrun failed: {message}\n"
+
+
+def test_initialisation_passes_values_around_five_times(native_models, native_fmus):
+    """The drive's self-loop ignored: in initialisation mode the master passes the values
+    around five times, T_drive alternating J psi'' (pass 1: the input at its start value 0),
+    0, J psi'', 0, J psi''; the first point reads that value, the second J psi''(t_1) - J psi''(t_0)."""
+    drive = spec.Instance("drive", fmu="MotorStartup", parameters={"J_crank": 0.5, "n0": 60.0, "t0": 1.0})
+    sc = direct({"drive": drive}, [("drive", "T_drive", "drive", "M_reaction")], [("drive", "T_drive")],
+                start=0.1, stop=0.12, step=0.01, master={"algebraic_loops": "ignore"})
+    res = runner.run(sc, native_models, native_fmus, progress=False, echo=False)
+    assert res.success
+    T = res.column("drive.T_drive")
+    J0, J1 = (0.5 * quadratic_law(60.0, 1.0, t)[2] for t in (0.1, 0.11))
+    assert T[0] == pytest.approx(J0, rel=1e-14)
+    assert T[1] == pytest.approx(J1 - J0, rel=1e-12)
+
+
+def test_a_source_feeding_a_loop_is_read_at_the_same_point(native_models, native_fmus):
+    """A table's ground acceleration into a structure whose acceleration is fed back as its
+    ball force: a = a_g + (-L a_g - C v - K x + a)/M at every point. The sweeps set every
+    input of the loop's instance from the freshest values: the structure's a_g is the table's
+    value at the same point (not the point before, as the Jacobi exchange alone would give)."""
+    st = spec.Instance("structure", fmu="Structure",
+                       parameters={"M_x1": 5.0, "L_x1": 2.0, "f_x1": 1.0, "zeta_x1": 0.2, "input_order": 0})
+    src = table("ground", ["ag"], [0.0, 0.04, 0.07, 0.1], [lambda t: 0.5 + 30.0 * t - 100.0 * t ** 3])
+    sc = direct({"structure": st, "ground": src},
+                [("ground", "ag", "structure", "ag_x"), ("structure", "ax1O", "structure", "Fx_ball")],
+                [("structure", v) for v in ("ax1O", "x_rel", "vx1O", "vxg", "agx_total")],
+                master={"loop_tol": 1e-12})
+    res = runner.run(sc, native_models, native_fmus, progress=False, echo=False)
+    assert res.success and res.loops == [["structure.ax1O -> structure.Fx_ball"]]
+    c = res.column
+    t = c("time")
+    ag = 0.5 + 30.0 * t - 100.0 * t ** 3
+    assert np.allclose(c("structure.agx_total"), ag, rtol=1e-13)
+    M, L, w = 5.0, 2.0, 2 * math.pi
+    a, x, v = c("structure.ax1O"), c("structure.x_rel"), c("structure.vx1O") - c("structure.vxg")
+    assert np.allclose(a, ag + (-L * ag - 2 * 0.2 * M * w * v - M * w * w * x + a) / M, rtol=1e-10, atol=1e-12)
