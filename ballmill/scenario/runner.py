@@ -503,8 +503,11 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
         steppers = [(name, _bare(f.fmu, "fmi2DoStep"), (ctypes.c_void_p(f.fmu.component), now, size, no_set_prior))
                     for name, f in fmus.items()]
         every = PROGRESS_EVERY
+        reached = sc.start  # where the last step took the FMUs
         for k in range(n_steps + 1):
-            t = sc.start + k * sc.step
+            # the grid start + k H; the last point is where the last step ended (stop, when
+            # stop - start is not a whole number of steps and that step was shortened)
+            t = sc.start + k * sc.step if k < n_steps else reached
             logger.now = t
             bus[0] = t
             for fun, args, fname in step_ops:
@@ -539,6 +542,7 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
             if not success:
                 break
             steps += 1
+            reached = t + h
             if steps % every == 0 or k == n_steps - 1:
                 bar.update(t + h - sc.start, t + h)
     except Exception as e:
