@@ -362,6 +362,7 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
     iterate = bool(loops) and master["algebraic_loops"] == "iterate"
     loop_sweeps = 0
     logger = _Logger(echo)
+    logger.now = sc.start  # the time stamped on what the FMUs log before the first communication point
     fmus: dict[str, _FmuInstance] = {}
     tables: dict[str, _TableSource] = {}
     order = _order(sc)
@@ -547,6 +548,9 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
                 bar.update(t + h - sc.start, t + h)
     except Exception as e:
         success, message = False, f"{type(e).__name__}: {e}"
+        why = [m for m in logger.messages if m["status"] in ("error", "fatal")]
+        if isinstance(e, FMICallException) and why:  # the FMU's own reason (an initialisation refused)
+            message += f" {why[-1]['message']}"
         init_time = locals().get("init_time", time.perf_counter() - wall0)
         if echo:
             sys.stderr.write(f"\nrun failed: {message}\n")

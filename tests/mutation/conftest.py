@@ -4,13 +4,33 @@
 the interface declaration outside the tree mutmut copies (tests/mutation/native_fmus.py), so
 that tests that drive real FMUs through the scenario runner also run under mutmut, including
 its stats run (MUTANT_UNDER_TEST=stats), unlike tests/conftest.py's ``fmu_build_dir``.
-``native_models``: model name -> its parsed model description (fmucache, once per content).
+``native_models``: model name -> its parsed model description, parsed on first use (fmpy's
+schema validation costs a good part of a second per model in each mutmut worker) and kept
+by fmucache per content.
 """
 from __future__ import annotations
+
+from collections.abc import Mapping
 
 import pytest
 
 from native_fmus import native_fmus as _native_fmus
+
+
+class _Lazy(Mapping):
+    def __init__(self, paths: dict):
+        self._paths = dict(paths)
+
+    def __getitem__(self, name):
+        from ballmill.scenario import fmucache
+
+        return fmucache.model_description(self._paths[name])
+
+    def __iter__(self):
+        return iter(self._paths)
+
+    def __len__(self):
+        return len(self._paths)
 
 
 @pytest.fixture(scope="session")
@@ -19,7 +39,5 @@ def native_fmus() -> dict:
 
 
 @pytest.fixture(scope="session")
-def native_models(native_fmus) -> dict:
-    from ballmill.scenario import fmucache
-
-    return {name: fmucache.model_description(path) for name, path in native_fmus.items()}
+def native_models(native_fmus) -> Mapping:
+    return _Lazy(native_fmus)
