@@ -39,3 +39,56 @@ def test_the_echo_limit_line_comes_once(monkeypatch):
     assert err.getvalue() == ("".join(f"\n[discard] d{i}\n" for i in range(5))
                               + "\n[discard] a: further messages are in summary.json\n")
     assert [m["message"] for m in log.messages] == [f"d{i}" for i in range(9)]
+
+
+class _Clock:
+    def __init__(self, now=0.0):
+        self.now = now
+
+    def perf_counter(self):
+        return self.now
+
+
+class _Tty(io.StringIO):
+    def isatty(self):
+        return True
+
+
+def test_progress_bar_edges(monkeypatch):
+    """A run shorter than a second (the fraction is done/total there too), a redraw exactly
+    0.1 s after the last, the fraction capped at 1, and each tenth on a pipe printed once
+    (9.5 % is still the first tenth)."""
+    clock = _Clock(0.0)
+    monkeypatch.setattr(runner, "time", clock)
+    err = _Tty()
+    monkeypatch.setattr(runner.sys, "stderr", err)
+    bar = runner._Progress(0.5, True)
+    bar.update(0.25, 0.25)
+    first = "\r  [###############               ]  50.0%  t = 0.250 s  (0.0 s wall)"
+    assert err.getvalue() == first
+    clock.now = 0.1  # exactly 0.1 s after the last redraw: redrawn
+    bar.update(0.3, 0.3)
+    second = "\r  [##################            ]  60.0%  t = 0.300 s  (0.1 s wall)"
+    assert err.getvalue() == first + second
+    clock.now = 0.5
+    bar.update(0.55, 0.55)  # past the end (rounding): shown as the end
+    assert err.getvalue() == first + second + "\r  [##############################] 100.0%  t = 0.550 s  (0.5 s wall)\n"
+    pipe = io.StringIO()
+    monkeypatch.setattr(runner.sys, "stderr", pipe)
+    bar = runner._Progress(4.0, True)
+    for done in (0.2, 0.38, 0.4, 4.4):
+        bar.update(done, done)
+    assert pipe.getvalue() == ("    5.0%  t = 0.200 s  (0.0 s wall)\n   10.0%  t = 0.400 s  (0.0 s wall)\n"
+                               "  100.0%  t = 4.400 s  (0.0 s wall)\n")
+
+
+def test_an_ignored_loop_of_two_connections_is_named_whole(native_models, native_fmus):
+    """Two structures, each one's acceleration the other's ball force: one loop of two
+    connections, named in the file's order, joined by ', '."""
+    st = {n: spec.Instance(n, fmu="Structure", parameters={"input_order": 0}) for n in ("s1", "s2")}
+    sc = direct(st, [("s1", "ax1O", "s2", "Fx_ball"), ("s2", "ax1O", "s1", "Fx_ball")], [("s1", "ax1O")],
+                stop=0.01, master={"algebraic_loops": "ignore"})
+    res = runner.run(sc, native_models, native_fmus, progress=False, echo=False)
+    assert res.success and res.loops == [["s1.ax1O -> s2.Fx_ball", "s2.ax1O -> s1.Fx_ball"]]
+    assert res.messages[0]["message"] == ("algebraic loop(s) not iterated (master.algebraic_loops = 'ignore'): "
+                                          "s1.ax1O -> s2.Fx_ball, s2.ax1O -> s1.Fx_ball")

@@ -39,7 +39,8 @@ def _scenario(instances, connections):
 
 def test_loops_are_the_cycles_through_connections_and_declared_feedthrough():
     models = {"F": _md(["u", "w"], {"y": ["u"], "z": []}),  # y follows u, z follows nothing
-              "A": _md(["u", "w"], {"y": None, "z": ["w"]})}  # y follows every input
+              "A": _md(["u", "w"], {"y": None}),  # y follows every input
+              "Z": _md(["u", "w"], {"y": None, "z": ["w"]})}
     loops = runner.algebraic_loops
     # F.y -> G.u -> G.y -> F.u: a loop; the z's carry no feedthrough
     sc = _scenario({"f": "F", "g": "F"}, [("f", "y", "g", "u"), ("g", "z", "f", "w"), ("g", "y", "f", "u")])
@@ -47,19 +48,24 @@ def test_loops_are_the_cycles_through_connections_and_declared_feedthrough():
     # through z only: no feedthrough, no loop
     sc = _scenario({"f": "F", "g": "F"}, [("f", "z", "g", "u"), ("g", "z", "f", "u")])
     assert loops(sc, models) == []
-    # an output without dependencies depends on every input: A.y through w
-    sc = _scenario({"a": "A", "b": "A"}, [("a", "y", "b", "w"), ("b", "z", "a", "w")])
-    assert loops(sc, models) == [[("a", "y", "b", "w"), ("b", "z", "a", "w")]]
+    # an output without dependencies depends on every input: A.y on w
+    sc = _scenario({"a": "A", "f": "F"}, [("a", "y", "f", "u"), ("f", "y", "a", "w")])
+    assert loops(sc, models) == [[("a", "y", "f", "u"), ("f", "y", "a", "w")]]
     # a self-loop, and two separate loops listed in the order of their first connection
-    sc = _scenario({"f": "F", "a": "A", "b": "A", "t": None},
+    sc = _scenario({"f": "F", "a": "Z", "b": "Z", "t": None},
                    [("a", "z", "b", "w"), ("f", "y", "f", "u"), ("t", "x", "f", "w"), ("b", "z", "a", "w")])
     assert loops(sc, models) == [[("a", "z", "b", "w"), ("b", "z", "a", "w")], [("f", "y", "f", "u")]]
     # a chain of three through feedthrough, closed: one loop with its connections in the file's order
     sc = _scenario({"x": "F", "y": "F", "z": "F"},
                    [("z", "y", "x", "u"), ("x", "y", "y", "u"), ("y", "y", "z", "u"), ("x", "z", "z", "w")])
     assert loops(sc, models) == [[("z", "y", "x", "u"), ("x", "y", "y", "u"), ("y", "y", "z", "u")]]
-    # an instance whose model is unknown, and a table, add no edges
+    # an instance whose model is unknown, and a table, add no edges, and the instances after
+    # them still do
     assert loops(_scenario({"f": "F", "q": "Q"}, [("f", "y", "q", "u"), ("q", "y", "f", "u")]), models) == []
+    assert loops(_scenario({"t": None, "q": "Q", "f": "F"}, [("f", "y", "f", "u")]), models) == [[("f", "y", "f", "u")]]
+    # two paths from one output, the second reaching the first's end again: no cycle
+    sc = _scenario({"r": "F", "x": "F", "y": "F"}, [("r", "z", "x", "u"), ("r", "z", "y", "u"), ("y", "y", "x", "u")])
+    assert loops(sc, models) == []
 
 
 def test_loops_of_the_project_fmus_from_their_model_descriptions(native_models):
