@@ -549,7 +549,7 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
     except Exception as e:
         success, message = False, f"{type(e).__name__}: {e}"
         why = [m for m in logger.messages if m["status"] in ("error", "fatal")]
-        if isinstance(e, FMICallException) and why:  # the FMU's own reason (an initialisation refused)
+        if why:  # the FMU's own reason (an initialisation or an instance refused, an input not settable)
             message += f" {why[-1]['message']}"
         init_time = locals().get("init_time", time.perf_counter() - wall0)
         if echo:

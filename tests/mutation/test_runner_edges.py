@@ -92,3 +92,60 @@ def test_an_ignored_loop_of_two_connections_is_named_whole(native_models, native
     assert res.success and res.loops == [["s1.ax1O -> s2.Fx_ball", "s2.ax1O -> s1.Fx_ball"]]
     assert res.messages[0]["message"] == ("algebraic loop(s) not iterated (master.algebraic_loops = 'ignore'): "
                                           "s1.ax1O -> s2.Fx_ball, s2.ax1O -> s1.Fx_ball")
+
+
+def test_a_table_is_read_up_to_1e_12_s_outside_its_samples(native_models, native_fmus):
+    """Time arithmetic may miss a table's first or last sample by rounding: 1e-12 s either side
+    is read (the spline extended), as the error message's range says."""
+    from runner_cases import table
+
+    src = table("src", ["a"], [0.0, 0.05, 0.1], [lambda t: 2.0 + t])
+    for start, stop in ((-1e-12, 0.1), (0.0, 0.1 + 1e-12)):
+        sc = direct({"src": src, "s": spec.Instance("s", fmu="Structure", parameters={"input_order": 0})},
+                    [("src", "a", "s", "ag_x")], [("s", "agx_total")], start=start, stop=stop, step=stop - start)
+        res = runner.run(sc, native_models, native_fmus, progress=False, echo=False)
+        assert res.success and res.steps == 1, res.message
+        assert abs(res.column("s.agx_total")[0] - (2.0 + start)) < 1e-14
+
+
+def test_an_fmu_that_does_not_instantiate_gives_its_library_back(native_models, native_fmus, monkeypatch):
+    """A model description whose GUID is not the binary's: fmi2Instantiate refuses (and says
+    why); the loaded library goes back to fmucache for the next instance."""
+    import copy
+
+    from ballmill.scenario import fmucache
+
+    md = copy.copy(native_models["MotorStartup"])
+    md.guid = "{00000000-0000-0000-0000-000000000000}"
+    monkeypatch.setattr(fmucache, "_idle", {})  # no library of an earlier run: a new one, with this GUID
+    sc = direct({"drive": spec.Instance("drive", fmu="MotorStartup")}, [], [("drive", "psi")])
+    res = runner.run(sc, {"MotorStartup": md}, native_fmus, progress=False, echo=False)
+    why = (f"MotorStartup 'drive': fmi2Instantiate: GUID {md.guid} does not match this binary's "
+           f"{native_models['MotorStartup'].guid}")
+    assert (res.success, res.steps, res.data.shape) == (False, 0, (0, 2))
+    assert res.message == f"Exception: Failed to instantiate model {why}"
+    assert res.messages == [{"time": 0.0, "instance": "drive", "status": "error", "category": "logStatusError",
+                             "message": why}]
+    assert len(fmucache._idle[fmucache.digest(native_fmus["MotorStartup"])]) == 1
+
+
+def test_an_input_the_fmu_refuses_to_take_stops_the_run(native_models, native_fmus):
+    """A connection into a fixed parameter (the checker refuses it; built directly here):
+    accepted in initialisation mode, refused by fmi2SetReal at the first communication point."""
+    drives = {n: spec.Instance(n, fmu="MotorStartup") for n in ("a", "b")}
+    sc = direct(drives, [("a", "x1O", "b", "l")], [("b", "l")])
+    res = runner.run(sc, native_models, native_fmus, progress=False, echo=False)
+    why = ("MotorStartup 'b': fmi2SetReal: l cannot be set in state stepComplete: parameter l is fixed: it can be "
+           "set only before fmi2ExitInitializationMode (fmi2Reset, then set it); l = 0.5 m refused, l keeps 0.5 m")
+    assert (res.success, res.steps) == (False, 0)
+    assert res.message == f"FMICallException: fmi2SetReal failed with status 3 (error). {why}"
+    assert list(res.column("b.l")) == [0.5]  # the first point was recorded
+
+
+def test_a_boolean_parameter_set_true(native_models, native_fmus):
+    ball = spec.Instance("ball", fmu="BallInShell", parameters={"corrector": True, "formulation": 2})
+    sc = direct({"ball": ball}, [], [("ball", "corrector"), ("ball", "formulation"), ("ball", "zP")], stop=0.02)
+    res = runner.run(sc, native_models, native_fmus, progress=False, echo=False)
+    assert res.success, res.message
+    assert list(res.column("ball.corrector")) == [1.0] * 3 and list(res.column("ball.formulation")) == [2.0] * 3
+    assert list(res.column("ball.zP")) == [0.0] * 3  # at rest at the bottom of a fixed chamber
