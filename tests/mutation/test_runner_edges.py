@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import io
 
+import numpy as np
+
 from ballmill.scenario import runner, spec
 from runner_cases import direct
 
@@ -149,3 +151,35 @@ def test_a_boolean_parameter_set_true(native_models, native_fmus):
     assert res.success, res.message
     assert list(res.column("ball.corrector")) == [1.0] * 3 and list(res.column("ball.formulation")) == [2.0] * 3
     assert list(res.column("ball.zP")) == [0.0] * 3  # at rest at the bottom of a fixed chamber
+
+
+def test_by_default_a_run_shows_its_progress_and_echoes_what_the_fmus_refuse(native_models, native_fmus, capsys):
+    import re
+
+    from runner_cases import table
+
+    sc = direct({"drive": spec.Instance("drive", fmu="MotorStartup")}, [], [("drive", "psi")], stop=0.05)
+    assert runner.run(sc, native_models, native_fmus).success
+    assert re.fullmatch(r"  100\.0%  t = 0\.050 s  \(\d+\.\d s wall\)\n", capsys.readouterr().err)
+    force = table("src", ["F"], [0.0, 0.1], [lambda t: 1e300])
+    sc = direct({"src": force, "s": spec.Instance("s", fmu="Structure", parameters={"M_x1": 1.0})},
+                [("src", "F", "s", "Fx_ball")], [("s", "x_rel")])
+    res = runner.run(sc, native_models, native_fmus)
+    assert not res.success
+    assert capsys.readouterr().err == ("\n[discard] Structure 's': step from t = 0 s refused, last good state kept: "
+                                       "the outputs at t = 0.01 s would not be finite\n")
+
+
+def test_an_instance_without_inputs_does_not_end_the_list_of_inputs_to_set(native_models, native_fmus):
+    """Drive a feeds its torque to drive b; a, first in the order, has no input connected."""
+    a = spec.Instance("a", fmu="MotorStartup", parameters={"J_crank": 0.3, "n0": 60.0, "t0": 1.0})
+    b = spec.Instance("b", fmu="MotorStartup", parameters={"J_crank": 0.1, "n0": 30.0, "t0": 1.0})
+    sc = direct({"a": a, "b": b}, [("a", "T_drive", "b", "M_reaction")], [("a", "T_drive"), ("b", "T_drive")],
+                stop=0.03)
+    res = runner.run(sc, native_models, native_fmus, progress=False, echo=False)
+    assert res.success
+    t = res.column("time")
+    from runner_cases import quadratic_law
+    Ta = [0.3 * quadratic_law(60.0, 1.0, x)[2] for x in t]
+    Tb = [0.1 * quadratic_law(30.0, 1.0, x)[2] - Ta[max(k - 1, 0)] for k, x in enumerate(t)]
+    assert np.allclose(res.column("a.T_drive"), Ta, rtol=1e-13) and np.allclose(res.column("b.T_drive"), Tb, rtol=1e-12)
