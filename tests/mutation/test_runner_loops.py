@@ -220,3 +220,26 @@ def test_a_source_feeding_a_loop_is_read_at_the_same_point(native_models, native
     M, L, w = 5.0, 2.0, 2 * math.pi
     a, x, v = c("structure.ax1O"), c("structure.x_rel"), c("structure.vx1O") - c("structure.vxg")
     assert np.allclose(a, ag + (-L * ag - 2 * 0.2 * M * w * v - M * w * w * x + a) / M, rtol=1e-10, atol=1e-12)
+
+
+def test_loop_values_not_first_on_their_instance(native_models, native_fmus):
+    """The loops' sources are not the first values their instances deliver (other connections
+    come before them): the iteration still watches and names the right bus slots."""
+    st = _self_loop("iterate").instances["structure"]
+    drive = spec.Instance("drive", fmu="MotorStartup", parameters={"J_crank": 0.5, "n0": 60.0, "t0": 2.5})
+    other = spec.Instance("other", fmu="MotorStartup")
+    conns = [("structure", "vx1O", "other", "M_reaction"), ("structure", "ax1O", "structure", "Fx_ball")]
+    rec = [("structure", v) for v in ("ax1O", "x_rel", "vx1O", "Fx_exc")]
+    res = runner.run(direct({"structure": st, "drive": drive, "other": other}, conns, rec),
+                     native_models, native_fmus, progress=False, echo=False)
+    assert res.success, res.message
+    a, R = _residual_terms(res, 10.0)
+    assert np.allclose(a * 9.0, R, rtol=1e-9, atol=1e-12)
+    conns = [("drive", "x1O", "other", "M_reaction"), ("structure", "vx1O", "structure", "ag_y"),
+             ("structure", "ax1O", "structure", "Fx_ball"), ("drive", "T_drive", "drive", "M_reaction")]
+    sc = direct({"structure": st, "drive": drive, "other": other}, conns, rec, master={"loop_max_iter": 3})
+    res = runner.run(sc, native_models, native_fmus, progress=False, echo=False)
+    residual = 0.5 * quadratic_law(60.0, 2.5, 0.0)[2]
+    assert res.message.startswith(
+        "AlgebraicLoopError: algebraic loop structure.ax1O -> structure.Fx_ball; drive.T_drive -> drive.M_reaction "
+        f"did not converge at t = 0 s after loop_max_iter = 3 sweeps: drive.T_drive still changed by {residual:.3g} ")
