@@ -86,14 +86,16 @@ def test_progress_bar_edges(monkeypatch):
 
 def test_an_ignored_loop_of_two_connections_is_named_whole(native_models, native_fmus):
     """Two structures, each one's acceleration the other's ball force: one loop of two
-    connections, named in the file's order, joined by ', '."""
+    connections, named in the file's order, joined by ', '; a drive's self-loop the second
+    loop, after '; '."""
     st = {n: spec.Instance(n, fmu="Structure", parameters={"input_order": 0}) for n in ("s1", "s2")}
-    sc = direct(st, [("s1", "ax1O", "s2", "Fx_ball"), ("s2", "ax1O", "s1", "Fx_ball")], [("s1", "ax1O")],
-                stop=0.01, master={"algebraic_loops": "ignore"})
+    st["d"] = spec.Instance("d", fmu="MotorStartup")
+    sc = direct(st, [("s1", "ax1O", "s2", "Fx_ball"), ("s2", "ax1O", "s1", "Fx_ball"), ("d", "T_drive", "d", "M_reaction")],
+                [("s1", "ax1O")], stop=0.01, master={"algebraic_loops": "ignore"})
     res = runner.run(sc, native_models, native_fmus, progress=False, echo=False)
-    assert res.success and res.loops == [["s1.ax1O -> s2.Fx_ball", "s2.ax1O -> s1.Fx_ball"]]
+    assert res.success and res.loops == [["s1.ax1O -> s2.Fx_ball", "s2.ax1O -> s1.Fx_ball"], ["d.T_drive -> d.M_reaction"]]
     assert res.messages[0]["message"] == ("algebraic loop(s) not iterated (master.algebraic_loops = 'ignore'): "
-                                          "s1.ax1O -> s2.Fx_ball, s2.ax1O -> s1.Fx_ball")
+                                          "s1.ax1O -> s2.Fx_ball, s2.ax1O -> s1.Fx_ball; d.T_drive -> d.M_reaction")
 
 
 def test_a_table_is_read_up_to_1e_12_s_outside_its_samples(native_models, native_fmus):
