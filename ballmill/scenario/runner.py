@@ -446,7 +446,11 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
                 if np.all(residual <= tol * np.abs(current) + atol):
                     return sweep
                 previous = current.copy()
-            worst = int(np.argmax(residual / (tol * np.abs(current) + atol)))
+            # the slot furthest outside its accepted change (with loop_tol = loop_atol = 0 any
+            # change is infinitely far, a settled slot not at all)
+            accepted = tol * np.abs(current) + atol
+            excess = np.divide(residual, accepted, out=np.where(residual > 0.0, np.inf, 0.0), where=accepted > 0.0)
+            worst = int(np.argmax(excess))
             raise AlgebraicLoopError(
                 f"algebraic loop {'; '.join(_loop_text(lp) for lp in loops)} did not converge at t = {t:.9g} s "
                 f"after loop_max_iter = {max_iter} sweeps: {slot_names[int(loop_slots[worst])]} still changed by "

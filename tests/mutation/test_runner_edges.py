@@ -185,3 +185,28 @@ def test_an_instance_without_inputs_does_not_end_the_list_of_inputs_to_set(nativ
     Ta = [0.3 * quadratic_law(60.0, 1.0, x)[2] for x in t]
     Tb = [0.1 * quadratic_law(30.0, 1.0, x)[2] - Ta[max(k - 1, 0)] for k, x in enumerate(t)]
     assert np.allclose(res.column("a.T_drive"), Ta, rtol=1e-13) and np.allclose(res.column("b.T_drive"), Tb, rtol=1e-12)
+
+
+def test_with_no_tolerance_the_error_names_the_loop_still_changing(native_models, native_fmus):
+    """loop_tol = loop_atol = 0 (allowed: settled when a sweep changes nothing). A structure
+    whose ball force does not reach its acceleration (phi = 0) settles at once; the drive's
+    self-loop never does: the error names the drive's torque and its change J psi''(t), not
+    the settled value (before: 0/0 = nan, which argmax takes first, named 's.ax1O still
+    changed by 0')."""
+    import warnings
+
+    from runner_cases import quadratic_law
+
+    s = spec.Instance("s", fmu="Structure", parameters={"phi_x1": 0.0, "F0_x": 1.0, "f_exc": 3.0})
+    d = spec.Instance("d", fmu="MotorStartup", parameters={"J_crank": 0.5})
+    sc = direct({"s": s, "d": d}, [("s", "ax1O", "s", "Fx_ball"), ("d", "T_drive", "d", "M_reaction")], [("d", "psi")],
+                start=0.1, master={"loop_tol": 0.0, "loop_atol": 0.0, "loop_max_iter": 2})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no division by zero on the way
+        res = runner.run(sc, native_models, native_fmus, progress=False, echo=False)
+    change = 0.5 * quadratic_law(60.0, 2.5, 0.1)[2]
+    assert res.message == (
+        "AlgebraicLoopError: algebraic loop s.ax1O -> s.Fx_ball; d.T_drive -> d.M_reaction did not converge at "
+        f"t = 0.1 s after loop_max_iter = 2 sweeps: d.T_drive still changed by {change:.3g} (accepted: loop_tol = 0 "
+        "relative + loop_atol = 0); the loop's gain is too large for a fixed-point iteration, or an FMU does not "
+        "recompute its outputs when its inputs are set")
