@@ -243,3 +243,29 @@ def test_loop_values_not_first_on_their_instance(native_models, native_fmus):
     assert res.message.startswith(
         "AlgebraicLoopError: algebraic loop structure.ax1O -> structure.Fx_ball; drive.T_drive -> drive.M_reaction "
         f"did not converge at t = 0 s after loop_max_iter = 3 sweeps: drive.T_drive still changed by {residual:.3g} ")
+
+
+def test_loop_max_iter_is_the_number_of_sweeps_allowed(native_models, native_fmus):
+    """With no tolerance (loop_tol = loop_atol = 0: settled when a sweep changes nothing) the
+    structure's loop takes one sweep at the first point (initialisation already settled it)
+    and N at the second (a table ending before the third point ends the run there);
+    loop_max_iter = N converges, N - 1 stops with the error; one sweep a point suffices when
+    the tolerance accepts any change, also for loop_max_iter = 1."""
+    src = table("src", ["ag"], [0.0, 0.015], [lambda t: 1.0])
+
+    def run(**master):
+        sc = _self_loop("iterate", master=master)
+        sc.instances["src"] = src
+        sc.connections.append(("src", "ag", "structure", "ag_x"))
+        return runner.run(sc, native_models, native_fmus, progress=False, echo=False)
+    first = run(loop_tol=0.0, loop_atol=0.0)
+    N = first.loop_sweeps - 1
+    assert first.message == "ValueError: the table covers t = 0 .. 0.015 s, asked for t = 0.02 s"
+    assert first.data.shape[0] == 2 and 3 <= N <= 49
+    assert run(loop_tol=0.0, loop_atol=0.0, loop_max_iter=N).loop_sweeps == N + 1
+    short = run(loop_tol=0.0, loop_atol=0.0, loop_max_iter=N - 1)
+    assert short.message.startswith("AlgebraicLoopError: algebraic loop structure.ax1O -> structure.Fx_ball "
+                                    f"did not converge at t = 0.01 s after loop_max_iter = {N - 1} sweeps: "
+                                    "structure.ax1O still changed by ")
+    one = run(loop_atol=1e3, loop_max_iter=1)
+    assert one.loop_sweeps == 2 and one.message.startswith("ValueError: the table covers")
