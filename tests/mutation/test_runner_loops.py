@@ -269,3 +269,19 @@ def test_loop_max_iter_is_the_number_of_sweeps_allowed(native_models, native_fmu
                                     "structure.ax1O still changed by ")
     one = run(loop_atol=1e3, loop_max_iter=1)
     assert one.loop_sweeps == 2 and one.message.startswith("ValueError: the table covers")
+
+
+def test_an_input_refused_in_a_loop_sweep_stops_the_run_before_the_point_is_recorded(native_models, native_fmus):
+    """The loop's instance also takes a fixed parameter from a connection (built without the
+    checker, which refuses it): accepted in initialisation mode, refused by the first sweep's
+    fmi2SetReal; nothing is recorded."""
+    src = table("src", ["m"], [0.0, 0.1], [lambda t: 10.0])
+    sc = _self_loop("iterate")
+    sc.instances["src"] = src
+    sc.connections.append(("src", "m", "structure", "M_x1"))
+    res = runner.run(sc, native_models, native_fmus, progress=False, echo=False)
+    why = ("Structure 'structure': fmi2SetReal: M_x1 cannot be set in state stepComplete: parameter M_x1 is fixed: "
+           "it can be set only before fmi2ExitInitializationMode (fmi2Reset, then set it); M_x1 = 10.0 kg refused, "
+           "M_x1 keeps 10.0 kg")
+    assert (res.success, res.steps, res.loop_sweeps, res.data.shape) == (False, 0, 0, (0, 5))
+    assert res.message == f"FMICallException: fmi2SetReal failed with status 3 (error). {why}"
