@@ -8,6 +8,7 @@ from __future__ import annotations
 import io
 
 import numpy as np
+import pytest
 
 from ballmill.scenario import runner, spec
 from runner_cases import direct
@@ -210,3 +211,14 @@ def test_with_no_tolerance_the_error_names_the_loop_still_changing(native_models
         f"t = 0.1 s after loop_max_iter = 2 sweeps: d.T_drive still changed by {change:.3g} (accepted: loop_tol = 0 "
         "relative + loop_atol = 0); the loop's gain is too large for a fixed-point iteration, or an FMU does not "
         "recompute its outputs when its inputs are set")
+
+
+def test_tables_are_read_at_the_start_time_in_initialisation(native_models, native_fmus):
+    from runner_cases import table
+
+    src = table("src", ["a"], [0.0, 0.05, 0.1, 0.2], [lambda t: 1.0 + 20.0 * t ** 3])
+    sc = direct({"s": spec.Instance("s", fmu="Structure", parameters={"input_order": 0}), "src": src},
+                [("src", "a", "s", "ag_x")], [("s", "agx_total")], start=0.07, stop=0.09)
+    res = runner.run(sc, native_models, native_fmus, progress=False, echo=False)
+    assert res.success
+    assert res.column("s.agx_total")[0] == pytest.approx(1.0 + 20.0 * 0.07 ** 3, rel=1e-14)
