@@ -161,9 +161,9 @@ def test_by_default_a_run_shows_its_progress_and_echoes_what_the_fmus_refuse(nat
 
     from runner_cases import table
 
-    sc = direct({"drive": spec.Instance("drive", fmu="MotorStartup")}, [], [("drive", "psi")], stop=0.05)
+    sc = direct({"drive": spec.Instance("drive", fmu="MotorStartup")}, [], [("drive", "psi")], start=0.5, stop=0.55)
     assert runner.run(sc, native_models, native_fmus).success
-    assert re.fullmatch(r"  100\.0%  t = 0\.050 s  \(\d+\.\d s wall\)\n", capsys.readouterr().err)
+    assert re.fullmatch(r"  100\.0%  t = 0\.550 s  \(\d+\.\d s wall\)\n", capsys.readouterr().err)
     force = table("src", ["F"], [0.0, 0.1], [lambda t: 1e300])
     sc = direct({"src": force, "s": spec.Instance("s", fmu="Structure", parameters={"M_x1": 1.0})},
                 [("src", "F", "s", "Fx_ball")], [("s", "x_rel")])

@@ -285,3 +285,20 @@ def test_an_input_refused_in_a_loop_sweep_stops_the_run_before_the_point_is_reco
            "M_x1 keeps 10.0 kg")
     assert (res.success, res.steps, res.loop_sweeps, res.data.shape) == (False, 0, 0, (0, 5))
     assert res.message == f"FMICallException: fmi2SetReal failed with status 3 (error). {why}"
+
+
+def test_initialisation_passes_until_the_values_settle_at_most_five_times(native_models, native_fmus):
+    """Two drives, each one's torque the other's input (a loop left to the Jacobi exchange):
+    T_a = A - T_b, T_b = B - T_a with A, B = J psi''(t_0) of each. The initialisation passes
+    go a then b five times (the values never settle): T_a = A, T_b = B - A, then 2A - B,
+    2B - 2A, ..., 5A - 4B and 5B - 5A at the first point."""
+    a = spec.Instance("a", fmu="MotorStartup", parameters={"J_crank": 0.3, "n0": 60.0, "t0": 1.0})
+    b = spec.Instance("b", fmu="MotorStartup", parameters={"J_crank": 0.1, "n0": 30.0, "t0": 1.0})
+    sc = direct({"a": a, "b": b}, [("a", "T_drive", "b", "M_reaction"), ("b", "T_drive", "a", "M_reaction")],
+                [("a", "T_drive"), ("b", "T_drive")], start=0.2, stop=0.21, step=0.01,
+                master={"algebraic_loops": "ignore"})
+    res = runner.run(sc, native_models, native_fmus, progress=False, echo=False)
+    assert res.success
+    A, B = 0.3 * quadratic_law(60.0, 1.0, 0.2)[2], 0.1 * quadratic_law(30.0, 1.0, 0.2)[2]
+    assert res.column("a.T_drive")[0] == pytest.approx(5 * A - 4 * B, rel=1e-12)
+    assert res.column("b.T_drive")[0] == pytest.approx(5 * B - 5 * A, rel=1e-12)
