@@ -222,3 +222,30 @@ def test_tables_are_read_at_the_start_time_in_initialisation(native_models, nati
     res = runner.run(sc, native_models, native_fmus, progress=False, echo=False)
     assert res.success
     assert res.column("s.agx_total")[0] == pytest.approx(1.0 + 20.0 * 0.07 ** 3, rel=1e-14)
+
+
+def test_a_step_refused_with_fmi2error_ends_the_run_with_its_reason(native_models, native_fmus):
+    """At t = 1e17 s a 1 s step does not move the time (1e17 + 1 rounds to 1e17): the FMU
+    refuses the step with fmi2Error; with 16 s steps (the spacing of doubles there) it runs."""
+    drive = {"drive": spec.Instance("drive", fmu="MotorStartup")}
+    ok = runner.run(direct(drive, [], [("drive", "psi")], start=1e17, stop=1e17 + 64, step=16.0), native_models,
+                    native_fmus, progress=False, echo=False)
+    assert (ok.success, ok.steps) == (True, 4)
+    res = runner.run(direct(drive, [], [("drive", "psi")], start=1e17, stop=1e17 + 32, step=1.0), native_models,
+                     native_fmus, progress=False, echo=False)
+    assert (res.success, res.steps) == (False, 0)
+    assert res.message == ("drive refused the step at t = 1e+17 s (error): MotorStartup 'drive': fmi2DoStep: the step "
+                           "ends at 1e+17 s, not after the FMU's time t = 1e+17 s; state unchanged")
+
+
+def test_warnings_do_not_stop_a_run(native_models, native_fmus):
+    """A ball that slips at once (mu = 0.01): BallInShell warns and latches valid = false; the
+    run goes on to the end."""
+    conns = [("drive", v, "ball", v) for v in ("x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O")]
+    sc = direct({"drive": spec.Instance("drive", fmu="MotorStartup", parameters={"t0": 0.05, "n0": 120.0}),
+                 "ball": spec.Instance("ball", fmu="BallInShell", parameters={"mu": 0.01})}, conns, [("ball", "valid")])
+    res = runner.run(sc, native_models, native_fmus, progress=False, echo=False)
+    assert (res.success, res.message, res.steps) == (True, "completed", 10)
+    assert list(res.column("ball.valid")) == [0.0] * 11
+    assert res.messages[0]["status"] == "warning" and res.messages[0]["message"].startswith(
+        "BallInShell 'ball': slip at t = 0 s: |F_t|/N = ")
