@@ -1,8 +1,12 @@
 """The co-simulation master's edges (ballmill/scenario/runner.py), for mutants that
 tests/mutation/test_runner_master.py and test_runner_loops.py let through, with native FMUs
-(tests/mutation/native_fmus.py): an initialisation an FMU refuses (the run's message gives
-the FMU's reason; what the FMUs log before the first communication point is stamped with the
-start time), the FMI logger's printf proxy, the echo limit."""
+(tests/mutation/native_fmus.py): refusals (an initialisation, an instance that does not
+instantiate, an input fmi2SetReal refuses, a step refused with fmi2Error; the run's message
+gives the FMU's reason; what the FMUs log before the first communication point is stamped
+with the start time), warnings that do not stop a run, the FMI logger's printf proxy and
+echo limit, the progress bar's edges and the defaults, a Boolean parameter set true, tables
+read at the start time and 1e-12 s outside their samples, ignored loops named whole, a loop
+that does not converge with no tolerance, an instance without inputs before one with."""
 from __future__ import annotations
 
 import io
