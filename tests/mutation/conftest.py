@@ -35,6 +35,10 @@ class _Lazy(Mapping):
 
 @pytest.fixture(scope="session")
 def native_fmus() -> dict:
+    from ballmill.fmi import native
+
+    if not native.has_compiler():
+        pytest.skip("no C compiler (cc, gcc, clang or $CC): the native FMUs cannot be built")
     return _native_fmus()
 
 
