@@ -362,6 +362,7 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
     iterate = bool(loops) and master["algebraic_loops"] == "iterate"
     loop_sweeps = 0
     logger = _Logger(echo)
+    logger.now = sc.start  # the time stamped on what the FMUs log before the first communication point
     fmus: dict[str, _FmuInstance] = {}
     tables: dict[str, _TableSource] = {}
     order = _order(sc)
@@ -445,7 +446,11 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
                 if np.all(residual <= tol * np.abs(current) + atol):
                     return sweep
                 previous = current.copy()
-            worst = int(np.argmax(residual / (tol * np.abs(current) + atol)))
+            # the slot furthest outside its accepted change (with loop_tol = loop_atol = 0 any
+            # change is infinitely far, a settled slot not at all)
+            accepted = tol * np.abs(current) + atol
+            excess = np.divide(residual, accepted, out=np.where(residual > 0.0, np.inf, 0.0), where=accepted > 0.0)
+            worst = int(np.argmax(excess))
             raise AlgebraicLoopError(
                 f"algebraic loop {'; '.join(_loop_text(lp) for lp in loops)} did not converge at t = {t:.9g} s "
                 f"after loop_max_iter = {max_iter} sweeps: {slot_names[int(loop_slots[worst])]} still changed by "
@@ -503,8 +508,11 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
         steppers = [(name, _bare(f.fmu, "fmi2DoStep"), (ctypes.c_void_p(f.fmu.component), now, size, no_set_prior))
                     for name, f in fmus.items()]
         every = PROGRESS_EVERY
+        reached = sc.start  # where the last step took the FMUs
         for k in range(n_steps + 1):
-            t = sc.start + k * sc.step
+            # the grid start + k H; the last point is where the last step ended (stop, when
+            # stop - start is not a whole number of steps and that step was shortened)
+            t = sc.start + k * sc.step if k < n_steps else reached
             logger.now = t
             bus[0] = t
             for fun, args, fname in step_ops:
@@ -539,10 +547,14 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
             if not success:
                 break
             steps += 1
+            reached = t + h
             if steps % every == 0 or k == n_steps - 1:
                 bar.update(t + h - sc.start, t + h)
     except Exception as e:
         success, message = False, f"{type(e).__name__}: {e}"
+        why = [m for m in logger.messages if m["status"] in ("error", "fatal")]
+        if why:  # the FMU's own reason (an initialisation or an instance refused, an input not settable)
+            message += f" {why[-1]['message']}"
         init_time = locals().get("init_time", time.perf_counter() - wall0)
         if echo:
             sys.stderr.write(f"\nrun failed: {message}\n")

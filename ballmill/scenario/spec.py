@@ -157,7 +157,7 @@ def load(name_or_path: str, overrides: list[str] = (), models: dict | None = Non
         else:
             instances[inst].parameters[param] = value
 
-    connections = []
+    connections, connection_at = [], []  # connection_at: each readable connection's index in the file
     for i, text in enumerate(doc.get("connections", [])):
         key = f"connections[{i}]"
         try:
@@ -168,14 +168,16 @@ def load(name_or_path: str, overrides: list[str] = (), models: dict | None = Non
             bad(key, f"expected 'instance.output -> instance.input', got {text!r}")
             continue
         connections.append((si, sv, di, dv))
+        connection_at.append(i)
 
     record_spec = (doc.get("record") or {}).get("variables")
-    record = []
+    record, record_at = [], []
     for i, text in enumerate(record_spec or []):
         if "." not in str(text):
             bad(f"record.variables[{i}]", f"expected 'instance.variable', got {text!r}")
             continue
         record.append(tuple(str(text).split(".", 1)))
+        record_at.append(i)
 
     master = dict(MASTER_DEFAULTS)
     for key, v in dict(doc.get("master") or {}).items():
@@ -196,7 +198,7 @@ def load(name_or_path: str, overrides: list[str] = (), models: dict | None = Non
                         plots=list(doc.get("plots", [])), summary=dict(doc.get("summary", {})),
                         master=master)
     if models is not None:  # check even when other sections have problems: report them all at once
-        problems += check(scenario, models, record_spec is None)
+        problems += check(scenario, models, record_spec is None, connection_at, record_at)
     if problems:
         raise ScenarioError(problems)
     return scenario
@@ -240,8 +242,11 @@ def _variables(inst: Instance, models: dict):
     return {v.name: (v.causality, v.type, v.unit) for v in md.modelVariables}
 
 
-def check(sc: Scenario, models: dict, record_all: bool) -> list[str]:
-    """Check instances, parameters, connections and records against the model descriptions."""
+def check(sc: Scenario, models: dict, record_all: bool, connection_at=None, record_at=None) -> list[str]:
+    """Check instances, parameters, connections and records against the model descriptions.
+    ``connection_at``, ``record_at``: the index in the file of each connection and recorded
+    variable (default: their positions), so that a problem names the file's entry when an
+    unreadable entry before it was left out."""
     where = sc.path.as_posix()
     problems = []
     for name, inst in sc.instances.items():
@@ -273,7 +278,7 @@ def check(sc: Scenario, models: dict, record_all: bool) -> list[str]:
                 problems.append(f"{key}: expected a {kind} value, got {value!r}")
     seen_inputs = set()
     for i, (si, sv, di, dv) in enumerate(sc.connections):
-        key = f"{where}: connections[{i}] ({si}.{sv} -> {di}.{dv})"
+        key = f"{where}: connections[{i if connection_at is None else connection_at[i]}] ({si}.{sv} -> {di}.{dv})"
         for inst, var, role in ((si, sv, "output"), (di, dv, "input")):
             if inst in broken:
                 continue  # already reported
@@ -294,7 +299,8 @@ def check(sc: Scenario, models: dict, record_all: bool) -> list[str]:
                      if c[0] == "output" and c[1] in ("Real", "Boolean", "Integer")]
     for i, (inst, var) in enumerate(sc.record):
         if inst not in broken and (inst not in variables or var not in variables[inst]):
-            problems.append(f"{where}: record.variables[{i}]: no variable {inst}.{var}")
+            at = i if record_all or record_at is None else record_at[i]
+            problems.append(f"{where}: record.variables[{at}]: no variable {inst}.{var}")
     recorded = {f"{a}.{b}" for a, b in sc.record} | {"time"}
     for i, plot in enumerate(sc.plots):
         kind = plot.get("kind", "series")

@@ -171,7 +171,7 @@ y = ["drive.psi"]
 """
     assert problems_of(tmp_path, text, models) == [
         "record.variables[0]: expected 'instance.variable', got 'novar'",
-        "record.variables[0]: no variable drive.nothing",
+        "record.variables[1]: no variable drive.nothing",  # its index in the file
         "plots[0]: 'drive.T_drive' is not recorded",
         "plots[1]: 'drive.x1O' is not recorded",
         "plots[1].file: expected a PNG file name",
