@@ -17,22 +17,6 @@ import pytest
 from native_fmus import native_fmus as _native_fmus
 
 
-class _Lazy(Mapping):
-    def __init__(self, paths: dict):
-        self._paths = dict(paths)
-
-    def __getitem__(self, name):
-        from ballmill.scenario import fmucache
-
-        return fmucache.model_description(self._paths[name])
-
-    def __iter__(self):
-        return iter(self._paths)
-
-    def __len__(self):
-        return len(self._paths)
-
-
 @pytest.fixture(scope="session")
 def native_fmus() -> dict:
     from ballmill.fmi import native
@@ -44,4 +28,6 @@ def native_fmus() -> dict:
 
 @pytest.fixture(scope="session")
 def native_models(native_fmus) -> Mapping:
-    return _Lazy(native_fmus)
+    from ballmill.scenario.runner import _Descriptions  # the runner's own lazy reader
+
+    return _Descriptions(native_fmus)
