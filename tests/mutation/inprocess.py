@@ -152,6 +152,11 @@ class InProcessFmu:
         pass
 
 
+def open_fmu(model: str, /, **parameters) -> InProcessFmu:
+    """An instance of `model` (instance name: the model's name in lower case) with `parameters` set."""
+    return InProcessFmu(model, model.lower(), **parameters)
+
+
 def write_model_descriptions(directory: Path) -> dict:
     """model name -> modelDescription.xml written by its slave's `to_xml` (what the
     pythonfmu build puts in the FMU), for tests that read a model description."""

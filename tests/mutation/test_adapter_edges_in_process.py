@@ -18,16 +18,12 @@ _TESTS = str(Path(__file__).resolve().parents[1])
 if _TESTS not in sys.path:
     sys.path.insert(0, _TESTS)
 
-from inprocess import DISCARD, ERROR, FATAL, OK, InProcessFmu  # noqa: E402
+from inprocess import DISCARD, ERROR, FATAL, OK, open_fmu  # noqa: E402
 
 from ballmill.fmi.slave import T_REL  # noqa: E402
 from ballmill.physics import Ball, BallModel  # noqa: E402
 
 H = 2e-3
-
-
-def open_fmu(model_name, /, **p):
-    return InProcessFmu(model_name, model_name.lower(), **p)
 
 
 def _call(fmu, call, *args):

@@ -18,15 +18,11 @@ if _TESTS not in sys.path:
     sys.path.insert(0, _TESTS)
 
 from conformance.inputs import crank, feed, run_ball  # noqa: E402
-from inprocess import OK, InProcessFmu  # noqa: E402
+from inprocess import OK, open_fmu  # noqa: E402
 
 from ballmill.physics.drives.induction import CrankDrive, InductionMotor as MotorData  # noqa: E402
 
 H = 2e-3
-
-
-def open_fmu(model_name, /, **p):
-    return InProcessFmu(model_name, model_name.lower(), **p)
 
 
 @pytest.mark.parametrize("J_crank, m_platform, l, i", [(3.0, 5.0, 0.3, 10.0), (0.0, 40.0, 0.7, 25.0)])

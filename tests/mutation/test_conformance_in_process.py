@@ -29,7 +29,7 @@ from conformance.test_state import *  # noqa: E402,F401,F403
 from conformance.test_state import EDITS  # noqa: E402
 from conformance.test_steps import *  # noqa: E402,F401,F403
 from conformance.test_validity import *  # noqa: E402,F401,F403
-from inprocess import InProcessFmu, write_model_descriptions  # noqa: E402
+from inprocess import InProcessFmu, open_fmu as open_fmu_in_process, write_model_descriptions  # noqa: E402
 
 # the host-process version of the blob test is replaced by the in-process one below
 del test_an_invalid_state_blob_is_refused_and_the_instance_keeps_its_state  # noqa: F821
@@ -52,9 +52,7 @@ def fmus(tmp_path_factory):
 
 @pytest.fixture
 def open_fmu():
-    def open_(model, /, **parameters):
-        return InProcessFmu(model, model.lower(), **parameters)
-    return open_
+    return open_fmu_in_process
 
 
 def _ref_open(model, **p):
@@ -78,17 +76,22 @@ def base():
     return fmu.outputs()
 
 
-@pytest.mark.parametrize("case", sorted(EDITS))
-def test_an_invalid_state_blob_is_refused_in_process_state_kept(open_fmu, case):
-    model, edit, expected = EDITS[case]
+def _stepped_state(open_fmu, model):
+    """An instance of `model` three steps in (BallInShell off centre), its outputs, and its
+    FMU state as the JSON dict pythonfmu serialises."""
     fmu = open_fmu(model)
     if model == "BallInShell":
         fmu.set(x1O=0.5)
     assert fmu.init() == OK, fmu.messages()
     for _ in range(3):
         assert fmu.step(1e-3) == OK
-    before = fmu.outputs()
-    state = json.loads(fmu.serialize(fmu.get_state()).decode())
+    return fmu, fmu.outputs(), json.loads(fmu.serialize(fmu.get_state()).decode())
+
+
+@pytest.mark.parametrize("case", sorted(EDITS))
+def test_an_invalid_state_blob_is_refused_in_process_state_kept(open_fmu, case):
+    model, edit, expected = EDITS[case]
+    fmu, before, state = _stepped_state(open_fmu, model)
     exec(edit, {"state": state})
     n = len(fmu.log)
     st, s = fmu.deserialize(json.dumps(state).encode())
@@ -176,15 +179,7 @@ MORE_EDITS = {
 @pytest.mark.parametrize("case", sorted(MORE_EDITS))
 def test_every_internal_state_check_refuses_state_kept(open_fmu, case):
     model, edit, expected = MORE_EDITS[case]
-    fmu = open_fmu(model)
-    if model == "BallInShell":
-        fmu.set(x1O=0.5)
-    assert fmu.init() == OK, fmu.messages()
-    for _ in range(3):
-        assert fmu.step(1e-3) == OK
-    before = fmu.outputs()
-    state = fmu.get_state()
-    state = json.loads(fmu.serialize(state).decode())
+    fmu, before, state = _stepped_state(open_fmu, model)
     exec(edit, {"state": state})
     n = len(fmu.log)
     assert fmu.set_state(state) == FATAL
