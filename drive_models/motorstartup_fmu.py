@@ -48,6 +48,7 @@ class MotorStartup(Slave):
 
     def _publish(self, t):
         psi, wd, wdd = self._law.angle(t)
+        self.finite("psi", psi)  # before cos(psi): an infinite angle has no position (as the native flavour)
         values = (psi, wd, wdd) + self._law.state(t)
         for (name, _, _), v in zip(KINEMATICS, values):
             setattr(self, name, self.finite(name, v))

@@ -142,6 +142,20 @@ def test_do_step_after_terminate_is_refused(open_fmu, flavour, model):
     assert fmu.outputs() == before
 
 
+def test_a_step_to_where_the_crank_angle_overflows_is_refused_naming_psi(open_fmu):
+    """MotorStartup's psi = w0 (t - t0 / 3) exceeds the largest double at t = 1e308 s (w0 = 2 pi
+    rad/s): no platform position exists there, so both flavours refuse the step naming the
+    output psi (the pythonfmu flavour gave Python's bare "math domain error") and keep the
+    state."""
+    fmu = _started(open_fmu, "MotorStartup")
+    before = fmu.outputs()
+    n = len(fmu.log)
+    assert fmu.step(1e308) == DISCARD  # the step is legal, its result is not
+    assert "output psi would be inf" in fmu.messages(n)
+    assert fmu.outputs() == before
+    assert fmu.step(H) == OK
+
+
 def test_a_step_longer_than_max_step_is_discarded_state_intact(open_fmu):
     fmu, st = run_ball(open_fmu, [H] * 5, max_step=0.01)
     before = fmu.outputs()
