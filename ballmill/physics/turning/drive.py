@@ -46,7 +46,7 @@ import math
 from typing import NamedTuple
 
 from ..errors import ParameterError
-from .motions import ARRANGEMENTS, SHAFTS, ConstantSpeed, Fig1Machine, SpeedRise
+from .motions import ARRANGEMENTS, SHAFTS, ConstantSpeed, Fig1Machine, SpeedRise, check_number
 
 # Fig1Drive's integer codes (ballmill/fmi/interface.py FIG1_DRIVE); frame_law 0 is ConstantSpeed
 LAW_CODES = {1: "quadratic", 2: "scurve", 3: "linear", 4: "quintic"}  # MotorStartup's `law`
@@ -110,8 +110,7 @@ class Fig1Drive:
         for name, v, unit in (("Omega_frame", Omega_frame, "rad/s"), ("t0_frame", t0_frame, "s"),
                               ("l", l, "m"), ("n0", n0, "1/min"), ("t0", t0, "s"), ("J_frame", J_frame, "kg.m2"),
                               ("J_crank", J_crank, "kg.m2"), ("m_platform", m_platform, "kg"), ("g", g, "m/s2")):
-            if not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)):
-                raise ParameterError(f"{name} must be a finite number, got {name} = {v!r} {unit}")
+            check_number(name, v, unit)
             if name != "Omega_frame" and v < 0.0:
                 raise ParameterError(f"{name} must be non-negative, got {name} = {v!r} {unit}")
         for name, v in (("t0_frame", t0_frame), ("t0", t0)):

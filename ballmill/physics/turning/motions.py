@@ -85,6 +85,17 @@ ChamberState.__doc__ = (
 _I3 = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
 
 
+def _is_number(v) -> bool:
+    """A finite int or float, and not a bool (True is an int to Python, not a speed)."""
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def check_number(name, v, unit):
+    """Refuse anything but a finite number, naming it with its unit (shared with drive.py)."""
+    if not _is_number(v):
+        raise ParameterError(f"{name} must be a finite number, got {name} = {v!r} {unit}")
+
+
 def _finite3(name, v):
     try:
         out = tuple(float(x) for x in v)
@@ -103,10 +114,8 @@ class ConstantSpeed:
     angle0: float = 0.0
 
     def __post_init__(self):
-        for name in ("w", "angle0"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v)):
-                raise ParameterError(f"{name} must be a finite number, got {name} = {v!r}")
+        for name, unit in (("w", "rad/s"), ("angle0", "rad")):
+            check_number(name, getattr(self, name), unit)
 
     def angle(self, t: float):
         return self.angle0 + self.w * t, self.w, 0.0
@@ -124,9 +133,7 @@ class SpeedRise:
 
     def __post_init__(self):
         for name, unit in (("w", "rad/s"), ("t0", "s")):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)):
-                raise ParameterError(f"{name} must be a finite number, got {name} = {v!r} {unit}")
+            check_number(name, getattr(self, name), unit)
         if not self.t0 > 0.0:
             raise ParameterError(f"t0 must be positive, got t0 = {self.t0!r} s")
         if self.law not in LAWS:
@@ -238,7 +245,7 @@ class Fig1Machine(ChamberMotion):
                                      f"acceleration), got {law!r}")
         if l is None:
             l = getattr(self.crank, "l", None)
-        if not (isinstance(l, (int, float)) and math.isfinite(l) and l >= 0.0):
+        if not (_is_number(l) and l >= 0.0):
             raise ParameterError(f"crank.l must be a non-negative length in m, got {l!r}")
         self.l = float(l)
         if shaft not in SHAFTS:
