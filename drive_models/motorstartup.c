@@ -97,7 +97,7 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
 /* direct feedthrough: T_drive and P_drive follow M_reaction set between steps (publish's
  * arithmetic at the instance's time); left as they are if they would not be finite (the
  * next step refuses such an input or output) */
-static fmi2Status inputs_set(fmu_instance *fi, const void *data, double *v, double t)
+static fmi2Status inputs_set(fmu_instance *fi, void *data, double *v, double t)
 {
     const motor_startup *m = data;
     (void)fi;

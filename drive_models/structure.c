@@ -327,7 +327,7 @@ static fmi2Status check(fmu_instance *fi, const void *data, const double *v)
 }
 
 /* direct feedthrough: every output at t from the state and the inputs just set */
-static fmi2Status inputs_set(fmu_instance *fi, const void *data, double *v, double t)
+static fmi2Status inputs_set(fmu_instance *fi, void *data, double *v, double t)
 {
     const structure *s = data;
     double u[NIN];

@@ -107,6 +107,8 @@ typedef struct {
     double noise_sum; /* coupling_error's drift: sum of (da H)^2 */
     int has_a_mid;
     double a_mid[3]; /* (t, ax, ay) of the previous fit mid-way through its interval */
+    int has_fed;
+    sample fed; /* the inputs of the last feedthrough refresh since the last step (inputs_set) */
 } ball_in_shell;
 
 static const char *const INPUT_NAMES[SAMPLE_VALUES - 1] = {
@@ -253,15 +255,18 @@ static int rotation_problem(const double *q, char *why, size_t size)
     return 0;
 }
 
-static int recon_push(ball_in_shell *b, const double *v, double t, char *why, size_t size)
+/* the inputs at t as a sample (ReconstructionHistory.push's checks): 0, or -1 with the reason
+ * for a value that is not finite or a Q that is not a rotation (motion = 2) */
+static int read_sample(const ball_in_shell *b, const double *v, double t, sample *s, char *why, size_t size)
 {
-    sample s = {t, v[VR_x1O], v[VR_y1O], v[VR_vx1O], v[VR_vy1O], v[VR_ax1O], v[VR_ay1O],
-                0.0, 0.0, 0.0, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0}};
-    const double *vals = &s.x;
+    const sample in = {t, v[VR_x1O], v[VR_y1O], v[VR_vx1O], v[VR_vy1O], v[VR_ax1O], v[VR_ay1O],
+                       0.0, 0.0, 0.0, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0}};
+    *s = in;
+    const double *vals = &s->x;
     char a[32], c[32];
     int n_values = 6;
     if (b->motion == 2) {
-        double *extra = &s.z;
+        double *extra = &s->z;
         for (int i = 0; i < SAMPLE_VALUES - 7; i++) extra[i] = v[MOTION_VR[i]];
         n_values = SAMPLE_VALUES - 1;
     }
@@ -273,11 +278,19 @@ static int recon_push(ball_in_shell *b, const double *v, double t, char *why, si
         }
     if (b->motion == 2) {
         char problem[700];
-        if (rotation_problem(s.q, problem, sizeof problem)) {
+        if (rotation_problem(s->q, problem, sizeof problem)) {
             snprintf(why, size, "%s at t = %s s", problem, fmu_repr(t, c));
             return -1;
         }
     }
+    return 0;
+}
+
+static int recon_push(ball_in_shell *b, const double *v, double t, char *why, size_t size)
+{
+    sample s;
+    char a[32], c[32];
+    if (read_sample(b, v, t, &s, why, size)) return -1;
     if (b->n_samples && t < b->samples[b->n_samples - 1].t) {
         snprintf(why, size, "inputs must come in time order: got t = %s s after t = %s s", fmu_repr(t, a),
                  fmu_repr(b->samples[b->n_samples - 1].t, c));
@@ -813,30 +826,76 @@ static void publish(double *v, const double o[N_OUT])
     for (int i = 0; i < 9; i++) v[vr_more[i]] = o[O_XPCH + i];
 }
 
-/* direct feedthrough (interface.BALL_FEEDTHROUGH; ballinshell_fmu.BallInShell.inputs_set): the
- * force, moments and contact signals at the instance's time from the chamber acceleration and
- * position just set, on the state published at that time (input modes 1, 3, 4; with positions
- * alone the acceleration is reconstructed at the next step) */
-static fmi2Status inputs_set(fmu_instance *fi, const void *data, double *v, double t)
+/* the inputs the published outputs were computed from: those of the last feedthrough
+ * refresh since the last step, else the sample the last step (or the initialisation) took */
+static const sample *published_inputs(const ball_in_shell *b)
 {
-    const ball_in_shell *b = data;
-    (void)fi;
-    (void)t;
+    if (b->has_fed) return &b->fed;
+    return b->n_samples ? &b->samples[b->n_samples - 1] : NULL;
+}
+
+/* motion = 1: the outputs on the published state with the chamber acceleration and position
+ * just set; 0 (nothing to refresh) when one is not finite (the next step refuses it) or none
+ * of them differs from what the published outputs were computed from (another input was set,
+ * or the same values again) */
+static int translation_feedthrough(const ball_in_shell *b, const double *v, double t, sample *now,
+                                   double o[N_OUT])
+{
     double x = v[VR_x1O], y = v[VR_y1O], ax = v[VR_ax1O], ay = v[VR_ay1O];
-    /* motion = 2 (a prescribed turning chamber): not refreshed, the next step computes them */
-    if (b->mode == 2 || b->motion == 2 || !(isfinite(x) && isfinite(y) && isfinite(ax) && isfinite(ay)))
-        return fmi2OK;
-    /* none of them set to a new value since the last step took them (another input was set):
-     * the published outputs (from the reconstruction's inputs at t) stay */
-    if (b->n_samples) {
-        const sample *s = &b->samples[b->n_samples - 1];
-        if (s->x == x && s->y == y && s->ax == ax && s->ay == ay) return fmi2OK;
-    }
-    double nw[BM_NY], o[N_OUT];
+    if (!(isfinite(x) && isfinite(y) && isfinite(ax) && isfinite(ay))) return 0;
+    const sample *s = published_inputs(b);
+    if (s && s->x == x && s->y == y && s->ax == ax && s->ay == ay) return 0;
+    const sample in = {t, x, y, v[VR_vx1O], v[VR_vy1O], ax, ay,
+                       0.0, 0.0, 0.0, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0}};
+    *now = in;
+    double nw[BM_NY];
     to_n(b, b->state.y, nw);
     memcpy(nw + 3, b->state.y + b->P.ny - 3, 3 * sizeof(double));
     bm_outputs(&b->P, nw, ax, ay, x, y, o);
     translation_extras(b->R, x, y, o);
+    return 1;
+}
+
+/* motion = 2: the same at the chamber state of the inputs just set (A, v_A, a_A from O,
+ * Omega, Omega', Q: chamber_centre); 0 when they are not a valid sample (the next step
+ * refuses them) or equal, all 24, to what the published outputs were computed from */
+static int general_feedthrough(const ball_in_shell *b, const double *v, double t, sample *now, double o[N_OUT])
+{
+    sample s;
+    char why[1024];
+    if (read_sample(b, v, t, &s, why, sizeof why)) return 0;
+    const sample *last = published_inputs(b);
+    if (last) {
+        const double *was = &last->x, *is = &s.x;
+        int same = 1;
+        for (int i = 0; i < SAMPLE_VALUES - 1 && same; i++) same = was[i] == is[i];
+        if (same) return 0;
+    }
+    *now = s;
+    double cs[BMG_NCS], go[BMG_NOUT];
+    memset(cs, 0, sizeof cs);
+    chamber_centre(&s, b->R, cs, cs + 3, cs + 6);
+    memcpy(cs + 9, s.om, sizeof s.om);
+    memcpy(cs + 12, s.omd, sizeof s.omd);
+    memcpy(cs + 15, s.q, sizeof s.q);
+    bmg_outputs(b->G.oc, b->state.y, cs, go);
+    general_outputs(b, b->state.y, cs, go, o);
+    return 1;
+}
+
+/* direct feedthrough (interface.BALL_FEEDTHROUGH; ballinshell_fmu.BallInShell.inputs_set): the
+ * force, moments and contact signals at the instance's time from the chamber motion just set,
+ * on the state published at that time (input modes 1, 3, 4; with positions alone the
+ * acceleration is reconstructed at the next step); left as they are if one would not be finite */
+static fmi2Status inputs_set(fmu_instance *fi, void *data, double *v, double t)
+{
+    ball_in_shell *b = data;
+    sample now;
+    double o[N_OUT];
+    (void)fi;
+    if (b->mode == 2 || !(b->motion == 2 ? general_feedthrough(b, v, t, &now, o)
+                                         : translation_feedthrough(b, v, t, &now, o)))
+        return fmi2OK;
     static const int vr[] = {VR_N, VR_Fx, VR_Fy, VR_Fz, VR_M_reaction, VR_MAx, VR_MAy, VR_MAz, VR_Ft,
                              VR_Fx_ch, VR_Fy_ch, VR_Fz_ch, VR_MO1x, VR_MO1y, VR_MO1z};
     static const int oi[] = {O_N, O_FX, O_FY, O_FZ, O_MR, O_MAX, O_MAY, O_MAZ, O_FT,
@@ -849,6 +908,8 @@ static fmi2Status inputs_set(fmu_instance *fi, const void *data, double *v, doub
     v[VR_contact] = o[O_CONTACT] != 0.0;
     v[VR_rolling] = o[O_ROLLING] != 0.0;
     v[VR_P_diss] = o[O_PDISS];
+    b->fed = now; /* what the published outputs now come from */
+    b->has_fed = 1;
     return fmi2OK;
 }
 
@@ -1147,6 +1208,7 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
     }
     b->state.h = NAN;
     b->n_samples = 0;
+    b->has_fed = 0;
     b->h_next = 0.0;
     if (recon_push(b, v, t, msg, sizeof msg) < 0) return init_error(fi, msg, "");
     if (motion == 2) { /* ChamberModel.initial: (xC0, yC0) and w0 relative to the chamber, its axes */
@@ -1264,6 +1326,7 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
     memcpy(b->hist, hist, (size_t)n_hist * sizeof(ball_state));
     b->n_hist = n_hist;
     b->state = predicted;
+    b->has_fed = 0;
     publish(v, out);
     v[VR_coupling_error] = coupling_error;
     if (coupling_error > v[VR_coupling_warn] && !b->warned) {
@@ -1312,6 +1375,8 @@ static fmi2Status check(fmu_instance *fi, const void *data, const double *v)
     else if (!(b->noise_sum >= 0.0 && isfinite(b->noise_sum) && isfinite(b->h_next)))
         why = "its coupling-error sums are not finite";
     else if (b->has_a_mid && !bm_all_finite(b->a_mid, 3)) why = "its mid-interval acceleration is not finite";
+    else if (!(b->has_fed == 0 || (b->has_fed == 1 && bm_all_finite(&b->fed.t, SAMPLE_VALUES))))
+        why = "its feedthrough inputs are not finite";
     else if (!(v[VR_valid] == 0.0 || v[VR_valid] == 1.0) || !isfinite(v[VR_t_invalid]))
         why = "its validity latch is not a Boolean and a finite time";
     else if (!(isfinite(b->state.t) && bm_all_finite(b->state.y, b->P.ny))) why = "its ball state is not finite";

@@ -47,7 +47,7 @@ from ballmill.fmi.interface import (BALL_ALL_INPUTS, BALL_FEEDTHROUGH, BALL_IN_S
 from ballmill.fmi.slave import NEVER, Slave
 from ballmill.physics import Ball, BallModel, BallState, InputReconstruction
 from ballmill.physics.turning.model import ChamberModel, evaluate_c
-from ballmill.physics.turning.reconstruction import ChamberReconstruction
+from ballmill.physics.turning.reconstruction import ChamberReconstruction, centre, rotation_problem
 
 FORMULATIONS = {1: "vector", 2: "paper"}
 METHODS = {1: "DOP853", 2: "RK45", 3: "RK4"}
@@ -79,6 +79,7 @@ class BallInShell(Slave):
         self._state = None
         self._inputs = None
         self._history = []
+        self._fed = None  # the inputs of the last feedthrough refresh since the last step
 
     # -- life cycle --------------------------------------------------------
     def build(self):
@@ -141,6 +142,7 @@ class BallInShell(Slave):
             problem = self._inputs.push(*self._sample(self._time))
         # corrected states at the times of the samples in the reconstruction window
         self._history = [self._state]
+        self._fed = None
         self._coupling_warned, self.coupling_error = False, 0.0
         self.valid, self.t_invalid = True, NEVER
         self._confirmed = (True, True)
@@ -229,6 +231,7 @@ class BallInShell(Slave):
             self._a_mid = (tm,) + tuple(accel(tm))
         self._history = history
         self._state = predicted
+        self._fed = None
         self._set_outputs(values, out)
         self.coupling_error = coupling_error
         if self.coupling_error > self.coupling_warn and not self._coupling_warned:
@@ -302,26 +305,66 @@ class BallInShell(Slave):
 
     def inputs_set(self):
         """Direct feedthrough (interface.BALL_FEEDTHROUGH): the force, moments and contact
-        signals at the FMU's time from the chamber acceleration and position just set, on the
-        state published at that time (input modes 1, 3 and 4; with positions alone the
-        acceleration is reconstructed at the next step). A master that iterates the algebraic
-        loop of a structure feeling the ball reads them without stepping."""
-        if self._inputs is None or self._inputs.mode == "positions" or self._state is None or self._general:
-            return  # motion = 2 (a prescribed turning chamber): the next step computes them
-        x, y, ax, ay = self.x1O, self.y1O, self.ax1O, self.ay1O
-        if not all(math.isfinite(v) for v in (x, y, ax, ay)):
-            return  # the next step refuses them
-        samples = self._inputs.samples
-        if samples:  # none of them set to a new value since the last step took them: outputs stay
-            _, sx, sy, _, _, sax, say = samples[-1]
-            if (sx, sy, sax, say) == (x, y, ax, ay):
-                return
+        signals at the FMU's time from the chamber motion just set, on the state published at
+        that time (input modes 1, 3 and 4; with positions alone the acceleration is
+        reconstructed at the next step), when the inputs they depend on differ from those the
+        published outputs were computed from; left as they are if one would not be finite. A
+        master that iterates the algebraic loop of a structure feeling the ball reads them
+        without stepping."""
+        if self._inputs is None or self._inputs.mode == "positions" or self._state is None:
+            return
+        now = self._sample(self._time)
+        out = self._general_feedthrough(now) if self._general else self._translation_feedthrough(now)
+        if out is None:
+            return
         try:
-            out = _Translated(self._model.outputs(self._state, ax, ay, x, y), x, y, self.R)
             values = self._values(out)
-        except (ValueError, ArithmeticError):
+        except ArithmeticError:
             return
         self._set_outputs([(n, v) for n, v in values if n in FEEDTHROUGH], out)
+        self._fed = now  # what the published outputs now come from
+
+    def _published_inputs(self):
+        """The sample the published outputs were computed from: that of the last feedthrough
+        refresh since the last step, else the one the last step (or the initialisation) took."""
+        if self._fed is not None:
+            return self._fed
+        return self._inputs.samples[-1] if self._inputs.samples else None
+
+    def _translation_feedthrough(self, now):
+        """motion = 1: the outputs with the chamber acceleration and position of the sample
+        `now`; None when one is not finite (the next step refuses it) or none of them differs
+        from what the published outputs were computed from (another input was set, or the
+        same values again)."""
+        _, x, y, _, _, ax, ay = now
+        if not all(math.isfinite(v) for v in (x, y, ax, ay)):
+            return None
+        last = self._published_inputs()
+        if last is not None:
+            _, sx, sy, _, _, sax, say = last
+            if (sx, sy, sax, say) == (x, y, ax, ay):
+                return None
+        try:
+            return _Translated(self._model.outputs(self._state, ax, ay, x, y), x, y, self.R)
+        except (ValueError, ArithmeticError):
+            return None
+
+    def _general_feedthrough(self, now):
+        """motion = 2: the same at the chamber state of the sample `now` (A, v_A, a_A from O,
+        Omega, Omega', Q: reconstruction.centre); None when it is not a valid sample (the next
+        step refuses it) or equal, all 24 inputs, to what the published outputs were computed
+        from."""
+        if not all(map(math.isfinite, now)) or rotation_problem(now[16:25]) is not None:
+            return None
+        last = self._published_inputs()
+        if last is not None and last[1:] == now[1:]:
+            return None
+        A, vA, aA = centre(now, self.R)
+        cs = A + vA + aA + now[10:25] + (0.0,) * 14
+        try:
+            return _general_outputs(self._model, self._state, cs)
+        except (ValueError, ArithmeticError):
+            return None
 
     def _outputs_at(self, state, t):
         """Outputs of a state at time t, with the platform motion reconstructed at t."""
@@ -381,7 +424,8 @@ class BallInShell(Slave):
                 "t_prev": self._t_prev, "confirmed": list(self._confirmed),
                 "history": [st.to_dict() for st in self._history], "warned": self._coupling_warned,
                 "resolution_warned": self._resolution_warned, "inconsistency_warned": self._inconsistency_warned,
-                "noise_sum": self._noise_sum, "a_mid": None if self._a_mid is None else list(self._a_mid)}
+                "noise_sum": self._noise_sum, "a_mid": None if self._a_mid is None else list(self._a_mid),
+                "fed": None if self._fed is None else list(self._fed)}
 
     def restore_internal_state(self, s):
         ndim = 6 if self._general else self._model.form.ndim
@@ -409,8 +453,15 @@ class BallInShell(Slave):
         if a_mid is not None and not (isinstance(a_mid, list) and len(a_mid) == 3
                                       and all(isinstance(v, (int, float)) and math.isfinite(v) for v in a_mid)):
             raise ValueError(f"a_mid = {a_mid!r}: expected null or three finite numbers")
+        fed = s.get("fed")
+        n_fed = len(self._sample(0.0))
+        if fed is not None and not (isinstance(fed, list) and len(fed) == n_fed
+                                    and all(isinstance(v, (int, float)) and math.isfinite(v) for v in fed)):
+            raise ValueError(f"fed = {fed!r}: expected null or {n_fed} finite numbers (the inputs of the "
+                             f"last feedthrough refresh)")
         self._noise_sum = float(noise_sum)
         self._a_mid = None if a_mid is None else tuple(float(v) for v in a_mid)
+        self._fed = None if fed is None else tuple(float(v) for v in fed)
 
     def _checked_state(self, d, ndim):
         """A BallState from saved data, or ValueError saying what does not fit this model."""

@@ -433,13 +433,15 @@ _ball = Ball()
 W0_MAX = 1e4  # rad/s: bound of the initial angular velocity components
 NEVER = 1e300  # t_invalid while the model is valid
 _out = dict(depends=BALL_ALL_INPUTS)
-# the outputs outputs.evaluate computes from the chamber's acceleration (and position, for the
-# moments) at the current instant: with input_mode 1, 3 or 4 both flavours recompute them when
-# x1O, y1O, ax1O or ay1O is set (the algebraic loop of a ball in a structure that feels it)
-# (motion = 1; with motion = 2 the chamber's motion is prescribed and they are not refreshed)
+# the outputs outputs.evaluate computes from the chamber's motion at the current instant: with
+# input_mode 1, 3 or 4 both flavours recompute them when one of the inputs they depend on is set
+# (the algebraic loop of a ball in a structure that feels it): motion = 1 the position and
+# acceleration x1O, y1O, ax1O, ay1O; motion = 2 also z1O, az1O, Omega, Omega' and Q (the chamber
+# centre's acceleration and the orientation). The velocities enter no force or moment.
 BALL_FEEDTHROUGH = ("N", "Fx", "Fy", "Fz", "M_reaction", "MAx", "MAy", "MAz", "Ft", "friction_ratio",
                     "contact", "rolling", "P_diss", "Fx_ch", "Fy_ch", "Fz_ch", "MO1x", "MO1y", "MO1z")
-_feed = dict(depends=BALL_ALL_INPUTS, feedthrough=("x1O", "y1O", "ax1O", "ay1O"))
+BALL_FEEDTHROUGH_INPUTS = tuple(n for n in BALL_ALL_INPUTS if n not in ("vx1O", "vy1O", "vz1O"))
+_feed = dict(depends=BALL_ALL_INPUTS, feedthrough=BALL_FEEDTHROUGH_INPUTS)
 BALL_IN_SHELL = _interface(
     "BallInShell",
     "Ball rolling without slip inside a spherical chamber that translates (motion = 1, Gibbs-Appell "

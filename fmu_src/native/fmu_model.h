@@ -60,9 +60,10 @@ typedef struct {
     fmi2Status (*check)(fmu_instance *fi, const void *data, const double *v);
     /* Direct feedthrough (NULL: none): inputs were set between steps (stepComplete);
      * recompute, at the instance's time t, the outputs the interface declares as
-     * depending on them (ModelStructure/Outputs), from data (not changed) and v. Leave v
-     * as it is when the inputs are unusable (the next step refuses them). fmi2OK. */
-    fmi2Status (*inputs_set)(fmu_instance *fi, const void *data, double *v, double t);
+     * depending on them (ModelStructure/Outputs), from data and v. Leave v as it is when
+     * the inputs are unusable (the next step refuses them). The model may record in its
+     * dynamic state what the outputs were recomputed from (FMU states carry it). fmi2OK. */
+    fmi2Status (*inputs_set)(fmu_instance *fi, void *data, double *v, double t);
 } fmu_model;
 
 extern const fmu_model FMU_MODEL;

@@ -37,6 +37,56 @@ def spinning(open_fmu, steps, **parameters):
     return fmu
 
 
+def _cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def _dot(a, b):
+    return sum(x * y for x, y in zip(a, b))
+
+
+@pytest.mark.parametrize("change", [
+    {"az1O": 1.5}, {"ax1O": -0.8, "ay1O": 0.3}, {"Omega_dot_x": 0.7}, {"Omega_dot_z": 2.0},
+    {"az1O": 0.4, "Omega_dot_y": -1.1},
+], ids=lambda c: ",".join(c))
+def test_the_load_on_the_chamber_follows_its_acceleration_without_a_step(open_fmu, change):
+    """motion = 2 has the declared feedthrough too (the outputs were left as the step made
+    them). Newton for the rolling ball, m a_C = F + m g, with the constraint's own part:
+    changing the chamber centre's acceleration by da_A (= da_O + dOmega' x (A - O)) and the
+    angular acceleration by dOmega' changes a_C by (da_A . n) n + c (da_A - (da_A . n) n)
+    + c R dOmega' x n with c = I / (I + m r^2) = 2/7; the load on the chamber F_s = -F changes
+    by -m da_C, N = m (g - a_C) . n by -m da_A . n, the moment about O1 by P x dF_s. n from the
+    outputs: C - A = (R - r) n, A - O = R Q e3; O stays at the origin, so P - O is P."""
+    fmu = spinning(open_fmu, 20)
+    m, r, R = fmu.get("m"), fmu.get("r"), fmu.get("R")
+    d, c = R - r, 0.4 / 1.4
+    before = fmu.outputs()
+    inputs = {k: fmu.get(k) for k in ("Q13", "Q23", "Q33", *change)}
+    q3 = (inputs["Q13"], inputs["Q23"], inputs["Q33"])
+    n = tuple((before[k] - R * e) / d for k, e in zip(("xC", "yC", "zC"), q3))
+    assert fmu.set(**{k: inputs[k] + v for k, v in change.items()}) == OK
+    after = fmu.outputs()
+    da_o = tuple(change.get(k, 0.0) for k in ("ax1O", "ay1O", "az1O"))
+    dp = tuple(change.get(k, 0.0) for k in ("Omega_dot_x", "Omega_dot_y", "Omega_dot_z"))
+    da_a = tuple(a + b for a, b in zip(da_o, _cross(dp, tuple(R * e for e in q3))))
+    normal = _dot(da_a, n)
+    spin = _cross(dp, n)
+    da_c = tuple(normal * ni + c * (a - normal * ni) + c * R * s for ni, a, s in zip(n, da_a, spin))
+    dF = tuple(-m * a for a in da_c)
+    assert after["N"] - before["N"] == pytest.approx(-m * normal, abs=1e-11)
+    for k, v in zip(("Fx", "Fy", "Fz"), dF):
+        assert after[k] - before[k] == pytest.approx(v, abs=1e-11), k
+    P = (before["xP"], before["yP"], before["zP"])
+    for k, v in zip(("MO1x", "MO1y", "MO1z"), _cross(P, dF)):
+        assert after[k] - before[k] == pytest.approx(v, abs=1e-11), k
+    assert after["M_reaction"] == after["MO1z"]
+    for k in ("xP", "yP", "zP", "xC", "yC", "zC", "wx", "wy", "wz"):  # the state is untouched
+        assert after[k] == before[k], k
+    # back to the inputs the outputs were computed from: the same outputs, bit for bit
+    assert fmu.set(**{k: inputs[k] for k in change}) == OK
+    assert fmu.outputs() == before
+
+
 @pytest.mark.parametrize("override, expected", [
     ({"Q12": -0.2}, "input Q is not a rotation matrix: row 1 . row 2"),
     ({"Q11": 1.0, "Q12": 0.0, "Q21": 0.0, "Q22": -1.0}, "det Q = -1.0, expected +1 (a reflection)"),
