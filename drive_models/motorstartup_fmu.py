@@ -10,6 +10,7 @@ torque and power the drive must supply to follow the law:
 """
 from __future__ import annotations
 
+import math
 import os
 import sys
 
@@ -55,14 +56,15 @@ class MotorStartup(Slave):
         self._update_torque()
 
     def _update_torque(self):
+        """T_drive and P_drive from M_reaction (left as they are while it is not finite: the next
+        step refuses it; ArithmeticError naming an output that would not be finite)."""
         m_r = self.M_reaction
-        if m_r != m_r or m_r in (float("inf"), float("-inf")):
-            return False
+        if not math.isfinite(m_r):
+            return
         j_total = self.J_crank + self.m_platform * self.l ** 2
         t_drive = self.finite("T_drive", j_total * self.psi_ddot - m_r)
         p_drive = self.finite("P_drive", t_drive * self.psi_dot)
         self.T_drive, self.P_drive = t_drive, p_drive
-        return True
 
     def inputs_set(self):
         """Direct feedthrough: T_drive and P_drive follow M_reaction set between steps; left
@@ -74,7 +76,7 @@ class MotorStartup(Slave):
 
     def step(self, t, t_end):
         m_r = self.M_reaction
-        if m_r != m_r or m_r in (float("inf"), float("-inf")):
+        if not math.isfinite(m_r):
             return self.discard(f"{self.who}: input M_reaction must be finite, "
                                 f"got {self.M_reaction!r} N.m at t = {t:.9g} s; step refused, last good state kept")
         backup = {name: getattr(self, name) for name in PUBLISHED}
