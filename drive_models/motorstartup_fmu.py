@@ -48,11 +48,13 @@ class MotorStartup(Slave):
         self._publish(self._time)
 
     def _publish(self, t):
-        psi, wd, wdd = self._law.angle(t)
-        self.finite("psi", psi)  # before cos(psi): an infinite angle has no position (as the native flavour)
-        values = (psi, wd, wdd) + self._law.state(t)
-        for (name, _, _), v in zip(KINEMATICS, values):
-            setattr(self, name, self.finite(name, v))
+        """The crank's kinematics at t (ArithmeticError naming psi, psi_dot or psi_ddot when one
+        is not finite, checked before cos(psi): an angle that overflowed has no position; the
+        platform's position, velocity and acceleration are then finite, as l, w0 and t0 are
+        bounded), then the torque."""
+        angles = tuple(self.finite(name, v) for (name, _, _), v in zip(KINEMATICS, self._law.angle(t)))
+        for (name, _, _), v in zip(KINEMATICS, angles + self._law.state(t)):
+            setattr(self, name, v)
         self._update_torque()
 
     def _update_torque(self):
