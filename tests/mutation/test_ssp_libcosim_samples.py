@@ -145,3 +145,27 @@ def test_a_package_libcosim_cannot_load(tmp_path):
         ssp.run_ssp_libcosim(bad, step=0.01, log_level="fatal")
     text = str(e.value)
     assert text.startswith(f"libcosim cannot load {bad}: ") and len(text) > len(f"libcosim cannot load {bad}: ")
+
+
+def test_a_run_longer_than_libcosims_default_buffer_keeps_every_sample(drive_package):
+    """libcosim's time-series observer keeps 10,000 samples unless told otherwise: a run of
+    10,100 steps of 1 ns still starts at t = 0."""
+    out = ssp.run_ssp_libcosim(drive_package, step=1e-9, stop=10_100e-9, record=[("drive", "psi")])
+    assert len(out["time"]) == len(out["drive.psi"]) == 10_101
+    assert out["time"][0] == 0.0 and round(out["time"][-1] * 1e9) == 10_100
+
+
+def test_a_step_the_fmu_refuses_stops_the_libcosim_run(tmp_path, native_models, native_fmus, monkeypatch):
+    """A structure whose ball force input is bound to 1e300 N refuses its first step."""
+    from pathlib import Path
+
+    from ballmill.scenario import spec
+
+    sc = spec.Scenario(path=Path("s.toml"), name="s", description="", start=0.0, stop=0.03, step=0.01,
+                       instances={"s": spec.Instance("s", fmu="Structure", parameters={"Fx_ball": 1e300})},
+                       connections=[], record=[], plots=[], summary={})
+    monkeypatch.setattr(runner, "prepare", lambda *a, **k: (sc, native_models, native_fmus))
+    out = ssp.export_ssp("s", tmp_path / "s.ssp", log=lambda m: None)
+    with pytest.raises(RuntimeError) as e:
+        ssp.run_ssp_libcosim(out, record=[("s", "x1O")])
+    assert str(e.value) == "libcosim stopped at t = 0 s: Simulation error: s: Step not complete\n"
