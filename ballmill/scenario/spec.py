@@ -114,9 +114,20 @@ def load(name_or_path: str, overrides: list[str] = (), models: dict | None = Non
     def bad(key, msg):
         problems.append(f"{where}: {key}: {msg}")
 
+    def section(key, kind, default):
+        """doc[key] when it is a table (dict) or an array (list), else reported and ``default``."""
+        v = doc.get(key, default)
+        if not isinstance(v, kind):
+            bad(key, f"expected {'a table' if kind is dict else 'an array'}, got {v!r}")
+            return default
+        return v
+
     exp = doc.get("experiment", {})
-    start, stop, step = exp.get("start", 0.0), exp.get("stop"), exp.get("step")
-    for key, v in (("start", start), ("stop", stop), ("step", step)):
+    if not isinstance(exp, dict):
+        bad("experiment", f"expected a table, got {exp!r}")
+        exp = None
+    start, stop, step = (exp.get("start", 0.0), exp.get("stop"), exp.get("step")) if exp is not None else (0.0,) * 3
+    for key, v in (("start", start), ("stop", stop), ("step", step)) if exp is not None else ():
         if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v):
             bad(f"experiment.{key}", f"expected a finite number of seconds, got {v!r}")
     if not problems:
@@ -126,12 +137,19 @@ def load(name_or_path: str, overrides: list[str] = (), models: dict | None = Non
             bad("experiment.step", f"must be in (0, stop - start = {stop - start:g}] s, got {step!r}")
 
     instances: dict[str, Instance] = {}
-    for name, spec in (doc.get("instances") or {}).items():
+    n_problems = len(problems)
+    for name, spec in section("instances", dict, {}).items():
         key = f"instances.{name}"
         if not isinstance(spec, dict):
             bad(key, "expected a table")
             continue
-        inst = Instance(name, parameters=dict(spec.get("parameters", {})))
+        if "." in name:
+            bad(key, "an instance name cannot contain '.' (connections and records split at the first '.')")
+        params = spec.get("parameters", {})
+        if not isinstance(params, dict):
+            bad(f"{key}.parameters", f"expected a table of parameter = value, got {params!r}")
+            params = {}
+        inst = Instance(name, parameters=dict(params))
         if "fmu" in spec and "table" not in spec:
             inst.fmu = str(spec["fmu"])
         elif "table" in spec and "fmu" not in spec:
@@ -143,7 +161,7 @@ def load(name_or_path: str, overrides: list[str] = (), models: dict | None = Non
         if unknown:
             bad(key, f"unknown key(s) {sorted(unknown)}; expected fmu, table, parameters")
         instances[name] = inst
-    if not instances:
+    if not instances and len(problems) == n_problems:
         bad("instances", "a scenario needs at least one instance")
 
     for text in overrides:
@@ -158,7 +176,7 @@ def load(name_or_path: str, overrides: list[str] = (), models: dict | None = Non
             instances[inst].parameters[param] = value
 
     connections, connection_at = [], []  # connection_at: each readable connection's index in the file
-    for i, text in enumerate(doc.get("connections", [])):
+    for i, text in enumerate(section("connections", list, [])):
         key = f"connections[{i}]"
         try:
             src, dst = (s.strip() for s in str(text).split("->"))
@@ -170,7 +188,10 @@ def load(name_or_path: str, overrides: list[str] = (), models: dict | None = Non
         connections.append((si, sv, di, dv))
         connection_at.append(i)
 
-    record_spec = (doc.get("record") or {}).get("variables")
+    record_spec = section("record", dict, {}).get("variables")
+    if record_spec is not None and not isinstance(record_spec, list):
+        bad("record.variables", f"expected an array of 'instance.variable', got {record_spec!r}")
+        record_spec = []
     record, record_at = [], []
     for i, text in enumerate(record_spec or []):
         if "." not in str(text):
@@ -180,7 +201,7 @@ def load(name_or_path: str, overrides: list[str] = (), models: dict | None = Non
         record_at.append(i)
 
     master = dict(MASTER_DEFAULTS)
-    for key, v in dict(doc.get("master") or {}).items():
+    for key, v in section("master", dict, {}).items():
         if key not in MASTER_DEFAULTS:
             bad(f"master.{key}", f"unknown key; expected one of {sorted(MASTER_DEFAULTS)}")
         elif key == "algebraic_loops" and v not in LOOP_MODES:
@@ -192,10 +213,20 @@ def load(name_or_path: str, overrides: list[str] = (), models: dict | None = Non
             bad(f"master.{key}", f"expected a finite number >= 0, got {v!r}")
         else:
             master[key] = v
+    plots = section("plots", list, [])
+    for i, plot in enumerate(plots):
+        if not isinstance(plot, dict):
+            bad(f"plots[{i}]", f"expected a table, got {plot!r}")
+            continue
+        if not isinstance(plot.get("x", "time"), str):
+            bad(f"plots[{i}].x", f"expected a variable name, got {plot['x']!r}")
+        ys = plot.get("y", [])
+        if not (isinstance(ys, list) and all(isinstance(y, str) for y in ys)):
+            bad(f"plots[{i}].y", f"expected an array of variable names, got {ys!r}")
     scenario = Scenario(path=path, name=path.stem, description=str(doc.get("description", "")),
                         start=_seconds(start), stop=_seconds(stop), step=_seconds(step),
                         instances=instances, connections=connections, record=record,
-                        plots=list(doc.get("plots", [])), summary=dict(doc.get("summary", {})),
+                        plots=list(plots), summary=dict(section("summary", dict, {})),
                         master=master)
     if models is not None:  # check even when other sections have problems: report them all at once
         problems += check(scenario, models, record_spec is None, connection_at, record_at)
@@ -303,6 +334,8 @@ def check(sc: Scenario, models: dict, record_all: bool, connection_at=None, reco
             problems.append(f"{where}: record.variables[{at}]: no variable {inst}.{var}")
     recorded = {f"{a}.{b}" for a, b in sc.record} | {"time"}
     for i, plot in enumerate(sc.plots):
+        if not isinstance(plot, dict):
+            continue  # reported by load
         kind = plot.get("kind", "series")
         if kind not in PLOT_KINDS:
             problems.append(f"{where}: plots[{i}].kind: expected one of {', '.join(PLOT_KINDS)}, got {kind!r}")
@@ -321,7 +354,10 @@ def check(sc: Scenario, models: dict, record_all: bool, connection_at=None, reco
             if not plot.get("file"):
                 problems.append(f"{where}: plots[{i}].file: expected a PNG file name")
             continue
-        for var in [plot.get("x", "time")] + list(plot.get("y", [])):
+        ys = plot.get("y", [])
+        for var in [plot.get("x", "time")] + (list(ys) if isinstance(ys, list) else []):
+            if not isinstance(var, str):
+                continue  # reported by load
             if var not in recorded and var.split(".", 1)[0] not in broken:
                 problems.append(f"{where}: plots[{i}]: {var!r} is not recorded")
         if not plot.get("file"):
