@@ -41,13 +41,13 @@ REDUCTIONS = {"reduction_displacement_peak_percent": 50.0, "reduction_displaceme
               "reduction_acceleration_peak_percent": 50.0, "reduction_acceleration_rms_percent": 50.0}
 
 
-def scenario(ball_parameters=None, with_ball=True):
+def scenario(ball_parameters=None, with_ball=True, after=0.2):
     inst = {"tower": Instance("tower", fmu="Structure", parameters={"n_x": 1})}
     if with_ball:
         inst["ball"] = Instance("ball", fmu="BallInShell", parameters=dict(ball_parameters or {}))
     return Scenario(path=Path("absorber.toml"), name="absorber", description="synthetic absorber", start=0.0,
                     stop=0.4, step=0.1, instances=inst, connections=[], record=[], plots=[],
-                    summary={"structure": "tower", "after": 0.2})
+                    summary={"structure": "tower", "after": after})
 
 
 def models(**starts):
@@ -110,6 +110,10 @@ def test_absorber_summary_with_the_ball_and_the_bare_structure(case):
     check(report.absorber_summary(res, models(**starts), bare_run(sc)), want)
     # without a bare run: the structure and the ball only, and no word about a bare run
     check(report.absorber_summary(res, models(**starts)), {"from_s": 0.2, "to_s": 0.4, **own(), **want_ball})
+    # the window's start named as a parameter the model description holds (0.2 s)
+    sc = scenario(params, after="ball.t_window")
+    res = run(sc, TOWER, ball)
+    check(report.absorber_summary(res, models(**starts, t_window=0.2)), {"from_s": 0.2, "to_s": 0.4, **own(), **want_ball})
 
 
 def test_a_bare_run_that_cannot_be_compared_is_named_not_used():
