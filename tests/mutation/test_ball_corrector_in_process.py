@@ -80,3 +80,32 @@ def test_a_history_without_the_windows_oldest_state_uses_the_prediction():
     assert f.step(H) == OK, f.messages()
     history = f.get_state()["__internal__"]["history"]
     assert history == [predicted] and f.get("coupling_error") == error
+
+
+@pytest.mark.parametrize("mode", [2, 4])
+def test_noise_sum_adds_the_fits_change_of_acceleration_mid_way_times_the_step_squared(mode):
+    """Measured-motion modes: each step adds ((a_x,old - a_x,new)^2 + (a_y,old - a_y,new)^2) (t_k -
+    t_k-1)^2 at the previous interval's midpoint tm, where the old fit's a is the state's a_mid and
+    the new fit is the reconstruction after the step's sample; positions with a little 'noise'
+    (a deterministic saw of 1e-7 m) so that the fits move."""
+    f = InProcessFmu("BallInShell", f"noise{mode}", input_mode=mode, xC0=0.05, yC0=0.03)
+    assert f.set(**_inputs(0.0)) == OK and f.init() == OK, f.messages()
+    checked = 0
+    for k in range(14):
+        t = f.time
+        values = _inputs(t)
+        values["x1O"] += 1e-7 * (-1) ** k
+        values["ax1O"] += 1e-3 * (-1) ** k
+        f.set(**values)
+        before = f.get_state()["__internal__"]
+        assert f.step(H) == OK, f.messages()
+        after = f.get_state()["__internal__"]
+        if before["a_mid"] is None or after["noise_sum"] == before["noise_sum"]:
+            continue
+        tm, ox, oy = before["a_mid"]
+        nx, ny = f.slave._inputs.accel_function()(tm)
+        added = ((ox - nx) ** 2 + (oy - ny) ** 2) * (t - before["t_prev"]) ** 2
+        assert abs(after["noise_sum"] - (before["noise_sum"] + added)) <= 1e-12 * after["noise_sum"], k
+        assert added > 1e-3 * after["noise_sum"]
+        checked += 1
+    assert checked >= 5
