@@ -53,8 +53,8 @@ def test_fed_inputs_travel_in_the_fmu_state_and_an_input_set_back_restores_the_s
     expected_fed = [H] + [float(f.get(n)) for n in names]
     assert saved["__internal__"]["fed"] == expected_fed
     assert len(expected_fed) == (25 if motion == 2 else 7)
-    # back to the inputs the step took: its values again (to rounding), the state's 'fed' cleared
-    # of nothing (the refresh's inputs are now those of the step's sample)
+    # back to the inputs the step took (they differ from those of the last refresh): the step's
+    # values again (to rounding)
     assert f.set(**ZERO) == OK
     back = f.outputs()
     for name in BALL_FEEDTHROUGH:

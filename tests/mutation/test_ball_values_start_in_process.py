@@ -36,7 +36,7 @@ def _stepped(motion, **start):
     return f
 
 
-def _names(slave, out, motion):
+def _names(out, motion):
     if motion == 2:
         return [n for n, _ in out.values]
     return [n for n, _, _ in _module().OUTPUTS] + ["P_diss"] + [n for n, _ in out.extra]
@@ -62,7 +62,7 @@ def test_each_output_that_would_not_be_finite_is_named(motion):
     f = _stepped(motion)
     s = f.slave
     out = s._outputs_at(s._state, s._time)
-    names = _names(s, out, motion)
+    names = _names(out, motion)
     assert len(names) == 29 and len(set(names)) == 29
     good = dict(s._values(out))
     assert list(good) == names
