@@ -31,3 +31,16 @@ def native_models(native_fmus) -> Mapping:
     from ballmill.scenario.runner import _Descriptions  # the runner's own lazy reader
 
     return _Descriptions(native_fmus)
+
+
+@pytest.fixture
+def figures(monkeypatch):
+    """The figures ballmill.scenario.report makes, kept open for inspection: plt.close records
+    them instead of closing, and they are closed after the test."""
+    import matplotlib.pyplot as plt
+    kept, close = [], plt.close
+    monkeypatch.setattr(plt, "close", lambda fig: kept.append(fig))
+    yield kept
+    for fig in kept:
+        if fig is not None:
+            close(fig)

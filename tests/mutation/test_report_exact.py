@@ -297,18 +297,6 @@ def test_write_all_serialises_numpy_values(tmp_path):
 
 
 # -- figures --------------------------------------------------------------------------------------
-@pytest.fixture
-def figures(monkeypatch):
-    """The figures report makes, kept open for inspection (plt.close records them)."""
-    import matplotlib.pyplot as plt
-    kept, close = [], plt.close
-    monkeypatch.setattr(plt, "close", lambda fig: kept.append(fig))
-    yield kept
-    for fig in kept:
-        if fig is not None:
-            close(fig)
-
-
 def test_series_plot_edges(tmp_path, figures):
     t = np.linspace(0.0, 1.0, 2000)
     y = np.where(np.arange(2000) == 5, 1e299, t)

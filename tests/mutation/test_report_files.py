@@ -142,17 +142,6 @@ def test_json_of_numpy_and_non_finite_values():
         report._json_default(2.5)  # a finite float never comes here; refused all the same
 
 
-@pytest.fixture
-def figures(monkeypatch):
-    """The figures `report.plot` makes, kept open for inspection."""
-    import matplotlib.pyplot as plt
-    kept, close = [], plt.close
-    monkeypatch.setattr(plt, "close", lambda fig: kept.append(fig))
-    yield kept
-    for fig in kept:
-        close(fig)
-
-
 def test_plot_contents(tmp_path, figures):
     plots = [
         {"y": ["ball.N", "ball.zP"], "file": "a.png", "title": "T", "vlines": [0.15, 0.25]},
