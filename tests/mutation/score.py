@@ -22,7 +22,9 @@ from collections import Counter
 from pathlib import Path
 
 EQUIVALENT_FILE = Path(__file__).with_name("equivalent.toml")
-KILLED = {1, 3, 24, -24, 36, 37, 152, 255}          # mutmut's exit codes that mean "killed"
+# mutmut's exit codes that mean "killed"; -6 and -11 are a test process that crashed (SIGABRT,
+# SIGSEGV: a mutant that hands NULL to libcosim or to an FMU): the suite fails, so it is detected
+KILLED = {1, 3, 24, -24, 36, 37, 152, 255, -6, -11}
 
 
 def equivalents(path: Path = EQUIVALENT_FILE) -> dict[str, str]:

@@ -31,6 +31,8 @@ def _models():
     ("plots = 3\n", EXPERIMENT + DRIVE, ["plots: expected an array, got 3"]),
     ("plots = [3, {y = ['drive.nope'], file = 'a.png'}]\n", EXPERIMENT + DRIVE,
      ["plots[0]: expected a table, got 3", "plots[1]: 'drive.nope' is not recorded"]),
+    ("plots = [3, {x = 5, file = 'a.png'}]\n", EXPERIMENT + DRIVE,  # the next plot is read on
+     ["plots[0]: expected a table, got 3", "plots[1].x: expected a variable name, got 5"]),
     ("instances = 3\n", EXPERIMENT, ["instances: expected a table, got 3"]),
     ("", EXPERIMENT + DRIVE + "parameters = 3\n", ["instances.drive.parameters: expected a table of "
                                                    "parameter = value, got 3"]),
