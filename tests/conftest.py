@@ -92,7 +92,8 @@ def pytest_collection_modifyitems(config, items):
     if not mutant:
         return
     if "__mutmut_" in mutant:
-        items.sort(key=lambda item: _mutmut_durations().get(item.nodeid, math.inf))
+        durations = _mutmut_durations()  # once per session, not per item (the stats file is megabytes)
+        items.sort(key=lambda item: durations.get(item.nodeid, math.inf))
     for item in items:
         if "dask" in item.name:
             item.add_marker(pytest.mark.skip(reason="no dask cluster in a mutmut worker"))
