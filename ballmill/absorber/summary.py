@@ -34,6 +34,9 @@ def structure_summary(t, data: dict, bare: dict | None = None, mu: float | None 
     """
     t = np.asarray(t, dtype=float)
     sel = t >= after
+    if not sel.any():  # a run that stopped before the window: no statistics, and a reason
+        end = f"the results end at t = {float(t[-1])!r} s" if t.size else "there are no results"
+        raise ValueError(f"no sample at or after t = {float(after)!r} s: {end}")
     s = {"from_s": float(after), "to_s": float(t[-1])}
     s.update(_stats("displacement", "m", data["xO"][sel], data["yO"][sel]))
     s.update(_stats("acceleration", "m_s2", data["axO"][sel], data["ayO"][sel]))

@@ -135,7 +135,11 @@ def absorber_summary(res: RunResult, models, bare: RunResult | None = None) -> d
     if bare is not None and bare.success and len(bare.data) == len(res.data):
         base = _structure_data(bare, st)
     mu = _ball_parameter(res, models, ball, "mu") if ball else None
-    out = structure_summary(t, data, base, mu=mu, after=_after_time(res, models))
+    after = _after_time(res, models)
+    try:
+        out = structure_summary(t, data, base, mu=mu, after=after)
+    except ValueError as e:  # the run stopped before [summary] after: say so, do not fail the report
+        return {"from_s": after, "statistics": f"none: {e}"}
     if bare is not None and base is None:
         out["bare_structure"] = f"the bare run did not complete: {bare.message}"
     return out
