@@ -157,14 +157,14 @@ def test_structure_data_and_ball_parameter():
 
 
 def test_a_run_that_stopped_before_the_window_has_no_statistics_and_says_why():
-    """An FMU stopped the run at t = 0.1 s, before [summary] after = 0.2 s: no statistics (there
+    """An FMU stopped the run at t = 0.2 s, before [summary] after = 0.3 s: no statistics (there
     is no sample to take them from), a reason instead of numpy's "zero-size array" error."""
     from ballmill.absorber.summary import structure_summary
 
-    sc = scenario(with_ball=False)
-    res = run(sc, TOWER, success=False, message="stopped", rows=2)
+    sc = scenario(with_ball=False, after=0.3)
+    res = run(sc, TOWER, success=False, message="stopped", rows=3)
     assert report.absorber_summary(res, models()) == {
-        "from_s": 0.2, "statistics": "none: no sample at or after t = 0.2 s: the results end at t = 0.1 s"}
+        "from_s": 0.3, "statistics": "none: no sample at or after t = 0.3 s: the results end at t = 0.2 s"}
     with pytest.raises(ValueError) as info:
         structure_summary(np.array([]), {k: np.array([]) for k in ("xO", "yO", "axO", "ayO")}, after=0.0)
     assert str(info.value) == "no sample at or after t = 0.0 s: there are no results"
