@@ -47,7 +47,7 @@ from ballmill.fmi.interface import (BALL_ALL_INPUTS, BALL_FEEDTHROUGH, BALL_IN_S
 from ballmill.fmi.slave import NEVER, Slave
 from ballmill.physics import Ball, BallModel, BallState, InputReconstruction
 from ballmill.physics.turning.model import ChamberModel, evaluate_c
-from ballmill.physics.turning.reconstruction import ChamberReconstruction, centre, rotation_problem
+from ballmill.physics.turning.reconstruction import ChamberReconstruction, centre
 
 FORMULATIONS = {1: "vector", 2: "paper"}
 METHODS = {1: "DOP853", 2: "RK45", 3: "RK4"}
@@ -354,7 +354,7 @@ class BallInShell(Slave):
         Omega, Omega', Q: reconstruction.centre); None when it is not a valid sample (the next
         step refuses it) or equal, all 24 inputs, to what the published outputs were computed
         from."""
-        if not all(map(math.isfinite, now)) or rotation_problem(now[16:25]) is not None:
+        if not all(map(math.isfinite, now)) or self._inputs.sample_problem(now) is not None:
             return None
         last = self._published_inputs()
         if last is not None and last[1:] == now[1:]:
