@@ -15,14 +15,14 @@
  * Both formulations: the vector one (state n, omega) and the paper's (xC, yC, omega;
  * lower hemisphere, stops within 0.02 (R - r) of the equator), both in the kernel.
  *
- * motion = 2 (a chamber that moves in 3-D and turns, issue 12): the samples also carry
+ * motion = 2 (a chamber that moves in 3-D and turns): the samples also carry
  * z1O..az1O, Omega, Omega', Q; the "motion = 2" section reconstructs the chamber's motion as
  * turning/reconstruction.py does, the ball is the general model of turning/model.py (the
  * kernel's bmg_poly_rhs along the fit, bmg_outputs at the reconstructed chamber state), and
  * everything else (node choice, corrector, validity, coupling_error, FMU states) is shared
  * with motion = 1, whose arithmetic is unchanged.
  *
- * The call semantics of docs/conformance.md (issue 9), as ballinshell_fmu.py and
+ * The call semantics of docs/conformance.md, as ballinshell_fmu.py and
  * platform.py have them: an input history of `points` + 6 samples; the fit's nodes chosen
  * at least h/2 apart, newest first (one node: the newest sample's Taylor polynomial);
  * positions fitted relative to the newest node; mode 1 leaves out position (and velocity)

@@ -77,7 +77,7 @@ def test_paper_formulation_work(setting):
 # the BallInShell FMU's path: 100 communication steps of 20 ms, each with the cubic input
 # reconstructed from the crank's (x, v, a) at the communication points, the step size carried.
 # The carried step sizes of DOP853-1e-9 (was 0.10024120811441384) and RK45-1e-8 (was
-# 0.013510929512541485) moved with issue 9's input reconstruction (positions fitted relative
+# 0.013510929512541485) moved with the input reconstruction's rework (positions fitted relative
 # to the newest node, the fit's inverse exact for the float matrix): its cubic differs from the
 # old one in round-off only (the state after the 100 steps by 2.4e-11 against 2.9e-3 for the
 # extrapolation error both share), which the step-size controller sees in err^(-1/8); the

@@ -13,7 +13,7 @@ the ball on the V/f soft start (the ball keeps rolling) the worst column (psi'')
 4e-10 of its magnitude (measured; the test allows 1e-8): the ball's input reconstruction
 fits a quintic through the platform's position, velocity and acceleration over one 2 ms
 step, so a difference of 5e-15 m in the drive's x1O becomes ~1e-7 m/s2 of acceleration
-(the 1/H^2 sensitivity of issue 9, point 6), which the ball feeds back through M_reaction.
+(the 1/H^2 sensitivity of a position fit), which the ball feeds back through M_reaction.
 Not compared coupled on a direct-on-line start: the ball slips and leaves the wall within
 0.1 s, and the coupled system then amplifies any difference further.
 """
@@ -126,7 +126,7 @@ def test_flavours_agree_coupled_on_the_quintic_start(fmu_build_dir):
     _same(a, b)
 
 
-# issue 9's reconstruction on both flavours: irregular steps (a 1 us step, alternating 1 and
+# the input reconstruction on both flavours: irregular steps (a 1 us step, alternating 1 and
 # 3 ms: non-integer node spacings), positions far from the origin (mode 1 leaves position rows
 # out; mode 2 thins its history), input noise (modes 2 and 4: coupling_error's drift), and a
 # position jump (mode 1: flagged, the history restarts, the latch). Found: the 6-node quintic

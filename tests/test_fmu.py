@@ -99,7 +99,7 @@ def test_initial_unknowns_cover_every_output(built_fmus, model):
         assert deps["psi"] == []
     else:
         # the outputs depend on every input at initialisation: the platform's and, with motion = 2,
-        # the chamber's vertical motion and rotation (issue 12)
+        # the chamber's vertical motion and rotation (motion = 2)
         from ballmill.fmi.interface import BALL_MOTION_INPUTS
         assert deps["N"] == sorted(PLATFORM + BALL_MOTION_INPUTS)
 

@@ -1,10 +1,10 @@
-"""BallInShell with a chamber that moves in 3-D and turns (issue 12, the FMU side), both
+"""BallInShell with a chamber that moves in 3-D and turns (motion = 2, the FMU side), both
 flavours (``built_fmus`` is parametrised over native and pythonfmu).
 
 * motion = 1 with the new inputs at their defaults is the FMU of before bit for bit: the
   sha256 of every original output at every communication point of four runs (input modes
   1, 2, 3, the paper formulation with losses; 0.8 s at 2 ms) is pinned to the digests of
-  the build before issue 12 (commit 21eeab2, both flavours gave these same digests on
+  the build before motion = 2 existed (commit 21eeab2, both flavours gave these same digests on
   x86_64 glibc); and new inputs away from their defaults are refused, named, never ignored.
 * motion = 2 with translation-only inputs (Omega = 0, Q = I, z1O = 0) is motion = 1 to
   round-off (a different fit of the same quintic), M_reaction = MO1z = motion 1's crank
@@ -67,7 +67,7 @@ def run_crank(inst, names, h=0.002, steps=400):
 # ------------------------------------------------------------------ motion = 1 unchanged
 ORIGINAL = ("xP", "yP", "zP", "N", "Fx", "Fy", "Fz", "M_reaction", "MAx", "MAy", "MAz", "xC", "yC", "zC",
             "wx", "wy", "wz", "Ft", "friction_ratio", "P_diss", "coupling_error", "t_invalid")
-BEFORE = {  # case: (parameters, the digest of the build before issue 12)
+BEFORE = {  # case: (parameters, the digest of the build before motion = 2)
     "default": ({}, "982a695b285e0a091bee5bb900a4f944"),
     "positions": ({"input_mode": 2}, "528f0324ec8168c845147bd6ea4ca2da"),
     "hold-RK4": ({"input_mode": 3, "integrator": 3}, "42a09dcaac7359c6412b75d885f18a4d"),
@@ -243,7 +243,7 @@ def test_drive_power_from_MO1_and_F_is_the_balls_energy_change(built_fmus, opene
 
 
 def test_spinning_bowl_small_oscillations_through_the_fmu_match_the_closed_form(built_fmus, opened):
-    """The closed-form anchor of issue 12 through the FMU: in a bowl spinning at Omega about the
+    """The closed-form anchor of the turning chamber through the FMU: in a bowl spinning at Omega about the
     vertical through its fixed centre, small swings z = n_x + i n_y are A+ exp(i s+ t) + A-
     exp(i s- t) with s+- = beta/2 +- sqrt(beta^2/4 + w0^2), beta = Omega (2/5)/(7/5)
     (ballmill.studies.fig1.bowl_frequencies; the ball starts at rest relative to the bowl,

@@ -217,7 +217,7 @@ def library_steps(ball, form, method, mode, tol, h_fixed, H, n):
     t_clock = 0.0  # the FMU's time: the end of its last step, (k - 1) H + H
     for k in range(n):
         t = k * H  # currentCommunicationPoint, where `run` evaluates the inputs
-        # as the FMU's step (issue 9, ballmill.fmi.slave.do_step + BallInShell.step): the
+        # as the FMU's step (ballmill.fmi.slave.do_step + BallInShell.step): the
         # nodes are chosen for the coming step, the sample is recorded at the FMU's own time
         # (which may differ from k H in the last bit: the fit's Hermite position row turns
         # that into an acceleration difference ~ 6 v ulp(t) / H^2, which grows to ~1e-9 of N
@@ -244,7 +244,7 @@ def check_ball_outputs(out, ref, rtol, atol, window, what):
     new = {name for name, _, _ in BALL_MOTION_OUTPUTS}
     assert set(out) == set(BALL_OUTPUT_FIELDS) | {"coupling_error", "valid", "t_invalid"} | new, \
         set(out) ^ (set(BALL_OUTPUT_FIELDS) | new)
-    # motion = 1 (issue 12): the chamber's axes are the frame's, and the moment about O1 is
+    # motion = 1: the chamber's axes are the frame's, and the moment about O1 is
     # A x F + M_A: about the vertical through O1 the crank's torque plus MAz
     for a, b in (("xP_ch", "xP"), ("yP_ch", "yP"), ("zP_ch", "zP"), ("Fx_ch", "Fx"), ("Fy_ch", "Fy"),
                  ("Fz_ch", "Fz")):
@@ -287,7 +287,7 @@ def test_ballinshell_every_output_against_the_librarys_step(case, fmu_path, open
 
 
 CORRECTOR_CASES = {  # id: (input_mode, formulation, integrator, step, losses, rtol after 0.1 s)
-    # measured (with issue 9's reconstruction, both flavours): 1.8e-8 (derivatives; 2.2e-8 with the
+    # measured (with the input reconstruction of docs/conformance.md, both flavours): 1.8e-8 (derivatives; 2.2e-8 with the
     # losses), 1.1e-8 (positions) of each output's largest value after 0.1 s
     "derivatives-vector-RK45": (1, 1, 2, 2e-3, False, 1e-6),
     "derivatives-paper-DOP853": (1, 2, 1, 2e-3, False, 1e-6),

@@ -4,7 +4,7 @@ initialisation, FMU states that are not this instance's, bad parameters. Each re
 call returns the exact status with a message naming what was wrong, and leaves the
 instance as it was (its outputs bit for bit, and its next steps).
 
-(The conformance suite of issue 9, tests/conformance/, covers both flavours; this file
+(The conformance suite, tests/conformance/, covers both flavours; this file
 pins what the native plumbing does on its own.)
 """
 from __future__ import annotations

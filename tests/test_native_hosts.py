@@ -128,7 +128,7 @@ def test_valgrind_finds_no_invalid_access_and_no_leak(host, unpacked, model):
 
 
 def test_valgrind_on_ball_in_a_spinning_bowl(host, unpacked):
-    """BallInShell with motion = 2 (issue 12: the chamber's reconstruction and the general
+    """BallInShell with motion = 2 (the chamber's reconstruction and the general
     model's kernel functions) in the C host under valgrind: a bowl spinning at 3 rad/s about
     the vertical through its fixed centre (inputs constant: O and A stay, Q's third column
     stays e_z), the ball started off-centre."""

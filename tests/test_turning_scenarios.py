@@ -1,4 +1,4 @@
-"""The scenarios of a chamber that turns (issue 12): spinning_bowl, tumbling_drum and
+"""The scenarios of a chamber that turns: spinning_bowl, tumbling_drum and
 fig1_machine, Fig1Drive + BallInShell (motion = 2) through `ballmill run`, against the
 library (simulate_chamber with Spin / Fig1Machine) and the closed forms; and the report's
 shell summary and plot kinds on library data."""

@@ -106,7 +106,7 @@ def step_costs(repeats: int, n_steps: int, build_dir: Path | None = None):
 
     machine, R = Fig1Machine(), 0.25
 
-    def machine_inputs(t):  # the Fig. 1 machine's chamber motion (issue 12), exact
+    def machine_inputs(t):  # the Fig. 1 machine's chamber motion, exact
         return dict(zip(NAMES, inputs_of(machine.state(t), R)))
 
     def fig1_inputs(t):  # the ball's wrench at rest at the bottom (Fig1Drive's defaults: the Fig. 1 machine)
@@ -337,7 +337,7 @@ def section(repeats: int, quick: bool, literal_time_at, progress=print) -> list[
     m2 = costs[("BallInShell motion=2, crank translation", "native")]
     p1 = costs[("BallInShell", "pythonfmu")]
     p2 = costs[("BallInShell motion=2, crank translation", "pythonfmu")]
-    lines += ["", f"BallInShell's `motion` (issue 12): the same crank translation costs {m2 / m1:.2f}x per step "
+    lines += ["", f"BallInShell's `motion`: the same crank translation costs {m2 / m1:.2f}x per step "
               f"on the general model (motion = 2) as on the translation-only one (motion = 1) natively, "
               f"{p2 / p1:.2f}x in the pythonfmu flavour; a motion = 1 scene runs the translation-only code "
               f"as before (its outputs are the pre-issue-12 build's bit for bit, tests/test_fmu_chamber.py) "

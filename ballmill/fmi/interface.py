@@ -521,7 +521,7 @@ BALL_IN_SHELL = _interface(
          "not those of the model's physics", _out),
         ("t_invalid", "output", NEVER, "Time at which valid became false (1e300 while valid)",
          dict(unit="s", **_out)),
-        # the chamber's motion in 3-D (issue 12; declared last: earlier value references stay)
+        # the chamber's motion in 3-D (motion = 2; declared last: earlier value references stay)
         ("motion", "parameter", 1, "Chamber motion: 1 = translation in the horizontal plane (x1O, y1O "
          "and derivatives; the new inputs must keep their defaults), 2 = general rigid motion (z1O, "
          "Omega, Omega_dot, Q as well; vector formulation, no losses, input_mode 1 or 3)",

@@ -1,4 +1,4 @@
-"""Issue 9's numbers for a build of the three FMUs (not a test): each point's case as the
+"""The conformance numbers for a build of the three FMUs (not a test): each point's case as the
 issue describes it, printed as it is measured.
 
     python tests/conformance/issue9_numbers.py BUILD_DIR     (e.g. build)

@@ -1,4 +1,4 @@
-"""BallInShell's chamber motion (issue 12) through the FMI API: the inputs of motion = 2 are
+"""BallInShell's chamber motion (motion = 2) through the FMI API: the inputs of motion = 2 are
 checked like the platform's (a non-finite value, an orientation that is not a rotation: the
 step refused with the variable and value named, the state kept; at initialisation: refused),
 motion = 2's configuration limits are refused with their reason, and FMU states carry

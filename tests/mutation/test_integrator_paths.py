@@ -124,7 +124,7 @@ def test_hold_keeps_the_last_acceleration(fresh):
 
 
 def test_state_restores_mode_points_and_samples():
-    """get_state/set_state carry the mode, the points and the whole history (issue 9: the
+    """get_state/set_state carry the mode, the points and the whole history (the
     history keeps `points` + HISTORY_EXTRA samples for the node choice; a state of another
     mode or number of points is refused, naming both)."""
     a = InputReconstruction("positions", points=4)

@@ -201,7 +201,7 @@ def test_samples_come_in_time_order_and_a_repeat_replaces():
     assert r.samples == [(0.1, 3.0, 4.0, 0.0, 0.0, 0.0, 0.0)]
     for k in range(2, 6):
         r.push(0.1 * k, float(k), 0.0)
-    # issue 9: the history keeps more than the fit's 3 points (for the node choice); the fit
+    # the history keeps more than the fit's 3 points (for the node choice); the fit
     # takes the newest 3 samples at least h/2 apart, newest first (h: the coming step)
     assert [s[0] for s in r.samples] == [0.1, 0.2, 0.30000000000000004, 0.4, 0.5]
     assert [n[0] for n in r.nodes()] == [0.30000000000000004, 0.4, 0.5]  # h = 0: the newest 3

@@ -1,6 +1,6 @@
 """The input reconstruction's consistency check and state restore (ballmill.physics.platform,
 docs/conformance.md "reconstruction"), at their thresholds and word for word. Written for
-the mutants of issue 9's rework that the rest of the suite let through (docs/mutation.md).
+the mutants of the input reconstruction's rework that the rest of the suite let through (docs/mutation.md).
 
 The residual r = x_q - x_p - H (v_p + v_q)/2 + H^2 (a_q - a_p)/12 vanishes for any motion
 of degree <= 4 (the Euler-Maclaurin corrected trapezoidal rule), so a quartic plus an offset
