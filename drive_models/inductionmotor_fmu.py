@@ -1,6 +1,6 @@
 """InductionMotor FMU: an induction motor that drives the crank and feels the ball.
 
-A thin pythonfmu adapter over ballmill.physics.drives.induction.CrankDrive (DESIGN.md
+A thin pythonfmu adapter over ballmill.physics.drives.induction.CrankDrive (docs/design.md
 section 4): a three-phase induction motor given by its datasheet (Kloss's
 formula, or a 4-state dq model fitted to the same datasheet), a starter
 (direct on line, voltage ramp, V/f frequency ramp), an ideal gear of ratio

@@ -1,6 +1,6 @@
 """MotorStartup FMU: the paper's kinematic crank start-up law as a platform source.
 
-A thin pythonfmu adapter over ballmill.physics.drives.crank.CrankStartup (DESIGN.md
+A thin pythonfmu adapter over ballmill.physics.drives.crank.CrankStartup (docs/design.md
 sections 4 and 5). It outputs the crank angle and speed and the platform
 point's position, velocity and acceleration, all exact (no numerical
 derivatives). With the ball's reaction torque as an input it also reports the

@@ -1,7 +1,7 @@
 """Structure FMU: a linear structure that carries a ball absorber's cavity and feels the ball.
 
 A thin pythonfmu adapter over ballmill.absorber.structure (`Mode`, `StructureAxis`,
-`Structure`, `StructureModel`; DESIGN.md section 11). Like the drives it moves the chamber:
+`Structure`, `StructureModel`; docs/design.md section 11). Like the drives it moves the chamber:
 its outputs x1O .. ay1O are the cavity's absolute motion under BallInShell's input names,
 so BallInShell (input_mode 1) takes them as they are; its inputs Fx_ball, Fy_ball take
 BallInShell's Fx, Fy, so the two are coupled both ways. Per horizontal axis up to 3 modes

@@ -3,7 +3,7 @@
 the general model of ballmill.physics.turning along turning/reconstruction.py's fit of the
 chamber's motion; outputs also in the chamber's axes and the moment about O1).
 
-A thin pythonfmu adapter over ballmill.physics (DESIGN.md sections 3 and 5).
+A thin pythonfmu adapter over ballmill.physics (docs/design.md sections 3 and 5).
 Inputs: the platform position x1O, y1O (and, when the source knows them, its
 velocity and acceleration). Outputs: contact point, normal force, the ball's
 force on the chamber, the reaction torque on the crank shaft, the moment

@@ -1,6 +1,6 @@
 """Equilibrium at the bottom, small and large oscillations in a fixed chamber.
 
-DESIGN.md section 2: the bottom is an equilibrium, small oscillations have
+docs/design.md section 2: the bottom is an equilibrium, small oscillations have
 omega^2 = 5 g / (7 (R - r)), large planar ones follow the exact pendulum
 period with the reduced gravity g_red = 5 g / 7.
 """

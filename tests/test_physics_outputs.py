@@ -1,4 +1,4 @@
-"""Outputs (DESIGN.md section 3): normal force, forces on the chamber,
+"""Outputs (docs/design.md section 3): normal force, forces on the chamber,
 reaction torque, friction ratio and the validity flags, against hand
 computations."""
 import math

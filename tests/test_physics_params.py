@@ -10,7 +10,7 @@ from ballmill.physics import Ball, BallModel, CrankStartup, ParameterError, stee
 def test_paper_defaults():
     b = Ball()
     assert (b.r, b.R, b.g) == (0.025, 0.25, 9.81)
-    # DESIGN.md: steel, 7800 kg/m^3 -> m = 0.5105 kg
+    # docs/design.md section 1: steel, 7800 kg/m^3 -> m = 0.5105 kg
     assert b.m == pytest.approx(7800 * 4 / 3 * math.pi * 0.025**3, rel=1e-15)
     assert b.m == pytest.approx(0.5105, abs=5e-5)
     assert steel_ball_mass(0.025) == b.m

@@ -1,6 +1,6 @@
 """ballmill.absorber: ball vibration absorbers on a linear structure: the physics and its analysis.
 
-    structure the structure that carries the ball's cavity (DESIGN.md section 11):
+    structure the structure that carries the ball's cavity (docs/design.md section 11):
               modes, the two horizontal axes, the excitations (harmonic force or
               ground, a ground record) and `StructureModel`, its equations with
               the ball's force as an input.

@@ -1,6 +1,6 @@
 """Monolithic model of a ball absorber: the structure and the ball in one ODE.
 
-This module owns DESIGN.md section 11 in one initial-value problem: the
+This module owns docs/design.md section 11 in one initial-value problem: the
 linear modal structure of `ballmill.absorber.structure` carries the spherical
 cavity, the ball rolls in it by the vector equations of
 `ballmill.physics.equations` (with its rolling resistance delta and drag

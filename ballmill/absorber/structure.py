@@ -1,6 +1,6 @@
 """A linear structure that carries the ball's cavity, and what excites it.
 
-This module owns the structure side of DESIGN.md section 11: the modal model
+This module owns the structure side of docs/design.md section 11: the modal model
 of one horizontal axis (`Mode`, `StructureAxis`), the two axes together
 (`Structure`), and the excitations (`HarmonicForce`, `HarmonicGround`,
 `GroundRecord`, `NoExcitation`). Plain Python, SI units, no FMI, no I/O

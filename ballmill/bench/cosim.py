@@ -505,7 +505,7 @@ def report(rows, startup_s, scene, forces_us, cw=None, match=None, floor_lines=(
         lines.append(f"| {label} | {us:.0f} |")
     lines += ["", f"The force outputs and the validity check (N, F, torques, friction ratio) cost "
               f"{forces_us:.1f} us per evaluation, two per step (the confirmed check at t_k and the "
-              f"published outputs at t_k + H); DESIGN.md requires the validity check every step, so "
+              f"published outputs at t_k + H); docs/design.md section 3 requires the validity check every step, so "
               f"they are always computed. The ball's orientation is never integrated: the model's "
               f"state is (n, omega) only.", ""]
     return lines

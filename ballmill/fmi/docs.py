@@ -54,7 +54,7 @@ def reference() -> str:
              "(they are calculated); \"direct feedthrough from\" lists the inputs an output "
              "depends on while stepping (ModelStructure/Outputs: set the input and read the output "
              "again, no step needed). What the variables mean together (frames, equations, input "
-             "modes, the validity latch): [design.md](design.md), sections 1 to 5 and 15.",
+             "modes, the validity latch): [design.md](design.md), sections 1 to 6 and 8.",
              "",
              "Models: " + ", ".join(f"[{name}](#{name.lower()})" for name in INTERFACES) + ".", ""]
     for interface in INTERFACES.values():

@@ -534,7 +534,7 @@ BALL_IN_SHELL = _interface(
 
 # ----------------------------------------------------------------------------- the structure
 # A linear structure per horizontal axis carrying the ball's cavity (ballmill.absorber.structure,
-# DESIGN.md section 11): up to STRUCTURE_MODES modes per axis, excited by a harmonic force and/or a
+# docs/design.md section 11): up to STRUCTURE_MODES modes per axis, excited by a harmonic force and/or a
 # harmonic ground acceleration (a slow linear frequency sweep allowed) plus a ground-acceleration
 # record from the master (inputs ag_x, ag_y), and by the ball's force on the cavity (inputs
 # Fx_ball, Fy_ball). Its outputs are the cavity's absolute motion under BallInShell's input names.

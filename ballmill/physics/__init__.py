@@ -17,7 +17,7 @@ of platform.py, the quasi-static calculator steady.py, errors.py) and its numeri
   (``drives.crank``: CrankStartup and its laws, Circle, Harmonic, Fixed), the
   induction motor on the crank (``drives.induction``) and the monolithic
   motor + crank + ball reference (``drives.coupled``).
-* ``turning/``: a chamber that moves in 3-D and turns (DESIGN.md section 10): the
+* ``turning/``: a chamber that moves in 3-D and turns (docs/design.md section 10): the
   motions (``turning.motions``: Translation, Spin, Fig1Machine), the general model
   (``turning.model``: equations, outputs with the drives' reaction moments, first
   integrals) and its compiled functions (``turning.kernel``). `simulate_chamber` runs

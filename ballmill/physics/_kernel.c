@@ -25,7 +25,7 @@
  * and runs on the same integrator (bm_advance, form BM_ABSORBER).
  *
  * The general model of a chamber that moves in 3-D and turns (turning/model.py and
- * turning/motions.py; DESIGN.md section 10) has functions of its own, bmg_* at the end
+ * turning/motions.py; docs/design.md section 10) has functions of its own, bmg_* at the end
  * of the file, reached through ballmill/physics/turning/kernel.py; they run on the
  * same integrator (bm_advance) but leave the translation-only functions as they are.
  *
@@ -715,7 +715,7 @@ BM_EXPORT void bm_eval_outputs(const bm_problem *P, const double *y, double ax, 
 
 /* ======================================================================
  * The general model: a chamber with any rigid motion (turning/model.py, turning/motions.py;
- * DESIGN.md section 10). Functions bmg_*, reached through turning/kernel.py; they
+ * docs/design.md section 10). Functions bmg_*, reached through turning/kernel.py; they
  * run on the integrator above (bm_advance with the right-hand side bmg_rhs_cb, the
  * vector formulation's projection) but none of the translation-only functions' code
  * paths, which stay as they are.
@@ -1026,7 +1026,7 @@ BM_EXPORT size_t bmg_problem_size(void) { return sizeof(bmg_problem); }
 /* ======================================================================
  * The ball absorber: a modal structure carrying the cavity and the ball rolling in it,
  * in one ODE (ballmill/absorber/model.py StructureBall.rhs; structure.py StructureModel,
- * HarmonicForce, HarmonicGround; DESIGN.md section 11). Functions bma_*, reached through
+ * HarmonicForce, HarmonicGround; docs/design.md section 11). Functions bma_*, reached through
  * ballmill/absorber/kernel.py. State: the structure (q_x[nx], q_x'[nx], q_y[ny], q_y'[ny]),
  * the ball (n, omega), the quadratures (W_exc, W_damp, W_ball). The cavity's acceleration
  * is solved with the ball's load at each instant (the 2x2 system of model.py, on the

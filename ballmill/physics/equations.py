@@ -1,4 +1,4 @@
-"""Equations of motion of the ball, in two formulations (DESIGN.md section 2).
+"""Equations of motion of the ball, in two formulations (docs/design.md section 2).
 
 Both describe the same system: a ball rolling without slip on the inside of
 a sphere that translates with a prescribed horizontal acceleration a_O.

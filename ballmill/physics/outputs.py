@@ -1,7 +1,7 @@
 """What the model reports: contact point, forces, torques, validity, energy.
 
 All from the state (n, omega) and the platform's motion at the same instant
-(DESIGN.md section 3). Pure functions; no integration here.
+(docs/design.md section 3). Pure functions; no integration here.
 """
 from __future__ import annotations
 

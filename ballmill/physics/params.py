@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 from .errors import ParameterError
 
-STEEL_DENSITY = 7800.0  # kg/m^3; the paper gives no mass, DESIGN.md fixes a steel ball
+STEEL_DENSITY = 7800.0  # kg/m^3; the paper gives no mass, docs/design.md section 1 fixes a steel ball
 PAPER_R_BALL = 0.025  # m
 PAPER_R_CHAMBER = 0.25  # m
 

@@ -13,7 +13,7 @@ axis through them, which it then extrapolates over the coming step:
   a cubic, O(H^4) on smooth motion; a jump in acceleration (the start of the
   paper's crank law at t = 0) is smeared over the window and costs O(H) there.
 * mode "hold": a(t) = a_k over the step (zero-order hold): first order, the
-  baseline that DESIGN.md warns about; kept for measurements.
+  baseline of docs/design.md section 6; kept for measurements.
 * mode "accelerations": each sample brings a measured a (x only for the
   outputs' moment arm): a(t) is the line through the last two samples
   (extrapolated over the coming step, interpolated by the corrector), so

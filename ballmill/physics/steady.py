@@ -3,7 +3,7 @@
 Once the crank turns at a constant w = 2 pi n0 / 60, the platform point O runs
 on a circle of radius l and its acceleration a_O = -w^2 l (cos wt, sin wt) is
 constant in a frame that turns with the crank about the vertical. In that
-frame the equations of motion (DESIGN.md section 2, `VectorFormulation`) are
+frame the equations of motion (docs/design.md section 2, `VectorFormulation`) are
 autonomous:
 
     n_r'     = lambda n_r x omega_r - W x n_r

@@ -196,7 +196,7 @@ default; see the parameter's description).
   1 ms, 1.6e-5 m and 1.1e-3 N at 2 ms. On motions without such kinks it is
   much smaller. Where you can, connect vx1O .. ay1O.
 * **Hold (input_mode 3)** holds the acceleration over the step and has no
-  corrector: first order, about 1 mm at 1 ms, as DESIGN.md warns. Kept only
+  corrector: first order, about 1 mm at 1 ms, as docs/design.md section 6 warns. Kept only
   as the baseline.
 """
 

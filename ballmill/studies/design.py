@@ -285,7 +285,7 @@ def page(data, files, demo, quick: bool) -> str:
     # 3 ---------------------------------------------------------------
     L.append("## 3. Only d = R - r matters (and N scales with m)")
     L.append("")
-    L.append("With u = r omega the equations of motion (DESIGN.md section 2) become n' = (1/d) n x u and "
+    L.append("With u = r omega the equations of motion (docs/design.md section 2) become n' = (1/d) n x u and "
              "u' = n x (a_O - g + n' x u) / (1 + I/(m r^2)): r and m are gone, only d and the inertia factor "
              "(2/5 for a solid ball) remain. A ball started without spin (u = 0) therefore follows the same n(t) "
              "for every r with the same d; the contact point is R n, so its height and ring scale with R; the "

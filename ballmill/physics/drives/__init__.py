@@ -4,7 +4,7 @@
 `CrankStartup` with its angle laws ``LAWS``, and `Circle`, `Harmonic`, `Fixed`);
 ``induction`` the induction motor that turns the crank through a gear and sags
 under the ball's reaction torque (`InductionMotor`, `CrankDrive`, `simulate_runup`,
-DESIGN.md section 4); ``coupled`` the monolithic reference with motor, crank,
+docs/design.md section 4); ``coupled`` the monolithic reference with motor, crank,
 platform and ball in one ODE (`simulate_coupled`), against which co-simulation
 coupling errors are measured. Plain Python, SI units, no FMI.
 """

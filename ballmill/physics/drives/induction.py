@@ -1,6 +1,6 @@
 """An induction motor driving the crank through a gear: the drive that sags.
 
-This module owns the motor side of DESIGN.md section 4: the asynchronous
+This module owns the motor side of docs/design.md section 4: the asynchronous
 motor's torque (Kloss's formula, or a 4-state dq model as the higher
 fidelity), its starter (direct on line, voltage ramp, V/f frequency ramp),
 the crank shaft equation that closes the loop through the ball's reaction
@@ -17,7 +17,7 @@ Conventions
       J_total psi'' = i T_motor + M_reaction,
       J_total = J_crank + m_platform l^2 + i^2 J_rotor.
 
-  DESIGN.md writes ``T_motor / i``; that is the same equation for the inverse
+  Older notes wrote ``T_motor / i``; that is the same equation for the inverse
   definition of the ratio (crank speed / motor speed, i < 1, where the rotor
   appears as J_rotor / i^2). With ``w_motor = i psi'`` only ``i T_motor``
   conserves energy, and the tests check that balance.

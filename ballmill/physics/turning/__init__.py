@@ -1,4 +1,4 @@
-"""ballmill.physics.turning: the ball in a chamber that moves in 3-D and turns (DESIGN.md section 10).
+"""ballmill.physics.turning: the ball in a chamber that moves in 3-D and turns (docs/design.md section 10).
 
 ``motions`` holds the chamber's prescribed rigid motions (`ChamberState`,
 `Translation` of a platform motion, `Spin`, `Fig1Machine` with the `ConstantSpeed`

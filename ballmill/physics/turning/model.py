@@ -1,4 +1,4 @@
-"""The ball rolling without slip in a chamber with any rigid motion (DESIGN.md section 10):
+"""The ball rolling without slip in a chamber with any rigid motion (docs/design.md section 10):
 the general model's equations, outputs, energy and first integrals, its model
 class and its monolithic driver. What it owns; the chamber motions are in motions.py.
 

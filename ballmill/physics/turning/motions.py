@@ -1,4 +1,4 @@
-"""Prescribed rigid motions of the chamber (DESIGN.md section 10): what it owns.
+"""Prescribed rigid motions of the chamber (docs/design.md section 10): what it owns.
 
 A chamber motion says, at any time t, where the chamber's centre A is, how it
 moves and how the chamber turns, in the fixed frame O1 x1 y1 z1 (z1 up):
