@@ -316,7 +316,7 @@ def test_ballinshell_every_output_against_the_monolithic_solution(case, fmu_path
     else:
         assert np.all(out["P_diss"] == 0.0)
     # coupling_error estimates the error of the published contact point: over the run its
-    # largest value is that of the measured error to within a factor 2 (README: 10 %)
+    # largest value is that of the measured error to within a factor 2 (docs/usage.md: 10 %)
     err = np.sqrt(sum((out[c] - tr.out[c]) ** 2 for c in ("xP", "yP", "zP")))
     est = out["coupling_error"]
     assert np.all(est >= 0.0) and est[0] == 0.0

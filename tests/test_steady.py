@@ -80,7 +80,7 @@ def test_slow_start_settles_near_the_equilibrium():
     late = tr.t >= 30.0
     th = _theta(tr)[late]
     assert abs(0.5 * (th.max() + th.min()) - eq.theta_deg) < 0.1
-    assert th.max() - th.min() < 2.0  # README: ring 0.2376 - 0.2399 m (71.9 - 73.6 deg) after a 30 s start
+    assert th.max() - th.min() < 2.0  # docs/usage.md: ring 0.2376 - 0.2399 m (71.9 - 73.6 deg) after a 30 s start
     assert abs(np.mean(tr["N"][late]) - eq.N) < 0.1
 
 

@@ -150,7 +150,7 @@ def test_fast_start_point_reproduces_the_paper_numbers(tmp_path):
     st = build("fast_start", grid={"drive.t0": [2.5, 30.0]}, set_=["ball.m=0.5105088062083415"])
     rows = run_study(st, tmp_path / "s", scheduler="in-process", progress=False, plots=False).rows
     fast = rows[0]
-    assert fast["N_range_after"] == pytest.approx(8.48, abs=0.01)  # README: 8.48 N
+    assert fast["N_range_after"] == pytest.approx(8.48, abs=0.01)  # docs/usage.md: 8.48 N
     assert fast["ring_inner"] == pytest.approx(0.208, abs=1e-3) and fast["ring_outer"] == pytest.approx(0.250, abs=1e-3)
     assert fast["zP_max"] == pytest.approx(0.240, abs=1e-3)
     assert fast["error_P_m"] <= 1e-5 and fast["model"].startswith("crank-kernel")
@@ -240,7 +240,7 @@ def test_cosim_points_agree_with_the_kernel(tmp_path, fmu_build_dir):
     for k, c in zip(kern, cos):
         assert c["status"] == "ok", c["message"]
         assert c["model"].startswith("cosim") and "coupling_error" in c["error_method"]
-        # README: the coupled fast start is within 1e-9 m of the monolithic contact point and
+        # docs/usage.md: the coupled fast start is within 1e-9 m of the monolithic contact point and
         # 3e-4 N in N at the 2 ms step; the indicators sample at 2 ms (cosim) and 10 ms (kernel).
         # E_startup: the drive FMU's T_drive at a communication point uses the M_reaction of the
         # previous one (Jacobi), a lag of one 2 ms step: -h * integral(M' psi') ~ 0.03 J

@@ -117,7 +117,7 @@ def _results(out: Path):
 # largest differences from the library accepted while the model is valid: contact point [m], N [N].
 # Bowl and drum turn at a constant Omega about a fixed A: the ball's input reconstruction is exact
 # (measured 2.5e-13 m, 6e-12 N; 5.8e-13 m, 5.4e-12 N). The Fig. 1 machine: the contact point to
-# 1.1e-9 m; N (a predictor output, README's known limits) is off at the first step, where the
+# 1.1e-9 m; N (a predictor output, docs/usage.md's known limits) is off at the first step, where the
 # reconstruction has one sample only (3.8e-3 N at 2 ms), and one step after the crank law's kink
 # at t0 (1.0e-3 N at 2.502 s), both in proportion to the 2 ms step; 1.5e-8 N elsewhere.
 TOLERANCE = {"spinning_bowl": (1e-11, 1e-10, 1e-10), "tumbling_drum": (1e-11, 1e-10, 1e-10),

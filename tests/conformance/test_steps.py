@@ -35,7 +35,7 @@ def uniform(fmus):
     return ref
 
 
-# coupling error published for the default step (README, docs/coupling.md): N within 3e-4 N with
+# coupling error published for the default step (docs/usage.md, docs/coupling.md): N within 3e-4 N with
 # derivative inputs; the variable-step runs may differ from the uniform one by that much
 N_TOL = {1: 1e-3, 2: 5e-3}
 
