@@ -87,6 +87,15 @@ def test_fmus_md_lists_every_variable_of_every_fmu_with_its_attributes():
         for vr, (row, v) in enumerate(zip(rows, interface.variables)):
             cells = [c.strip() for c in re.split(r"(?<!\\)\|", row)[1:-1]]
             assert cells[:6] == [str(vr), f"`{v.name}`", v.causality, v.fmi_variability, v.type, v.unit or ""]
+            for cell, value in ((cells[6], None if v.causality == "output" else v.start),
+                                (cells[7], v.min), (cells[8], v.max)):  # start, min, max read back exactly
+                if value is None:
+                    assert cell == ""
+                elif isinstance(value, bool):
+                    assert cell == str(value).lower()
+                else:
+                    assert float(cell) == value
+            assert cells[9] == ", ".join(f"`{d}`" for d in v.feedthrough)
             assert interface.value_reference(v.name) == vr
 
 

@@ -20,8 +20,16 @@ def _cell(x) -> str:
     if isinstance(x, bool):
         return "true" if x else "false"
     if isinstance(x, float):
-        return repr(x)
+        text = repr(x)
+        if "e" not in text and abs(x) >= 1e6:  # 1e+08, not 100000000.0
+            mantissa, exponent = f"{x:.16e}".split("e")
+            text = mantissa.rstrip("0").rstrip(".") + "e" + exponent
+        return text
     return str(x).replace("|", "\\|")
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}" + ("" if n == 1 else "s")
 
 
 def model_table(interface: Interface) -> list[str]:
@@ -30,7 +38,7 @@ def model_table(interface: Interface) -> list[str]:
     lines = [f"## {interface.name}", "", _cell(interface.description) + ".", "",
              f"Default experiment: start {start!r} s, stop {stop!r} s, step {step!r} s. "
              f"{len(interface.variables)} variables: "
-             + ", ".join(f"{len(interface.of(c))} {c}s" for c in ("parameter", "input", "output")) + ".",
+             + ", ".join(_count(len(interface.of(c)), c) for c in ("parameter", "input", "output")) + ".",
              "",
              "| vr | name | causality | variability | type | unit | start | min | max | "
              "direct feedthrough from | description |",
