@@ -126,14 +126,14 @@ def test_a_set_reaches_the_banner_the_titles_and_the_t0_marker(tmp_path, fmu_bui
 
 def test_the_invalid_span_is_shaded_and_labelled_on_every_time_plot(tmp_path, fmu_build_dir, figures):
     """induction_start: the ball slips at 0.01 s (BallInShell's t_invalid) and the run goes on to
-    0.3 s. Every plot against time shades [t_invalid, 0.3 s] with the legend entry "model not
+    0.3 s. Every plot against time shades [t_invalid, 0.3 s] with the legend entry "ball model not
     valid (slip at 0.01 s)"; the ring plot draws the rows from there on in grey."""
     out = tmp_path / "out"
     assert run(fmu_build_dir, copy_scenario(tmp_path, "induction_start", 0.3), out) == 3
     summary = json.loads((out / "summary.json").read_text())
     t_inv = summary["t_invalid_s"]
     assert t_inv == pytest.approx(0.01, abs=1e-12) and summary["invalid_reason"] == "slip"
-    label = "model not valid (slip at 0.01 s)"
+    label = "ball model not valid (slip at 0.01 s)"
     axes = [fig.axes[0] for fig in figures]
     assert [ax.get_title() for ax in axes][:2] == ["Crank speed: induction motor vs the kinematic law (t0 = 2.5 s)",
                                                    "Air-gap torque of the motor (at the motor shaft), start_mode = 1"]
@@ -210,3 +210,30 @@ def test_sweep_axes_and_colour_bars_in_words_with_units(tmp_path, monkeypatch):
     assert ax.get_ylabel() == "Steady crank speed, drive.n0 [1/min]"
     assert cbar.get_ylabel() == "variation of N after the start-up,\nN_range_after [N]"
     plt.close(kept[0])
+
+
+@pytest.mark.parametrize("flags, why", [
+    ({"contact": [1, 1, 0, 0], "rolling": [1, 1, 0, 0]}, "loss of contact"),  # rolling fails with contact
+    ({"contact": [1, 1, 1, 1], "rolling": [1, 1, 0, 0]}, "slip"),
+    ({"contact": [1, 1, 1, 1], "rolling": [1, 1, 1, 1]}, "inconsistent inputs"),  # flagged inputs
+    ({}, "loss of contact, slip or inconsistent inputs"),  # the flags not recorded: not known here
+])
+def test_why_the_validity_ended_is_in_the_summary_and_on_the_plot(tmp_path, figures, flags, why):
+    """valid turns false at the third row, BallInShell's t_invalid = 0.15 s (between rows): the
+    summary's invalid_reason and statistics_over, and the span [0.15, 0.3] s labelled with both."""
+    from ballmill.scenario import report
+    from ballmill.scenario.runner import RunResult
+    from ballmill.scenario.spec import Instance, Scenario
+
+    sc = Scenario(path=Path("s.toml"), name="s", description="", start=0.0, stop=0.3, step=0.1,
+                  instances={"ball": Instance("ball", fmu="BallInShell", parameters={"mu": 0.3})},
+                  connections=[], record=[], plots=[{"y": ["ball.N"], "file": "N.png"}], summary={})
+    cols = {"ball.N": [3.0, 2.0, 1.0, 0.5], "ball.valid": [1, 1, 0, 0], "ball.t_invalid": [1e300, 1e300, 0.15, 0.15],
+            **{f"ball.{k}": v for k, v in flags.items()}}
+    data = np.column_stack([[0.0, 0.1, 0.2, 0.3]] + [np.asarray(v, float) for v in cols.values()])
+    res = RunResult(scenario=sc, columns=["time", *cols], data=data, success=True, message="completed")
+    summary = report.write_all(res, {}, tmp_path)
+    assert summary["invalid_reason"] == why and f"t_invalid = 0.15 s ({why}; see log)" in summary["statistics_over"]
+    ax = figures[0].axes[0]
+    assert spans(ax) == [(0.15, 0.3, f"ball model not valid ({why} at 0.15 s)")]
+    assert ax.get_ylabel() == "Normal force of the chamber on the ball, N [N]"

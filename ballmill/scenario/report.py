@@ -322,7 +322,7 @@ def _common_label(sc, ys) -> str:
 
 def invalid_label(end) -> str:
     """The legend entry of the span after the model's validity ended (validity_end's answer)."""
-    return f"model not valid ({end[2]} at {end[1]:.4g} s)"
+    return f"ball model not valid ({end[2]} at {end[1]:.4g} s)"
 
 
 def _shade_invalid(ax, res: RunResult, t_end: float):
