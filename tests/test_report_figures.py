@@ -237,3 +237,23 @@ def test_why_the_validity_ended_is_in_the_summary_and_on_the_plot(tmp_path, figu
     ax = figures[0].axes[0]
     assert spans(ax) == [(0.15, 0.3, f"ball model not valid ({why} at 0.15 s)")]
     assert ax.get_ylabel() == "Normal force of the chamber on the ball, N [N]"
+
+
+def test_the_structure_with_and_without_the_ball_shades_the_invalid_span(tmp_path, figures):
+    """The absorber's comparison plot is a time plot too: the ball's invalid span shaded there."""
+    from ballmill.scenario import report
+    from ballmill.scenario.runner import RunResult
+    from ballmill.scenario.spec import Instance, Scenario
+
+    sc = Scenario(path=Path("s.toml"), name="s", description="", start=0.0, stop=0.3, step=0.1,
+                  instances={"ball": Instance("ball", fmu="BallInShell"), "tower": Instance("tower", fmu="Structure")},
+                  connections=[], record=[], plots=[], summary={"structure": "tower"})
+    t = [0.0, 0.1, 0.2, 0.3]
+    res = RunResult(scenario=sc, columns=["time", "tower.x_rel", "ball.valid", "ball.contact"],
+                    data=np.column_stack([t, [0.0, 1.0, 2.0, 1.0], [1, 0, 0, 0], [1, 0, 0, 0]]), success=True,
+                    message="")
+    bare = RunResult(scenario=sc, columns=["time", "tower.x_rel"], data=np.column_stack([t, [0.0, 2.0, 4.0, 2.0]]),
+                     success=True, message="")
+    report.plot_bare(res, bare, tmp_path)
+    ax = figures[0].axes[0]
+    assert spans(ax) == [(0.1, 0.3, "ball model not valid (loss of contact at 0.1 s)")]

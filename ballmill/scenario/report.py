@@ -464,6 +464,7 @@ def plot_bare(res: RunResult, bare: RunResult, out_dir: Path) -> list[Path]:
         fig, ax = plt.subplots(figsize=(7.5, 4.8))
         ax.plot(bare.column("time"), bare.column(name), lw=0.8, color="tab:red", label="bare structure")
         ax.plot(res.column("time"), res.column(name), lw=0.8, color="tab:blue", label="with the ball absorber")
+        _shade_invalid(ax, res, float(res.column("time")[-1]))
         ax.set_xlabel("time [s]")
         ax.set_ylabel(f"displacement {axis} at the absorber [m]")
         ax.set_title(f"Structure displacement {axis}, with and without the ball")
