@@ -19,6 +19,12 @@ Plots ([[plots]]): time series or x-y curves of recorded variables; ``kind =
 "shell"``: the contact point's path on the chamber's sphere, two equal-area
 hemispheres (``ball = "ball"``, the instance); ``kind = "slip_margin"``: the
 ball's mu - friction_ratio (rolling while positive) with the first failure marked.
+They show what the run used and found: titles filled from its parameters (spec.fill),
+vertical lines at its parameters' values and labelled, on every time plot the span
+after the ball model's validity ended shaded and labelled with why (validity_end), on
+an x-y plot the start-up, the rest and the invalid rows in three colours (and the
+summary's ring radii on the ring), labels and legends in words with units from the
+FMUs' declaration (ballmill/plotting/labels.py) unless the scenario gives its own.
 """
 from __future__ import annotations
 
@@ -391,10 +397,10 @@ def _draw_path(ax, res: RunResult, models, spec, lw, summary):
                     label=f"ring's {words} radius {r:.4f} m (the summary's, t \u2265 {a})")
 
 
-def _legend(ax, ncols=1):
+def _legend(ax):
     """The legend under the axes (not over the curves), when anything is labelled."""
     if ax.get_legend_handles_labels()[0]:
-        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), ncols=ncols, fontsize=8, frameon=False)
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), fontsize=8, frameon=False)
 
 
 def plot(res: RunResult, out_dir: Path, models=None, summary: dict | None = None) -> list[Path]:
