@@ -163,6 +163,7 @@ def test_a_placeholder_or_vline_that_names_no_parameter_is_refused(tmp_path, fmu
         ('title = "Height of the contact point (paper Fig. 4), t0 = {drive.t0} s"',
          'title = "Height of the contact point, t0 = {drive.t00} s, n0 = {drive.n0:.1f} 1/min"'),
         ('vlines = ["drive.t0"]\nfile = "N.png"', 'vlines = ["drive.n0", 1.5]\nfile = "N.png"'),
+        ('file = "torque.png"', 'file = "torque.png"\nlegend = ["only one {drive.l0}"]'),
     ])
     out = tmp_path / "out"
     assert run(fmu_build_dir, scenario, out) == 2
@@ -174,17 +175,20 @@ def test_a_placeholder_or_vline_that_names_no_parameter_is_refused(tmp_path, fmu
     assert "{drive.n0:.1f}" not in err  # a known placeholder with a format is fine
     assert f"{where}: plots[2].vlines[0]: drive.n0 is not a time (unit '1/min', expected 's')" in err
     assert "vlines[1]" not in err and not out.exists()
+    assert f"{where}: plots[3].legend: expected one text per variable of y (2), got ['only one {{drive.l0}}']" in err
 
 
 def test_a_placeholder_is_filled_with_its_format(tmp_path, fmu_build_dir):
-    """{drive.n0:.1f} in a title: the run's value in that format (60.0), the model's start value
-    for a parameter the scenario does not set (m_platform = 0)."""
+    """{drive.n0:.1f} in a title: the run's value (a --set's) in that format, the model's start
+    value for a parameter the scenario does not set (m_platform = 0); a legend's texts likewise."""
     from ballmill.scenario import runner
     scenario = copy_scenario(tmp_path, "fast_start", 1.0, edit=[
         ('title = "Height of the contact point (paper Fig. 4), t0 = {drive.t0} s"',
-         'title = "n0 = {drive.n0:.1f} 1/min, m_platform = {drive.m_platform} kg"')])
+         'title = "n0 = {drive.n0:.1f} 1/min, m_platform = {drive.m_platform} kg"'),
+        ('file = "torque.png"', 'file = "torque.png"\nlegend = ["ball, l = {drive.l} m", "drive"]')])
     sc, _, _ = runner.prepare(str(scenario), ["drive.n0=45"], fmu_build_dir, log=lambda m: None)
     assert sc.plots[0]["title"] == "n0 = 45.0 1/min, m_platform = 0 kg"
+    assert sc.plots[3]["legend"] == ["ball, l = 0.5 m", "drive"]
 
 
 def test_sweep_axes_and_colour_bars_in_words_with_units(tmp_path, monkeypatch):
@@ -257,3 +261,22 @@ def test_the_structure_with_and_without_the_ball_shades_the_invalid_span(tmp_pat
     report.plot_bare(res, bare, tmp_path)
     ax = figures[0].axes[0]
     assert spans(ax) == [(0.1, 0.3, "ball model not valid (loss of contact at 0.1 s)")]
+
+
+def test_a_plot_legend_given_for_a_table_replaces_the_column_names(tmp_path, figures):
+    """A table's columns have no declaration: the plot's legend = [...] names the curves."""
+    from ballmill.scenario import report
+    from ballmill.scenario.runner import RunResult
+    from ballmill.scenario.spec import Instance, Scenario
+
+    plots = [{"y": ["ground.ax", "ground.ay"], "file": "g.png", "legend": ["ground x [m/s2]", "ground y [m/s2]"]},
+             {"y": ["ground.ax", "ground.ay"], "file": "h.png"}]
+    sc = Scenario(path=Path("s.toml"), name="s", description="", start=0.0, stop=0.1, step=0.1,
+                  instances={"ground": Instance("ground", table=Path("g.csv"))}, connections=[], record=[],
+                  plots=plots, summary={})
+    res = RunResult(scenario=sc, columns=["time", "ground.ax", "ground.ay"],
+                    data=np.array([[0.0, 1.0, 2.0], [0.1, 3.0, 4.0]]), success=True, message="")
+    report.plot(res, tmp_path)
+    assert legend(figures[0].axes[0]) == ["ground x [m/s2]", "ground y [m/s2]"]
+    assert legend(figures[1].axes[0]) == ["ground.ax", "ground.ay"]
+    assert figures[1].axes[0].get_ylabel() == "ground.ax, ground.ay"

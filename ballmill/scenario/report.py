@@ -436,10 +436,11 @@ def _plot_series(res: RunResult, models, spec, plt, summary):
     lw = 0.8 if len(x) > 2000 else 1.2
     names = [xname, *ys]
     if xname == "time":
-        for yname in ys:
+        given = spec.get("legend") or [None] * len(ys)
+        for yname, text in zip(ys, given):
             y = res.column(yname)
             y = np.where(np.abs(y) >= 1e299, np.nan, y)  # 1e300 stands for "infinite" (no contact)
-            ax.plot(x, y, lw=lw, label=_var_label(sc, yname, names) if len(ys) > 1 else None)
+            ax.plot(x, y, lw=lw, label=text or (_var_label(sc, yname, names) if len(ys) > 1 else None))
         _vlines(ax, res, models, spec)
         _shade_invalid(ax, res, float(x[-1]))
     else:

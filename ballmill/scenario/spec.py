@@ -20,7 +20,8 @@ A scenario is a TOML file:
                             aspect = "equal" (optional), ylabel, xlabel (optional; default: the
                             variable's description and unit from its FMU's declaration),
                             vlines = [times: a number [s] or "instance.parameter", a time
-                            parameter, drawn labelled with its value];
+                            parameter, drawn labelled with its value], legend = [one text per
+                            y] (optional; default: the description and unit, as the labels);
                             or kind = "shell" / "slip_margin", ball = "ball", title, file
                             (the contact point on the sphere; mu - friction_ratio)
 
@@ -380,7 +381,7 @@ def check(sc: Scenario, models: dict, record_all: bool, connection_at=None, reco
 
 # -- the texts drawn from the run's parameters (description, plot titles and labels, vlines) --
 PLACEHOLDER = re.compile(r"\{([^{}]*)\}")
-PLOT_TEXTS = ("title", "xlabel", "ylabel")  # [[plots]] keys that may hold placeholders
+PLOT_TEXTS = ("title", "xlabel", "ylabel")  # [[plots]] keys that may hold placeholders (and legend's texts)
 
 
 def _typed(start, kind):
@@ -430,7 +431,8 @@ def _fill_texts(sc: Scenario, models):
     """Fill the placeholders of the description and of each plot's title and labels (in place:
     the scenario now says what this run uses)."""
     sc.description = fill(sc.description, sc, models)
-    sc.plots = [{k: (fill(v, sc, models) if k in PLOT_TEXTS and isinstance(v, str) else v)
+    sc.plots = [{k: (fill(v, sc, models) if k in PLOT_TEXTS and isinstance(v, str) else
+                     [fill(x, sc, models) for x in v] if k == "legend" else v)
                  for k, v in p.items()} if isinstance(p, dict) else p for p in sc.plots]
 
 
@@ -456,6 +458,16 @@ def _check_texts(sc: Scenario, models, variables: dict, broken: set) -> list[str
     texts = [("description", sc.description)] + [
         (f"plots[{i}].{k}", p[k]) for i, p in enumerate(sc.plots) if isinstance(p, dict)
         for k in PLOT_TEXTS if isinstance(p.get(k), str)]
+    for i, p in enumerate(sc.plots):
+        if not isinstance(p, dict) or "legend" not in p:
+            continue
+        texts_, ys = p["legend"], p.get("y", [])
+        if not (isinstance(texts_, list) and all(isinstance(x, str) for x in texts_)
+                and isinstance(ys, list) and len(texts_) == len(ys)):
+            problems.append(f"{where}: plots[{i}].legend: expected one text per variable of y "
+                            f"({len(ys) if isinstance(ys, list) else '?'}), got {texts_!r}")
+            continue
+        texts += [(f"plots[{i}].legend[{j}]", x) for j, x in enumerate(texts_)]
     for key, text in texts:
         for m in PLACEHOLDER.finditer(text):
             ref, _, fmt = m.group(1).partition(":")
