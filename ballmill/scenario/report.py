@@ -19,6 +19,12 @@ Plots ([[plots]]): time series or x-y curves of recorded variables; ``kind =
 "shell"``: the contact point's path on the chamber's sphere, two equal-area
 hemispheres (``ball = "ball"``, the instance); ``kind = "slip_margin"``: the
 ball's mu - friction_ratio (rolling while positive) with the first failure marked.
+They show what the run used and found: titles filled from its parameters (spec.fill),
+vertical lines at its parameters' values and labelled, on every time plot the span
+after the ball model's validity ended shaded and labelled with why (validity_end), on
+an x-y plot the start-up, the rest and the invalid rows in three colours (and the
+summary's ring radii on the ring), labels and legends in words with units from the
+FMUs' declaration (ballmill/plotting/labels.py) unless the scenario gives its own.
 """
 from __future__ import annotations
 
@@ -28,7 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..plotting import shell
+from ..plotting import labels, shell
+from . import spec as _spec
 from .runner import RunResult
 
 SHELL_OUTPUTS = ("xP_ch", "yP_ch", "zP_ch")  # BallInShell's contact point in the chamber's axes
@@ -47,11 +54,7 @@ def _ball_instance(res: RunResult) -> str | None:
 
 def _parameter(res: RunResult, models, inst: str, param: str) -> float:
     """A parameter's value in the run: the scenario's, else the model's start value."""
-    sc = res.scenario
-    if param in sc.instances[inst].parameters:
-        return float(sc.instances[inst].parameters[param])
-    md = models[sc.instances[inst].fmu]
-    return float(next(v.start for v in md.modelVariables if v.name == param))
+    return float(_spec.parameter_value(res.scenario, models, inst, param))
 
 
 def _after_time(res: RunResult, models) -> float:
@@ -91,6 +94,30 @@ def _failures(res: RunResult, models, ball: str) -> dict:
     return out
 
 
+def validity_end(res: RunResult, ball: str):
+    """Where the ball model's validity ended: (index of the first row with valid false, t_invalid
+    [s] (the FMU's, else that row's time), why: "loss of contact", "slip", or "inconsistent
+    inputs" when contact and rolling held at that row; "see log" without them), or None while
+    valid (or without a recorded `valid`)."""
+    cols = set(res.columns)
+    if f"{ball}.valid" not in cols:
+        return None
+    bad = np.flatnonzero(res.column(f"{ball}.valid") < 0.5)
+    if not bad.size:
+        return None
+    i = int(bad[0])
+    t_inv = float(res.column(f"{ball}.t_invalid")[i]) if f"{ball}.t_invalid" in cols else float(res.column("time")[i])
+    flags = [f for f in ("contact", "rolling") if f"{ball}.{f}" in cols]
+    failed = [f for f in flags if res.column(f"{ball}.{f}")[i] < 0.5]
+    if "contact" in failed:  # rolling needs contact: it fails with it
+        why = "loss of contact"
+    elif failed:
+        why = "slip"
+    else:
+        why = "inconsistent inputs" if flags else "loss of contact, slip or inconsistent inputs"
+    return i, t_inv, why
+
+
 def _shell_unit_vectors(res: RunResult, models, ball: str):
     R = _parameter(res, models, ball, "R")
     return shell.unit_vectors(*(res.column(f"{ball}.{v}") for v in SHELL_OUTPUTS), R)
@@ -108,13 +135,6 @@ def _structure_data(res: RunResult, st: str) -> dict:
 STRUCTURE_RECORD = ("x_rel", "y_rel", "ax1O", "ay1O")  # what an absorber summary needs of the structure
 
 
-def _ball_parameter(res: RunResult, models, ball: str, name: str) -> float:
-    inst = res.scenario.instances[ball]
-    if name in inst.parameters:
-        return float(inst.parameters[name])
-    return float(next(v.start for v in models[inst.fmu].modelVariables if v.name == name))
-
-
 def absorber_summary(res: RunResult, models, bare: RunResult | None = None) -> dict:
     """structure_summary of an absorber run (statistics after [summary] after), with the
     bare structure's run when given."""
@@ -126,7 +146,7 @@ def absorber_summary(res: RunResult, models, bare: RunResult | None = None) -> d
     data = _structure_data(res, st)
     t = res.column("time")
     if ball:
-        R = _ball_parameter(res, models, ball, "R")
+        R = _parameter(res, models, ball, "R")
         zP = res.column(f"{ball}.zP")
         data.update({"xP": res.column(f"{ball}.xP"), "yP": res.column(f"{ball}.yP"), "N": res.column(f"{ball}.N"),
                      "friction_ratio": res.column(f"{ball}.friction_ratio"),
@@ -134,7 +154,7 @@ def absorber_summary(res: RunResult, models, bare: RunResult | None = None) -> d
     base = None
     if bare is not None and bare.success and len(bare.data) == len(res.data):
         base = _structure_data(bare, st)
-    mu = _ball_parameter(res, models, ball, "mu") if ball else None
+    mu = _parameter(res, models, ball, "mu") if ball else None
     after = _after_time(res, models)
     try:
         out = structure_summary(t, data, base, mu=mu, after=after)
@@ -162,17 +182,16 @@ def summarise(res: RunResult, models, bare: RunResult | None = None) -> dict:
         # latched valid became false); later rows stay in results.csv
         keep = np.ones(t_all.size, dtype=bool)
         if f"{ball}.valid" in cols:
-            bad = np.flatnonzero(res.column(f"{ball}.valid") < 0.5)
-            if bad.size:
-                keep[bad[0]:] = False
-                t_inv = float(res.column(f"{ball}.t_invalid")[bad[0]]) if f"{ball}.t_invalid" in cols \
-                    else float(t_all[bad[0]])
+            end = validity_end(res, ball)
+            if end is not None:
+                i, t_inv, why = end
+                keep[i:] = False
                 out["left_validity"] = True
                 out["t_invalid_s"] = t_inv
-                out["statistics_over"] = (f"the valid span only, t < {t_all[bad[0]]:.6g} s: the model's "
-                                          f"validity ended at t_invalid = {t_inv:.6g} s (loss of contact, "
-                                          f"slip or inconsistent inputs; see log); later rows are in "
-                                          f"results.csv but not in these statistics")
+                out["invalid_reason"] = why
+                out["statistics_over"] = (f"the valid span only, t < {t_all[i]:.6g} s: the model's "
+                                          f"validity ended at t_invalid = {t_inv:.6g} s ({why}; see log); "
+                                          f"later rows are in results.csv but not in these statistics")
             else:
                 out["left_validity"] = False
                 out["statistics_over"] = "the whole run (the model stayed valid throughout)"
@@ -260,6 +279,7 @@ def _plot_slip_margin(res: RunResult, models, spec, plt):
         if fail.get(flag) is not None:
             ax.axvline(fail[flag], color="tab:red", ls=style, lw=1.0, label=f"{flag} first fails, "
                        f"t = {fail[flag]:.4f} s")
+    _shade_invalid(ax, res, float(t[-1]))
     ax.set_xlabel("time [s]")
     ax.set_ylabel(spec.get("ylabel", "slip margin mu - F_t / N [1] (cut at -mu)"))
     ax.set_title(spec.get("title", "Slip margin: the ball rolls while positive"))
@@ -269,9 +289,124 @@ def _plot_slip_margin(res: RunResult, models, spec, plt):
     return fig
 
 
-def plot(res: RunResult, out_dir: Path, models=None) -> list[Path]:
+INVALID_SPAN = {"facecolor": "0.55", "alpha": 0.3, "lw": 0, "zorder": 2.5}  # over the curves: they show greyed
+PATH_COLOURS = {"start-up": "tab:orange", "after": "tab:blue", "invalid": "0.7"}
+
+
+def _declared(sc, name: str):
+    """The declared Variable behind a recorded "instance.variable" (None for a table's column)."""
+    inst, _, var = name.partition(".")
+    return labels.declared(sc.instances[inst].fmu if inst in sc.instances else None, var)
+
+
+def _shown(name: str, names=()) -> str:
+    """A recorded variable's name as printed: the variable's, or "variable of instance" when
+    another of ``names`` has a variable of the same name."""
+    inst, _, var = name.partition(".")
+    return var if sum(n.partition(".")[2] == var for n in names) <= 1 else f"{var} of {inst}"
+
+
+def _var_label(sc, name: str, names=(), width: int | None = None) -> str:
+    """A recorded variable in words with its unit, from its FMU's declaration (ballmill/plotting/
+    labels.py); a table's column by its name."""
+    if name == "time":
+        return "time [s]"
+    var = _declared(sc, name)
+    if var is None:
+        return name
+    return labels.label(None, var.name, _shown(name, names), unit=var.unit, description=var.description, width=width)
+
+
+def _common_label(sc, ys) -> str:
+    """The y axis of several variables: their names with the unit they share, else each with its own."""
+    units = [labels.unit_text(getattr(_declared(sc, y), "unit", None)) for y in ys]
+    shown = [_shown(y, ys) if _declared(sc, y) is not None else y for y in ys]
+    if len(set(units)) == 1 and units[0]:
+        return f"{', '.join(shown)} [{units[0]}]"
+    return ", ".join(f"{n} [{u}]" if u else n for n, u in zip(shown, units))
+
+
+def invalid_label(end) -> str:
+    """The legend entry of the span after the model's validity ended (validity_end's answer)."""
+    return f"ball model not valid ({end[2]} at {end[1]:.4g} s)"
+
+
+def _shade_invalid(ax, res: RunResult, t_end: float):
+    """Shade and label the span after the ball model's validity ended on a time plot."""
+    ball = _ball_instance(res)
+    end = validity_end(res, ball) if ball else None
+    if end is not None:
+        ax.axvspan(end[1], max(t_end, end[1]), label=invalid_label(end), **INVALID_SPAN)
+    return end
+
+
+def _vlines(ax, res: RunResult, models, spec):
+    """The plot's vertical lines: a time [s], or "instance.parameter" drawn at the parameter's
+    value in the run and labelled with it and its declared description."""
+    sc = res.scenario
+    for v in spec.get("vlines", []):
+        if isinstance(v, str):
+            inst, _, param = v.strip().partition(".")
+            at = float(_spec.parameter_value(sc, models, inst, param))
+            var = labels.declared(sc.instances[inst].fmu, param)
+            what = labels.short(var.description) if var is not None else ""
+            text = f"{param} = {at:g} s" + (f", {what[:1].lower()}{what[1:]}" if what else "")
+        else:
+            at, text = float(v), f"t = {float(v):g} s"
+        ax.axvline(at, color="grey", ls="--", lw=0.8, label=text)
+
+
+def _after_text(res: RunResult, after: float) -> str:
+    ref = res.scenario.summary.get("after")
+    return f"{ref.partition('.')[2]} = {after:g} s" if isinstance(ref, str) else f"{after:g} s"
+
+
+def _draw_path(ax, res: RunResult, models, spec, lw, summary):
+    """An x-y plot (a path, e.g. the contact point in Oxy): the start-up (before [summary] after)
+    and the rest in two colours, the rows after the model's validity ended in grey; for the
+    ball's xP, yP, the ring's inner and outer radii of the summary as circles."""
+    sc = res.scenario
+    t, x = res.column("time"), res.column(spec.get("x", "time"))
+    ball = _ball_instance(res)
+    end = validity_end(res, ball) if ball else None
+    n = end[0] if end is not None else t.size
+    after = summary["after_s"] if summary and summary.get("after_s") is not None else _after_time(res, models)
+    k = min(int(np.searchsorted(t, after - 1e-12)), n)  # the summary's window: t >= after - 1e-12
+    a = _after_text(res, after)
+    phases = [(0, k, f"start-up, t < {a}", PATH_COLOURS["start-up"]),
+              (k, n, f"after the start-up, t \u2265 {a}" if k else ("model valid" if end else None),
+               PATH_COLOURS["after"])]
+    if end is not None:
+        phases.append((n, t.size, invalid_label(end) + ", not physical", PATH_COLOURS["invalid"]))
+    ys = spec["y"]
+    for yname in ys:
+        y = res.column(yname)
+        y = np.where(np.abs(y) >= 1e299, np.nan, y)
+        for i0, i1, text, colour in phases:
+            if i1 > i0:
+                if text and len(ys) > 1:
+                    text = f"{_var_label(sc, yname, ys)}: {text}"
+                ax.plot(x[i0:i1], y[i0:i1], lw=lw, color=colour, label=text)
+    ring = (summary or {}).get("ring") or {}
+    if ball and spec.get("x") == f"{ball}.xP" and list(ys) == [f"{ball}.yP"] \
+            and ring.get("inner_radius_m") is not None:
+        phi = np.linspace(0.0, 2.0 * np.pi, 361)
+        for key, style, words in (("inner_radius_m", "--", "inner"), ("outer_radius_m", ":", "outer")):
+            r = ring[key]
+            ax.plot(r * np.cos(phi), r * np.sin(phi), style, color="k", lw=0.9,
+                    label=f"ring's {words} radius {r:.4f} m (the summary's, t \u2265 {a})")
+
+
+def _legend(ax):
+    """The legend under the axes (not over the curves), when anything is labelled."""
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), fontsize=8, frameon=False)
+
+
+def plot(res: RunResult, out_dir: Path, models=None, summary: dict | None = None) -> list[Path]:
     """The scenario's [[plots]] as PNG files (``models``: the model descriptions, for the
-    parameters the shell and slip-margin kinds need)."""
+    parameters the shell and slip-margin kinds and the vlines need; ``summary``: the run's
+    summary, for the ring's radii and the statistics' window)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -281,34 +416,44 @@ def plot(res: RunResult, out_dir: Path, models=None) -> list[Path]:
         kind = spec.get("kind", "series")
         if kind in ("shell", "slip_margin"):
             fig = (_plot_shell if kind == "shell" else _plot_slip_margin)(res, models, spec, plt)
-            path = out_dir / spec["file"]
-            fig.savefig(path, dpi=110)
-            plt.close(fig)
-            files.append(path)
-            continue
-        fig, ax = plt.subplots(figsize=(7.5, 4.8) if spec.get("aspect") != "equal" else (6.4, 6.4))
-        xname = spec.get("x", "time")
-        x = res.column(xname)
-        for yname in spec["y"]:
-            y = res.column(yname)
-            y = np.where(np.abs(y) >= 1e299, np.nan, y)  # 1e300 stands for "infinite" (no contact)
-            ax.plot(x, y, lw=0.8 if len(x) > 2000 else 1.2, label=yname)
-        ax.set_xlabel(spec.get("xlabel", "time [s]" if xname == "time" else xname))
-        ax.set_ylabel(spec.get("ylabel", ", ".join(spec["y"])))
-        ax.set_title(spec.get("title", ""))
-        if spec.get("aspect") == "equal":
-            ax.set_aspect("equal", adjustable="datalim")
-        for line in spec.get("vlines", []):
-            ax.axvline(float(line), color="grey", ls="--", lw=0.8)
-        if len(spec["y"]) > 1:
-            ax.legend()
-        ax.grid(alpha=0.3)
-        fig.tight_layout()
+        else:
+            fig = _plot_series(res, models, spec, plt, summary)
         path = out_dir / spec["file"]
         fig.savefig(path, dpi=110)
         plt.close(fig)
         files.append(path)
     return files
+
+
+def _plot_series(res: RunResult, models, spec, plt, summary):
+    """Time series (x = "time": every curve, labelled vlines, the invalid span shaded) or a path
+    (another x: _draw_path); labels in words with units unless the spec gives them."""
+    sc = res.scenario
+    equal = spec.get("aspect") == "equal"
+    fig, ax = plt.subplots(figsize=(7.5, 4.8) if not equal else (6.4, 6.4), layout="constrained")
+    xname, ys = spec.get("x", "time"), spec["y"]
+    x = res.column(xname)
+    lw = 0.8 if len(x) > 2000 else 1.2
+    names = [xname, *ys]
+    if xname == "time":
+        given = spec.get("legend") or [None] * len(ys)
+        for yname, text in zip(ys, given):
+            y = res.column(yname)
+            y = np.where(np.abs(y) >= 1e299, np.nan, y)  # 1e300 stands for "infinite" (no contact)
+            ax.plot(x, y, lw=lw, label=text or (_var_label(sc, yname, names) if len(ys) > 1 else None))
+        _vlines(ax, res, models, spec)
+        _shade_invalid(ax, res, float(x[-1]))
+    else:
+        _draw_path(ax, res, models, spec, lw, summary)
+    ax.set_xlabel(spec.get("xlabel") or _var_label(sc, xname, names, width=70))
+    ax.set_ylabel(spec.get("ylabel") or (_var_label(sc, ys[0], names, width=60) if len(ys) == 1
+                                         else _common_label(sc, ys)))
+    ax.set_title(spec.get("title", ""))
+    if equal:
+        ax.set_aspect("equal", adjustable="datalim")
+    ax.grid(alpha=0.3)
+    _legend(ax)
+    return fig
 
 
 def plot_bare(res: RunResult, bare: RunResult, out_dir: Path) -> list[Path]:
@@ -326,6 +471,7 @@ def plot_bare(res: RunResult, bare: RunResult, out_dir: Path) -> list[Path]:
         fig, ax = plt.subplots(figsize=(7.5, 4.8))
         ax.plot(bare.column("time"), bare.column(name), lw=0.8, color="tab:red", label="bare structure")
         ax.plot(res.column("time"), res.column(name), lw=0.8, color="tab:blue", label="with the ball absorber")
+        _shade_invalid(ax, res, float(res.column("time")[-1]))
         ax.set_xlabel("time [s]")
         ax.set_ylabel(f"displacement {axis} at the absorber [m]")
         ax.set_title(f"Structure displacement {axis}, with and without the ball")
@@ -343,7 +489,7 @@ def write_all(res: RunResult, models, out_dir: Path, bare: RunResult | None = No
     out_dir.mkdir(parents=True, exist_ok=True)
     write_csv(res, out_dir / "results.csv")
     summary = summarise(res, models, bare)
-    summary["plots"] = [p.name for p in plot(res, out_dir, models)] if len(res.data) > 1 else []
+    summary["plots"] = [p.name for p in plot(res, out_dir, models, summary)] if len(res.data) > 1 else []
     if bare is not None and bare.success and len(bare.data) > 1:
         write_csv(bare, out_dir / "bare.csv")
         summary["plots"] += [p.name for p in plot_bare(res, bare, out_dir)]

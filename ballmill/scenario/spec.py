@@ -17,9 +17,19 @@ A scenario is a TOML file:
                             the FMUs' ModelStructure); loop_tol (relative, default 1e-10),
                             loop_atol (absolute, default 1e-14), loop_max_iter (default 50)
     [[plots]]               title, x = "time" or a variable, y = [variables], file = "name.png",
-                            aspect = "equal" (optional), ylabel, xlabel (optional);
+                            aspect = "equal" (optional), ylabel, xlabel (optional; default: the
+                            variable's description and unit from its FMU's declaration),
+                            vlines = [times: a number [s] or "instance.parameter", a time
+                            parameter, drawn labelled with its value], legend = [one text per
+                            y] (optional; default: the description and unit, as the labels);
                             or kind = "shell" / "slip_margin", ball = "ball", title, file
                             (the contact point on the sphere; mu - friction_ratio)
+
+The description and the plots' title, xlabel and ylabel may hold placeholders
+{instance.parameter} (or {instance.parameter:format}, a Python format spec; numbers default
+to "g"): `load` with the model descriptions fills them with the value the run uses (the
+file's, a --set's, else the model's start value), so that no text can contradict the run;
+a placeholder that names no parameter is a problem like any other.
 
 `load` returns a `Scenario` or raises `ScenarioError` listing every problem
 with its file and key.
@@ -27,6 +37,7 @@ with its file and key.
 from __future__ import annotations
 
 import math
+import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -232,6 +243,8 @@ def load(name_or_path: str, overrides: list[str] = (), models: dict | None = Non
         problems += check(scenario, models, record_spec is None, connection_at, record_at)
     if problems:
         raise ScenarioError(problems)
+    if models is not None:
+        _fill_texts(scenario, models)
     return scenario
 
 
@@ -362,4 +375,128 @@ def check(sc: Scenario, models: dict, record_all: bool, connection_at=None, reco
                 problems.append(f"{where}: plots[{i}]: {var!r} is not recorded")
         if not plot.get("file"):
             problems.append(f"{where}: plots[{i}].file: expected a PNG file name")
+    problems += _check_texts(sc, models, variables, broken)
+    return problems
+
+
+# -- the texts drawn from the run's parameters (description, plot titles and labels, vlines) --
+PLACEHOLDER = re.compile(r"\{([^{}]*)\}")
+PLOT_TEXTS = ("title", "xlabel", "ylabel")  # [[plots]] keys that may hold placeholders (and legend's texts)
+
+
+def _typed(start, kind):
+    """A model description's start value (fmpy gives strings) as a Python value of its type."""
+    if not isinstance(start, str):
+        return start
+    if kind == "Integer":
+        return int(start)
+    if kind == "Boolean":
+        return start.strip().lower() in ("true", "1")
+    if kind == "String":
+        return start
+    return float(start)
+
+
+def parameter_value(sc: Scenario, models, inst: str, param: str):
+    """A parameter's value in the run: the scenario's (its file or a --set), else the model's
+    start value. KeyError when the instance or the model has no such variable."""
+    i = sc.instances[inst]
+    if param in i.parameters:
+        return i.parameters[param]
+    if i.fmu is None:
+        raise KeyError(f"{inst} is a table and has no parameters")
+    v = next((v for v in models[i.fmu].modelVariables if v.name == param), None)
+    if v is None:
+        raise KeyError(f"{i.fmu} has no parameter {param!r}")
+    return _typed(v.start, getattr(v, "type", "Real"))
+
+
+def _format(value, fmt: str) -> str:
+    if isinstance(value, bool):
+        return format(str(value).lower(), fmt)
+    return format(value, fmt or ("g" if isinstance(value, float) else ""))
+
+
+def fill(text: str, sc: Scenario, models) -> str:
+    """``text`` with each {instance.parameter} or {instance.parameter:format} replaced by the
+    parameter's value in the run (parameter_value)."""
+    def one(m):
+        key, _, fmt = m.group(1).partition(":")
+        inst, _, param = key.strip().partition(".")
+        return _format(parameter_value(sc, models, inst, param), fmt)
+    return PLACEHOLDER.sub(one, text)
+
+
+def _fill_texts(sc: Scenario, models):
+    """Fill the placeholders of the description and of each plot's title and labels (in place:
+    the scenario now says what this run uses)."""
+    sc.description = fill(sc.description, sc, models)
+    sc.plots = [{k: (fill(v, sc, models) if k in PLOT_TEXTS and isinstance(v, str) else
+                     [fill(x, sc, models) for x in v] if k == "legend" else v)
+                 for k, v in p.items()} if isinstance(p, dict) else p for p in sc.plots]
+
+
+def _check_texts(sc: Scenario, models, variables: dict, broken: set) -> list[str]:
+    """Problems with the placeholders of the description and the plots' texts (each named with
+    the parameters its instance has), and with vlines entries."""
+    where = sc.path.as_posix()
+    problems = []
+
+    def parameter(ref: str):
+        """None if 'instance.parameter' names a parameter, else why not."""
+        inst, dot, param = ref.strip().partition(".")
+        if not dot or inst not in sc.instances:
+            return f"no instance {inst!r} (instances: {', '.join(sc.instances)}); expected instance.parameter"
+        if inst in broken:
+            return None  # already reported
+        params = [v for v, c in variables[inst].items() if c[0] == "parameter"]
+        if param not in params:
+            return (f"{sc.instances[inst].fmu or 'a table'} {inst!r} has no parameter {param!r}"
+                    f" (parameters: {', '.join(params) or 'none'})")
+        return None
+
+    texts = [("description", sc.description)] + [
+        (f"plots[{i}].{k}", p[k]) for i, p in enumerate(sc.plots) if isinstance(p, dict)
+        for k in PLOT_TEXTS if isinstance(p.get(k), str)]
+    for i, p in enumerate(sc.plots):
+        if not isinstance(p, dict) or "legend" not in p:
+            continue
+        texts_, ys = p["legend"], p.get("y", [])
+        if not (isinstance(texts_, list) and all(isinstance(x, str) for x in texts_)
+                and isinstance(ys, list) and len(texts_) == len(ys)):
+            problems.append(f"{where}: plots[{i}].legend: expected one text per variable of y "
+                            f"({len(ys) if isinstance(ys, list) else '?'}), got {texts_!r}")
+            continue
+        texts += [(f"plots[{i}].legend[{j}]", x) for j, x in enumerate(texts_)]
+    for key, text in texts:
+        for m in PLACEHOLDER.finditer(text):
+            ref, _, fmt = m.group(1).partition(":")
+            why = parameter(ref)
+            if why is not None:
+                problems.append(f"{where}: {key}: unknown placeholder {m.group(0)}: {why}")
+                continue
+            inst, _, param = ref.strip().partition(".")
+            if inst in broken:
+                continue
+            try:
+                _format(parameter_value(sc, models, inst, param), fmt)
+            except (ValueError, TypeError) as e:
+                problems.append(f"{where}: {key}: placeholder {m.group(0)}: bad format {fmt!r}: {e}")
+    for i, p in enumerate(sc.plots):
+        lines = p.get("vlines", []) if isinstance(p, dict) else []
+        if not isinstance(lines, list):
+            problems.append(f"{where}: plots[{i}].vlines: expected an array of times [s] or "
+                            f"'instance.parameter', got {lines!r}")
+            continue
+        for j, v in enumerate(lines):
+            if isinstance(v, str):
+                why = parameter(v)
+                inst, _, param = v.strip().partition(".")
+                if why is None and inst not in broken and variables[inst][param][2] != "s":
+                    why = f"{inst}.{param} is not a time (unit {variables[inst][param][2]!r}, expected 's')"
+                if why is not None:
+                    problems.append(f"{where}: plots[{i}].vlines[{j}]: {why}")
+            elif not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)):
+                problems.append(f"{where}: plots[{i}].vlines[{j}]: expected a time [s] or "
+                                f"'instance.parameter', got {v!r}")
     return problems

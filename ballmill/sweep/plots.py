@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..plotting import labels
 from .indicators import BUILTIN
 
 MAIN = ("N_range_after", "ring_width", "zP_max", "N_max", "theta_max_deg", "T_drive_peak", "E_startup",
@@ -25,9 +26,26 @@ def _num(v):
     return np.nan if v is None else float(v)
 
 
-def _label(name):
-    unit = BUILTIN.get(name, ("",))[0]
-    return f"{name} [{unit}]" if unit else name
+def _label(name, width=None):
+    """An indicator in words with its unit (indicators.BUILTIN); a custom one by its name."""
+    unit, description = BUILTIN.get(name, (None, None))
+    return labels.label(None, name, unit=unit, description=description, width=width)
+
+
+def _fmus(study) -> dict:
+    """instance -> FMU name of the study's scenario (for the swept parameters' declarations);
+    empty when the scenario cannot be read here (the engine reports that itself)."""
+    from ballmill.scenario import spec as _scen
+    try:
+        return {n: i.fmu for n, i in _scen.load(study.scenario).instances.items()}
+    except (_scen.ScenarioError, OSError):
+        return {}
+
+
+def _parameter_label(fmus: dict, name: str, width=None) -> str:
+    """A swept "instance.parameter" in words with its unit, from its FMU's declaration."""
+    inst, _, param = name.partition(".")
+    return labels.label(fmus.get(inst), param, name, width=width)
 
 
 def write(study, rows: list[dict], out_dir: Path) -> list[Path]:
@@ -41,6 +59,7 @@ def write(study, rows: list[dict], out_dir: Path) -> list[Path]:
     if not rows or not main or not swept:
         return []
     ok = np.array([r.get("status") == "ok" and bool(r.get("valid")) for r in rows])
+    fmus = _fmus(study)
     files = []
     import textwrap
 
@@ -64,8 +83,8 @@ def write(study, rows: list[dict], out_dir: Path) -> list[Path]:
                 lo = np.nanmin(y) if np.isfinite(y).any() else 0.0
                 ax.plot(x[bad], np.full(bad.sum(), lo), "x", color="red", label="model not valid")
                 ax.legend(fontsize=7)
-            ax.set_xlabel(p)
-            ax.set_ylabel(_label(m))
+            ax.set_xlabel(_parameter_label(fmus, p, width=50))
+            ax.set_ylabel(_label(m, width=40), fontsize=8)
             ax.grid(alpha=0.3)
         for ax in list(axes.flat)[n:]:
             ax.set_visible(False)
@@ -92,14 +111,14 @@ def write(study, rows: list[dict], out_dir: Path) -> list[Path]:
             fig, ax = plt.subplots(figsize=(6.4, 4.8))
             xe, ye = _edges(np.array(xs, float)), _edges(np.array(ys, float))
             mesh = ax.pcolormesh(xe, ye, np.ma.masked_invalid(Z), shading="flat", cmap="viridis")
-            fig.colorbar(mesh, ax=ax, label=_label(m))
+            fig.colorbar(mesh, ax=ax, label=_label(m, width=45))
             for i in range(len(ys)):
                 for j in range(len(xs)):
                     if bad[i, j]:
                         ax.add_patch(plt.Rectangle((xe[j], ye[i]), xe[j + 1] - xe[j], ye[i + 1] - ye[i],
                                                    fill=False, hatch="xx", edgecolor="red", lw=0.0))
-            ax.set_xlabel(px)
-            ax.set_ylabel(py)
+            ax.set_xlabel(_parameter_label(fmus, px, width=60))
+            ax.set_ylabel(_parameter_label(fmus, py, width=45))
             ax.set_title(f"{m}" + (" (hatched: model not valid)" if bad.any() else ""), fontsize=10)
             fig.suptitle(title, fontsize=9)
             fig.tight_layout()
@@ -121,9 +140,9 @@ def write(study, rows: list[dict], out_dir: Path) -> list[Path]:
                 lo = np.nanmin(y) if np.isfinite(y).any() else 0.0
                 ax.plot(x[~ok], np.full((~ok).sum(), lo), "x", color="red", ms=3)
             if a == n - 1:
-                ax.set_xlabel(p)
+                ax.set_xlabel(_parameter_label(fmus, p, width=40), fontsize=8)
             if b == 0:
-                ax.set_ylabel(_label(m), fontsize=8)
+                ax.set_ylabel(_label(m, width=30), fontsize=7)
             ax.grid(alpha=0.3)
     fig.suptitle(title + "  (red x: model not valid)", fontsize=10)
     fig.tight_layout()

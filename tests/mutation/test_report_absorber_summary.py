@@ -150,10 +150,10 @@ def test_structure_data_and_ball_parameter():
         assert np.array_equal(d[key], TOWER[col])
     assert report.STRUCTURE_RECORD == ("x_rel", "y_rel", "ax1O", "ay1O")
     m = models(mu=0.25, R=7.0)
-    assert report._ball_parameter(res, m, "ball", "R") == 0.5 and type(report._ball_parameter(res, m, "ball", "R")) is float
-    assert report._ball_parameter(res, m, "ball", "mu") == 0.25
-    with pytest.raises(StopIteration):
-        report._ball_parameter(res, m, "ball", "c_drag")  # in neither
+    assert report._parameter(res, m, "ball", "R") == 0.5 and type(report._parameter(res, m, "ball", "R")) is float
+    assert report._parameter(res, m, "ball", "mu") == 0.25
+    with pytest.raises(KeyError, match="c_drag"):
+        report._parameter(res, m, "ball", "c_drag")  # in neither
 
 
 def test_a_run_that_stopped_before_the_window_has_no_statistics_and_says_why():

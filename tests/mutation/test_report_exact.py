@@ -228,8 +228,8 @@ def test_absorber_summary_with_the_bare_run():
 def test_absorber_summary_reads_r_and_mu_from_the_scenario_first():
     res, _ = _absorber(params={"R": 0.2, "mu": 0.15})
     assert report.absorber_summary(res, _models()) == _expected(bare=False, mu=0.15, R_=0.2)
-    assert report._ball_parameter(res, _models(), "ball", "R") == 0.2
-    assert report._ball_parameter(res, _models(), "ball", "t0") == 0.3
+    assert report._parameter(res, _models(), "ball", "R") == 0.2
+    assert report._parameter(res, _models(), "ball", "t0") == 0.3
 
 
 @pytest.mark.parametrize("rows, ok", [(5, False), (4, True)])

@@ -153,27 +153,37 @@ def test_plot_contents(tmp_path, figures):
     assert files == [tmp_path / "a.png", tmp_path / "b.png"] and all(f.stat().st_size > 0 for f in files)
     a, b = (fig.axes[0] for fig in figures)
     assert tuple(figures[0].get_size_inches()) == (7.5, 4.8) and tuple(figures[1].get_size_inches()) == (6.4, 6.4)
-    # first: two curves against time, default labels, legend, title, dashed grey lines
-    assert [ln.get_label() for ln in a.get_lines()[:2]] == ["ball.N", "ball.zP"]
+    # first: two curves against time, labelled in words with units (BallInShell's declaration),
+    # legend, title, dashed grey lines labelled with their times; the model stayed valid: no span
+    assert [ln.get_label() for ln in a.get_lines()[:2]] == [
+        "Normal force of the chamber on the ball, N [N]",
+        "Contact point P, height above the chamber's lowest point O, zP [m]"]
     assert np.array_equal(a.get_lines()[0].get_xdata(), res.column("time"))
     assert np.array_equal(a.get_lines()[0].get_ydata(), res.column("ball.N"))
     assert a.get_lines()[0].get_linewidth() == 1.2
-    assert a.get_xlabel() == "time [s]" and a.get_ylabel() == "ball.N, ball.zP" and a.get_title() == "T"
-    assert a.get_legend() is not None
+    assert a.get_xlabel() == "time [s]" and a.get_ylabel() == "N [N], zP [m]" and a.get_title() == "T"
+    assert a.get_legend() is not None and list(a.patches) == []
     vl = a.get_lines()[2:]
     assert [tuple(ln.get_xdata()) for ln in vl] == [(0.15, 0.15), (0.25, 0.25)]
+    assert [ln.get_label() for ln in vl] == ["t = 0.15 s", "t = 0.25 s"]
     assert all(ln.get_linestyle() == "--" and ln.get_color() == "grey" and ln.get_linewidth() == 0.8 for ln in vl)
-    # second: against xP, 1e300 and inf not drawn, the labels given, equal aspect, no legend
-    y = b.get_lines()[0].get_ydata()
+    # second: a path against xP, the start-up (t < after = 0.2 s) and the rest in two colours,
+    # 1e300 and inf not drawn, the labels given, equal aspect, the phases in the legend
+    before, rest = b.get_lines()
+    assert np.array_equal(before.get_xdata(), res.column("ball.xP")[:2])
+    assert np.array_equal(rest.get_xdata(), res.column("ball.xP")[2:])
+    y = np.r_[before.get_ydata(), rest.get_ydata()]
     assert y[0] == 0.1 and math.isnan(y[1]) and y[2] == 0.2 and y[3] == 0.4 and math.isnan(y[4])
-    assert np.array_equal(b.get_lines()[0].get_xdata(), res.column("ball.xP"))
+    assert (before.get_color(), rest.get_color()) == ("tab:orange", "tab:blue")
     assert b.get_xlabel() == "xP [m]" and b.get_ylabel() == "ratio" and b.get_title() == ""
-    assert b.get_aspect() == 1.0 and b.get_legend() is None
+    assert b.get_aspect() == 1.0
+    assert [t.get_text() for t in b.get_legend().get_texts()] == ["start-up, t < 0.2 s",
+                                                                  "after the start-up, t \u2265 0.2 s"]
     assert a.get_aspect() == "auto"
     # a plot with an x that is not time and no label: the variable's name
     res = result(scenario(plots=[{"x": "ball.xP", "y": ["ball.N"], "file": "c.png"}]))
     report.plot(res, tmp_path)
-    assert figures[-1].axes[0].get_xlabel() == "ball.xP"
+    assert figures[-1].axes[0].get_xlabel() == "Contact point P, x in the chamber frame Oxyz, xP [m]"
 
 
 def test_long_series_are_drawn_thinner(tmp_path, figures):

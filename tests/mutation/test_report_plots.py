@@ -287,7 +287,8 @@ def test_plot_dispatches_by_kind_and_writes_every_file(tmp_path, made):
     ax = ratio_fig.axes[0]
     assert np.allclose(ax.get_lines()[0].get_ydata(), [0.1, math.nan, 0.3, 0.6, math.nan, 0.2], equal_nan=True,
                        rtol=0, atol=0)
-    assert ax.get_title() == "" and ax.get_ylabel() == "second.friction_ratio"
+    # the y axis in words with the unit, from BallInShell's declaration
+    assert ax.get_title() == "" and ax.get_ylabel() == "|F_t| / N, friction_ratio [1]"
     assert all(g.get_alpha() == 0.3 for g in ax.xaxis.get_gridlines())
     # equal aspect by moving the data limits, not by shrinking the box
     ax = path_fig.axes[0]
