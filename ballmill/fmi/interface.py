@@ -243,7 +243,7 @@ _INDUCTION_RULES = (
          f"P_rated / eta = sqrt(3) U_rated I_rated cos_phi within {RATED_CONSISTENCY:.0%} (check the units)",
          lambda p: 1.0 - RATED_CONSISTENCY <= p["P_rated"] / (
              p["eta"] * (math.sqrt(3.0) * p["U_rated"] * p["I_rated"] * p["cos_phi"])) <= 1.0 + RATED_CONSISTENCY),
-    *_positive("i", "l"),
+    *_positive("l"),  # (i >= 1e-3 by its bounds)
 )
 INDUCTION_MOTOR = _interface(
     "InductionMotor",
