@@ -4,7 +4,8 @@
                                              (C) in build/, pythonfmu in build/pythonfmu/
     ballmill run SCENARIO [--out DIR] [--set inst.param=value ...] [--flavour pythonfmu]
                                              exit status: 0 ran and stayed valid, 1 an FMU stopped
-                                             the run, 2 bad scenario, 3 ran but the ball model's
+                                             the run, 2 bad scenario or value (every problem listed
+                                             before anything runs), 3 ran but the ball model's
                                              validity ended (statistics over the valid span only)
     ballmill bench [...]                      speed/accuracy map -> BENCHMARKS.md
     ballmill export-ssp SCENARIO OUT.ssp [--set inst.param=value ...]

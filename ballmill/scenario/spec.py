@@ -323,7 +323,7 @@ def parameter_problems(name: str, inst: Instance, models: dict, values: dict, on
     from ..fmi.interface import INTERFACES
 
     def origin(param):
-        return inst.origins.get(param) or f"{where}: instances.{name}.parameters.{param}".lstrip(": ")
+        return inst.origins.get(param) or (f"{where}: " if where else "") + f"instances.{name}.parameters.{param}"
 
     problems, bad = [], set()
     md = models[inst.fmu] if inst.fmu is not None else None

@@ -368,8 +368,8 @@ def load(name_or_path: str, *, set_=(), grid=None, sample=None, model=None, stop
     ``mode`` (a case study's mode, replacing the file's)."""
     path = resolve_study(name_or_path)
     # where each value came from: the command line's options, else the study file's keys
-    cli = {**{k: f"--range {k}={_text(v)}" for k, v in ((sample or {}).get("ranges") or {}).items()},
-           **{k: f"--grid {k}={_text(v)}" for k, v in (grid or {}).items()}}
+    cli = {**{k: f"--range {k}={_text(v, ':')}" for k, v in ((sample or {}).get("ranges") or {}).items()},
+           **{k: f"--grid {k}={_text(v, ',')}" for k, v in (grid or {}).items()}}
     for text in set_:
         if "=" in text and "." in text.split("=", 1)[0]:
             cli[text.split("=", 1)[0].strip()] = f"--set {text}"
@@ -411,9 +411,9 @@ def load(name_or_path: str, *, set_=(), grid=None, sample=None, model=None, stop
                  mode=mode if mode is not None else doc.get("mode"), origins=origins)
 
 
-def _text(v) -> str:
-    """A command-line value as the user typed it (a list or pair as its items)."""
-    return ":".join(map(str, v)) if isinstance(v, (list, tuple)) else str(v)
+def _text(v, sep: str) -> str:
+    """A command-line value as the user types it (a list's items joined by ``sep``)."""
+    return sep.join(map(str, v)) if isinstance(v, (list, tuple)) else str(v)
 
 
 def check_scenario(study: Study, build_dir=None, log=None):
