@@ -101,7 +101,8 @@ def test_a_refusal_the_check_cannot_foresee_ends_the_run_legally_and_says_it_onc
 
 def test_the_master_terminates_exactly_the_initialised_instances(fmu_build_dir, monkeypatch):
     """fmi2Terminate after a refused step (stepFailed, stepComplete), never after a refused
-    initialisation; the FMUs log no illegal call either way."""
+    initialisation (fmi2Error; the pythonfmu flavour's fmi2Fatal, after which nothing may be
+    called); the FMUs log no illegal call either way."""
     from fmpy.fmi2 import FMU2Slave
 
     from ballmill.scenario import runner
@@ -113,8 +114,8 @@ def test_the_master_terminates_exactly_the_initialised_instances(fmu_build_dir, 
         return original(self)
     monkeypatch.setattr(FMU2Slave, "terminate", terminate)
 
-    def run(scenario, *sets):
-        sc, models, paths = runner.prepare(scenario, list(sets), fmu_build_dir, log=lambda m: None)
+    def run(scenario, *sets, flavour="native"):
+        sc, models, paths = runner.prepare(scenario, list(sets), fmu_build_dir, log=lambda m: None, flavour=flavour)
         sc.stop = 0.02
         res = runner.run(sc, models, paths, progress=False, echo=False)
         assert not res.success
@@ -123,6 +124,11 @@ def test_the_master_terminates_exactly_the_initialised_instances(fmu_build_dir, 
 
     res = run("induction_start", "motor.Tb_ratio=90")
     assert "initialisation failed" in res.message and terminated == []
+    # the pythonfmu motor refuses at fmi2ExitInitializationMode with fmi2Fatal; the law (a source,
+    # initialised first) had completed its initialisation, the ball had not
+    res = run("induction_start", "motor.Tb_ratio=90", flavour="pythonfmu")
+    assert "(fatal). InductionMotor 'motor': initialisation failed" in res.message and terminated == ["law"]
+    terminated.clear()
     res = run("fast_start", "ball.max_step=0.001")  # every step of 2 ms refused (fmi2Discard)
     assert "ball refused the step" in res.message
     assert sorted(terminated) == ["ball", "drive"]

@@ -602,11 +602,13 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
     except Exception as e:
         success, message = False, f"{type(e).__name__}: {e}"
         shown = message
-        why = [i for i, m in enumerate(logger.messages) if m["status"] in ("error", "fatal")]
-        if why:  # the FMU's own reason (an initialisation or an instance refused, an input not settable)
-            message += f" {logger.messages[why[-1]]['message']}"
+        # the FMU's own reason (an initialisation or an instance refused, an input not settable): the
+        # first error of the run, which ended it (pythonfmu adds a generic fmi2Fatal line after it)
+        why = next((i for i, m in enumerate(logger.messages) if m["status"] in ("error", "fatal")), None)
+        if why is not None:
+            message += f" {logger.messages[why]['message']}"
             # on stderr once: where the logger echoed it, the failure points there
-            shown = f"{shown.rstrip('.')}; the FMU's reason is above" if why[-1] in logger.echoed else message
+            shown = f"{shown.rstrip('.')}; the FMU's reason is above" if why in logger.echoed else message
         init_time = locals().get("init_time", time.perf_counter() - wall0)
         if echo:
             sys.stderr.write(f"\nrun failed: {shown}\n")
