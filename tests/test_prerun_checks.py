@@ -192,6 +192,32 @@ def test_a_sweep_checks_its_names_and_values_before_any_point_runs(tmp_path, fmu
     assert not (out / "results.parquet").exists() and not (out / "study.json").exists()
 
 
+def test_a_study_files_values_are_named_by_their_keys_and_a_sample_is_summarised(tmp_path, fmu_build_dir):
+    from ballmill.sweep import spec as study
+
+    path = tmp_path / "study.toml"
+    path.write_text('scenario = "fast_start"\nset = { "ball.mu" = 0.0 }\n[grid]\n"ball.r" = [0.02, 0.3]\n')
+    with pytest.raises(study.StudyError) as e:
+        study.check_scenario(study.load(str(path), set_=["drive.n0=-1"]), fmu_build_dir)
+    where = path.as_posix()
+    assert sorted(e.value.problems) == sorted([
+        f"{where}: set.ball.mu: BallInShell 'ball' needs mu > 0, got mu = 0.0",
+        "--set drive.n0=-1: parameter n0 = -1 1/min is outside its accepted range [0, 100000] 1/min",
+        f"{where}: grid.ball.r: BallInShell 'ball' needs r < R (the ball must fit in the chamber), got r = 0.3 m, "
+        f"R = 0.25 m (fast_start.toml)"])
+    # 40 sampled radii, those above R = 0.25 m refused: one line, with how many more
+    sample = study.load("fast_start", sample={"method": "random", "points": 40, "seed": 3,
+                                              "ranges": {"ball.r": "0.1:0.4"}})
+    over = sorted(p["ball.r"] for p in sample.points() if p["ball.r"] >= 0.25)
+    assert len(over) > 2
+    with pytest.raises(study.StudyError) as e:
+        study.check_scenario(sample, fmu_build_dir)
+    first = next(p["ball.r"] for p in sample.points() if p["ball.r"] >= 0.25)
+    assert e.value.problems == [
+        f"--range ball.r=0.1:0.4: BallInShell 'ball' needs r < R (the ball must fit in the chamber), got r = {first!r} "
+        f"m, R = 0.25 m (fast_start.toml) (and {len(over) - 1} more like it)"]
+
+
 def test_a_reversed_range_is_refused_naming_the_option(tmp_path, fmu_build_dir):
     p = ballmill("sweep", "fast_start", "--grid", "drive.t0=4:1:3", "--out", tmp_path / "sweep",
                  "--build-dir", fmu_build_dir, "--quiet", cwd=tmp_path)

@@ -244,10 +244,16 @@ def load(name_or_path: str, overrides: list[str] = (), models: dict | None = Non
                         master=master)
     if models is not None:  # check even when other sections have problems: report them all at once
         problems += check(scenario, models, record_spec is None, connection_at, record_at)
+        # a sweep's points: each kind of problem once (the first point's), with how many other
+        # values have it, so that a sample of hundreds of points does not list hundreds of lines
+        like: dict = {}
         for point in points:
-            problems += _point_problems(scenario, models, point, origins or {})
+            for kind, text in _point_problems(scenario, models, point, origins or {}):
+                like.setdefault(kind, {})[text] = None
+        problems += [next(iter(texts)) + (f" (and {len(texts) - 1} more like it)" if len(texts) > 1 else "")
+                     for texts in like.values()]
     if problems:
-        raise ScenarioError(list(dict.fromkeys(problems)))  # a sweep's points repeat a problem
+        raise ScenarioError(list(dict.fromkeys(problems)))
     return scenario
 
 
@@ -310,7 +316,7 @@ def _bound(text, default: float) -> float:
 
 
 def parameter_problems(name: str, inst: Instance, models: dict, values: dict, only=None,
-                       where: str = "") -> list[str]:
+                       where: str = "", kinds: list | None = None) -> list[str]:
     """What is wrong with these parameter ``values`` of instance ``name`` (``inst`` gives its
     model and the origins of its values), checked as the FMU checks them at initialisation:
     a parameter of the model that can be set (causality parameter, variability fixed or
@@ -319,13 +325,14 @@ def parameter_problems(name: str, inst: Instance, models: dict, values: dict, on
     value given here (a rule reading a value already reported is left out: its problem is
     the one shown). ``only``: check just these parameters and the rules reading them (the
     rest was checked before). Each problem starts with where its value came from (default:
-    the key in the scenario file ``where``)."""
+    the key in the scenario file ``where``). ``kinds``: gets, for each problem, what it is
+    about (the parameter or the rule, with the origin), whatever the values."""
     from ..fmi.interface import INTERFACES
 
     def origin(param):
         return inst.origins.get(param) or (f"{where}: " if where else "") + f"instances.{name}.parameters.{param}"
 
-    problems, bad = [], set()
+    problems, bad, kinds = [], set(), [] if kinds is None else kinds
     md = models[inst.fmu] if inst.fmu is not None else None
     variables = {v.name: v for v in md.modelVariables} if md is not None else {}
     parameters = [n for n, v in variables.items() if v.causality == "parameter"]
@@ -340,6 +347,7 @@ def parameter_problems(name: str, inst: Instance, models: dict, values: dict, on
             problems.append(f"{at}: {inst.fmu or 'a table'} has no parameter {param!r} "
                             f"(parameters: {', '.join(parameters)}){other}")
             bad.add(param)
+            kinds.append((name, at, param))
             continue
         kind = v.type
         ok = (kind == "Real" and isinstance(value, (int, float)) and not isinstance(value, bool)) or \
@@ -359,13 +367,14 @@ def parameter_problems(name: str, inst: Instance, models: dict, values: dict, on
         else:
             continue
         bad.add(param)
+        kinds.append((name, at, param))
     interface = INTERFACES.get(inst.fmu)
     if interface is None or md is None:
         return problems
     p = {n: _start(variables[n]) for n in parameters}
     p.update({k: float(x) if variables[k].type == "Real" else x for k, x in values.items()
               if k in variables and k not in bad and variables[k].causality == "parameter"})
-    for rule in interface.rules:
+    for k, rule in enumerate(interface.rules):
         if not set(rule.names) & check or set(rule.names) & bad:
             continue
         if any(p.get(n) is None for n in rule.names):  # a model description unlike the declaration
@@ -383,21 +392,23 @@ def parameter_problems(name: str, inst: Instance, models: dict, values: dict, on
         def source(n):
             return "" if n in lead else " (default)" if n not in values else f" ({Path(where).name})"
         got = ", ".join(f"{n} = {values.get(n, p[n])!r}{_unit(variables[n])}{source(n)}" for n in rule.names)
-        problems.append(f"{'; '.join(dict.fromkeys(origin(n) for n in lead))}: {inst.fmu} {name!r} needs "
-                        f"{rule.expected}, got {got}")
+        at = "; ".join(dict.fromkeys(origin(n) for n in lead))
+        problems.append(f"{at}: {inst.fmu} {name!r} needs {rule.expected}, got {got}")
         bad.update(rule.names)
+        kinds.append((name, at, k))
     return problems
 
 
-def _point_problems(sc: Scenario, models: dict, point: dict, origins: dict) -> list[str]:
-    """A sweep point's values ("instance.parameter" -> value) checked on top of the scenario's."""
+def _point_problems(sc: Scenario, models: dict, point: dict, origins: dict) -> list[tuple]:
+    """A sweep point's values ("instance.parameter" -> value) checked on top of the scenario's:
+    (kind, problem) pairs (``parameter_problems``' kinds)."""
     problems, given = [], {}
     broken = _broken(sc, models)
     for key, value in point.items():
         name, param = key.split(".", 1)
         at = origins.get(key, key)
         if name not in sc.instances:
-            problems.append(f"{at}: no instance {name!r} (instances: {', '.join(sc.instances)})")
+            problems.append((at, f"{at}: no instance {name!r} (instances: {', '.join(sc.instances)})"))
         elif name not in broken:
             given.setdefault(name, {})[param] = (value, at)
     for name, vals in given.items():
@@ -405,8 +416,10 @@ def _point_problems(sc: Scenario, models: dict, point: dict, origins: dict) -> l
         moved = Instance(name, fmu=inst.fmu, table=inst.table, columns=inst.columns, data=inst.data,
                          parameters={**inst.parameters, **{p: v for p, (v, _) in vals.items()}},
                          origins={**inst.origins, **{p: at for p, (_, at) in vals.items()}})
-        problems += parameter_problems(name, moved, models, moved.parameters, only=set(vals),
-                                       where=sc.path.as_posix())
+        kinds = []
+        texts = parameter_problems(name, moved, models, moved.parameters, only=set(vals), where=sc.path.as_posix(),
+                                   kinds=kinds)
+        problems += zip(kinds, texts)
     return problems
 
 
