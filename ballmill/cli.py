@@ -4,7 +4,8 @@
                                              (C) in build/, pythonfmu in build/pythonfmu/
     ballmill run SCENARIO [--out DIR] [--set inst.param=value ...] [--flavour pythonfmu]
                                              exit status: 0 ran and stayed valid, 1 an FMU stopped
-                                             the run, 2 bad scenario, 3 ran but the ball model's
+                                             the run, 2 bad scenario or value (every problem listed
+                                             before anything runs), 3 ran but the ball model's
                                              validity ended (statistics over the valid span only)
     ballmill bench [...]                      speed/accuracy map -> BENCHMARKS.md
     ballmill export-ssp SCENARIO OUT.ssp [--set inst.param=value ...]
@@ -13,7 +14,10 @@
                                              a design study: many points, one row each in
                                              DIR/results.parquet (see ballmill sweep -h); a ball
                                              absorber study (absorber_frf: --mode steady|up|down|both)
-                                             also DIR/frf.csv and DIR/frf.png
+                                             also DIR/frf.csv and DIR/frf.png; exit status: 0 done
+                                             (the failed points and the first reason on stderr),
+                                             1 every point failed, 2 bad study or values (checked
+                                             before any point runs, as ballmill run checks them)
     ballmill steady [--n0 ...] [--l ...] [--r ...] [--R ...] [--mu ...]
                                              the ball's relative equilibrium on the crank circle
 """
@@ -132,6 +136,15 @@ def _sweep(args) -> int:
                       "wall_s": round(res.wall_s, 3), "compute_s": round(res.compute_s, 3),
                       "points_per_s (first task to last result)": round(rate, 1),
                       "timing": str(res.out_dir / "timing.json"), "plots": [str(p) for p in res.plots]}, indent=2))
+    failed = [r for r in res.rows if r.get("status") != "ok"]
+    if failed:
+        first = failed[0]
+        values = ", ".join(f"{k} = {first.get(k)!r}" for k in study.swept if k in first)
+        what = f"the first (point {first.get('point')}{': ' + values if values else ''}): {first.get('message')}"
+        if len(failed) == len(res.rows):
+            print(f"ballmill sweep: all {len(res.rows)} points failed; {what}", file=sys.stderr)
+            return 1
+        print(f"ballmill sweep: {len(failed)} of {len(res.rows)} points failed; {what}", file=sys.stderr)
     return 0
 
 

@@ -43,7 +43,8 @@ import operator
 import numpy as np
 
 from ballmill.fmi.interface import (BALL_ALL_INPUTS, BALL_FEEDTHROUGH, BALL_IN_SHELL, BALL_INPUTS,
-                                    BALL_MOTION_INPUTS, BALL_MOTION_START, BALL_OUTPUTS)
+                                    BALL_MOTION_INPUTS, BALL_MOTION_START, BALL_OUTPUTS, DRAG_LIMIT,
+                                    MAX_INTERNAL_STEPS)
 from ballmill.fmi.slave import NEVER, Slave
 from ballmill.physics import Ball, BallModel, BallState, InputReconstruction
 from ballmill.physics.turning.model import ChamberModel, evaluate_c
@@ -52,8 +53,6 @@ from ballmill.physics.turning.reconstruction import ChamberReconstruction, centr
 FORMULATIONS = {1: "vector", 2: "paper"}
 METHODS = {1: "DOP853", 2: "RK45", 3: "RK4"}
 INPUT_MODES = {1: "derivatives", 2: "positions", 3: "hold", 4: "accelerations"}
-MAX_INTERNAL_STEPS = 20000  # work bound: internal steps of one integration in a doStep
-DRAG_LIMIT = 1e4  # c_drag <= DRAG_LIMIT m omega0 (viscous time constant m/c_drag >= 1e-4 / omega0)
 OUTPUTS = BALL_OUTPUTS
 INPUTS = BALL_INPUTS
 MOTIONS = {1: "translation", 2: "general"}

@@ -250,7 +250,7 @@ def test_set_overrides_reach_the_fmus(tmp_path, fmu_build_dir, fmu_flavour):
 
 @pytest.mark.parametrize("override,fragment", [
     ("nosuch.r=0.02", "no instance 'nosuch'"),
-    ("ball.rr=0.02", "instances.ball.parameters.rr"),
+    ("ball.rr=0.02", "--set ball.rr=0.02: BallInShell has no parameter 'rr'"),
     ("ball.formulation=vector", "expected a Integer value, got 'vector'"),
     ("t0=3", "expected instance.parameter=value"),
 ])

@@ -2,8 +2,10 @@
 
 Names, value references (the position in ``variables``), causality,
 variability, type, units, descriptions, bounds, start values, the outputs'
-dependencies during initialisation (InitialUnknowns) and the DefaultExperiment
-of BallInShell, MotorStartup, InductionMotor and Fig1Drive are written here once. The
+dependencies during initialisation (InitialUnknowns), the DefaultExperiment
+and the rules the parameters must meet beyond their bounds (``rules``, e.g.
+BallInShell's r < R) of BallInShell, MotorStartup, InductionMotor, Fig1Drive
+and Structure are written here once. The
 pythonfmu adapters (fmu_src/, drive_models/) register these variables
 (`ballmill.fmi.slave.Slave.declare`), and the native build
 (`ballmill.fmi.native`) writes the model description and the C header of
@@ -15,6 +17,7 @@ Plain data, no FMI library and no physics beyond the default values.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from ballmill.physics.drives.crank import CrankStartup
@@ -107,6 +110,25 @@ class Variable:
 
 
 @dataclass(frozen=True)
+class Rule:
+    """A condition the FMU's parameters must meet beyond each one's [min, max]: the FMU
+    refuses fmi2ExitInitializationMode when it fails (docs/conformance.md, "Parameters").
+    ``names``: the parameters it reads; ``expected``: the condition in words, with its
+    reason; ``holds(p)``: whether it holds, p mapping every parameter of the FMU to its
+    value. The scenario checker (ballmill.scenario.spec) evaluates the rules in order
+    before a run, so that a bad value is refused with its source instead of by the FMU."""
+
+    names: tuple
+    expected: str
+    holds: Callable[[dict], bool]
+
+
+def _positive(*names) -> tuple:
+    """Parameters whose declared min is 0 but which must be > 0 (the FMU divides by them)."""
+    return tuple(Rule((n,), f"{n} > 0", lambda p, n=n: p[n] > 0) for n in names)
+
+
+@dataclass(frozen=True)
 class Interface:
     """An FMU's variables in value-reference order, with its model-level facts."""
 
@@ -117,6 +139,7 @@ class Interface:
     # scenarios use (the ball coupled through derivative inputs: contact point within 1e-9 m)
     default_experiment: tuple = (0.0, 10.0, 2e-3)
     log_categories: dict = field(default_factory=lambda: dict(LOG_CATEGORIES))
+    rules: tuple = ()  # Rule: what the parameters must meet together, in the FMU's order of checking
 
     def __post_init__(self):
         names = [v.name for v in self.variables]
@@ -130,6 +153,11 @@ class Interface:
             if set(v.feedthrough) - set(v.depends):
                 raise ValueError(f"{self.name}.{v.name}: feedthrough {sorted(v.feedthrough)} must be "
                                  f"among its depends {sorted(v.depends)}")
+        parameters = {v.name for v in self.variables if v.causality == "parameter"}
+        for rule in self.rules:
+            if not rule.names or set(rule.names) - parameters:
+                raise ValueError(f"{self.name}: rule {rule.expected!r} reads non-parameters "
+                                 f"{sorted(set(rule.names) - parameters)}")
 
     def __getitem__(self, name: str) -> Variable:
         for v in self.variables:
@@ -164,6 +192,7 @@ CRANK_KINEMATICS = (
 )
 
 _law = CrankStartup()
+_STARTUP_RULES = _positive("l")  # (drive_models/motorstartup.c setup; t0 >= 1e-3 by its bounds)
 MOTOR_STARTUP = _interface(
     "MotorStartup",
     "Kinematic crank start-up law (quadratic speed rise to n0 in t0) driving a platform on a circle "
@@ -188,7 +217,7 @@ MOTOR_STARTUP = _interface(
         ("law", "parameter", 1, "Shape of the speed rise to n0 in t0: 1 = quadratic (the paper's), "
          "2 = S-curve (cubic smoothstep, zero acceleration at both ends), 3 = linear (constant "
          "acceleration), 4 = quintic (zero acceleration and jerk at both ends)", dict(min=1, max=4)),
-    ])
+    ], rules=_STARTUP_RULES)
 
 
 def _motor(name):
@@ -200,6 +229,22 @@ def _drive(name):
 
 
 _FEEDTHROUGH = ("psi_ddot", "ax1O", "ay1O")  # InductionMotor: depend on M_reaction at initialisation
+RATED_CONSISTENCY = 0.15  # P_rated / eta and sqrt(3) U_rated I_rated cos_phi agree within 15 %
+# the datasheet's consistency (drive_models/inductionmotor.c setup, the physics' InductionMotor);
+# whether the dq model can be fitted to it is found only by fitting (the FMU refuses it then)
+_INDUCTION_RULES = (
+    *_positive("P_rated", "n_rated", "U_rated", "f_rated", "I_rated", "J_rotor", "ramp_time", "cos_phi", "eta"),
+    Rule(("f_start",), "f_start < 1", lambda p: p["f_start"] < 1.0),
+    Rule(("Rs_share",), "Rs_share < 1", lambda p: p["Rs_share"] < 1.0),
+    Rule(("Tb_ratio",), "Tb_ratio > 1 (Kloss's formula has no rated point otherwise)", lambda p: p["Tb_ratio"] > 1.0),
+    Rule(("n_rated", "f_rated", "pole_pairs"), "n_rated < 60 f_rated / pole_pairs, the synchronous speed "
+         "(a motor runs with positive slip)", lambda p: p["n_rated"] < 60.0 * p["f_rated"] / p["pole_pairs"]),
+    Rule(("P_rated", "eta", "U_rated", "I_rated", "cos_phi"),
+         f"P_rated / eta = sqrt(3) U_rated I_rated cos_phi within {RATED_CONSISTENCY:.0%} (check the units)",
+         lambda p: 1.0 - RATED_CONSISTENCY <= p["P_rated"] / (
+             p["eta"] * (math.sqrt(3.0) * p["U_rated"] * p["I_rated"] * p["cos_phi"])) <= 1.0 + RATED_CONSISTENCY),
+    *_positive("l"),  # (i >= 1e-3 by its bounds)
+)
 INDUCTION_MOTOR = _interface(
     "InductionMotor",
     "Three-phase induction motor from its datasheet (Kloss or dq model; direct on line, voltage ramp "
@@ -276,7 +321,7 @@ INDUCTION_MOTOR = _interface(
          dict(unit="J")),
         ("E_drive", "output", 0.0, "Kinetic energy of rotor, gear, cranks and platform 1/2 J_total psi'^2",
          dict(unit="J")),
-    ])
+    ], rules=_INDUCTION_RULES)
 
 # ----------------------------------------------------------------------------- the Fig. 1 machine
 _WRENCH = ("Fx", "Fy", "Fz", "MO1x", "MO1y", "MO1z")
@@ -431,6 +476,48 @@ BALL_MOTION_OUTPUTS = (
 BALL_ALL_INPUTS = BALL_INPUTS + BALL_MOTION_INPUTS
 _ball = Ball()
 W0_MAX = 1e4  # rad/s: bound of the initial angular velocity components
+MAX_INTERNAL_STEPS = 20000  # BallInShell's work bound: internal steps of one integration in a doStep
+DRAG_LIMIT = 1e4  # BallInShell: c_drag <= DRAG_LIMIT m omega0 (viscous time constant m/c_drag >= 1e-4 / omega0)
+PAPER_MARGIN = 0.02  # formulation = 2 needs the ball centre's n_z < -PAPER_MARGIN (below the equator)
+
+
+def _omega0(p) -> float:
+    """BallInShell's small-oscillation angular frequency sqrt(g / ((1 + I/(m r^2)) (R - r))) [rad/s]."""
+    return math.sqrt(p["g"] / (1.0 + _ball.inertia_factor) / (p["R"] - p["r"]))
+
+
+def _auto_max_step(p) -> float:
+    """BallInShell's longest communication step [s]: max_step, or 0 = 1/20 of the natural period."""
+    return p["max_step"] or 0.05 * 2.0 * math.pi / _omega0(p)
+
+
+# fmu_src/ballinshell.c setup (and ballinshell_fmu.py's build/start), in its order
+_BALL_RULES = (
+    *_positive("r", "R", "m", "g", "mu"),
+    Rule(("r", "R"), "r < R (the ball must fit in the chamber)", lambda p: p["r"] < p["R"]),
+    Rule(("r", "R"), "R - r >= 1e-9 R", lambda p: (p["R"] - p["r"]) / p["R"] >= 1e-9),
+    *_positive("h_fixed"),
+    Rule(("delta", "r"), "delta <= r (a rolling-resistance length within the ball's radius)",
+         lambda p: p["delta"] <= p["r"]),
+    Rule(("c_drag", "m", "g", "r", "R"), f"c_drag <= {DRAG_LIMIT:g} m omega0, omega0 = sqrt(g / (1.4 (R - r))) "
+         "(a shorter viscous time constant m/c_drag is too stiff for the explicit integrators)",
+         lambda p: p["c_drag"] <= DRAG_LIMIT * p["m"] * _omega0(p)),
+    Rule(("xC0", "yC0", "r", "R"), "sqrt(xC0^2 + yC0^2) <= R - r (the ball centre lies on the sphere of "
+         "radius R - r)", lambda p: p["xC0"] ** 2 + p["yC0"] ** 2 <= (p["R"] - p["r"]) ** 2),
+    Rule(("motion", "formulation"), "formulation = 1 with motion = 2 (the paper's coordinates describe only "
+         "a translating chamber's lower hemisphere)", lambda p: p["motion"] != 2 or p["formulation"] == 1),
+    Rule(("motion", "delta", "c_drag"), "delta = c_drag = 0 with motion = 2 (the ground material's losses "
+         "exist only with motion = 1)", lambda p: p["motion"] != 2 or p["delta"] == p["c_drag"] == 0.0),
+    Rule(("motion", "input_mode"), "input_mode = 1 or 3 with motion = 2",
+         lambda p: p["motion"] != 2 or p["input_mode"] in (1, 3)),
+    Rule(("integrator", "h_fixed", "max_step", "g", "r", "R"), f"h_fixed >= max_step / {MAX_INTERNAL_STEPS} "
+         "with integrator = 3 (RK4; max_step = 0: 1/20 of the natural period 2 pi / omega0)",
+         lambda p: p["integrator"] != 3 or _auto_max_step(p) / p["h_fixed"] <= MAX_INTERNAL_STEPS),
+    Rule(("formulation", "xC0", "yC0", "r", "R"), f"n_z = -sqrt(1 - (xC0^2 + yC0^2) / (R - r)^2) <= "
+         f"-{PAPER_MARGIN:g} with formulation = 2 (the paper's coordinates end near the chamber's equator)",
+         lambda p: p["formulation"] != 2 or -math.sqrt(max(0.0, 1.0 - (p["xC0"] ** 2 + p["yC0"] ** 2)
+                                                             / (p["R"] - p["r"]) ** 2)) <= -PAPER_MARGIN),
+)
 NEVER = 1e300  # t_invalid while the model is valid
 _out = dict(depends=BALL_ALL_INPUTS)
 # the outputs outputs.evaluate computes from the chamber's motion at the current instant: with
@@ -530,7 +617,7 @@ BALL_IN_SHELL = _interface(
            dict(unit=_MOTION_INPUT_TEXT[name][1])) for name in BALL_MOTION_INPUTS],
         *[(name, "output", 0.0, desc, dict(unit=unit, **(_feed if name in BALL_FEEDTHROUGH else _out)))
           for name, unit, desc in BALL_MOTION_OUTPUTS],
-    ])
+    ], rules=_BALL_RULES)
 
 # ----------------------------------------------------------------------------- the structure
 # A linear structure per horizontal axis carrying the ball's cavity (ballmill.absorber.structure,

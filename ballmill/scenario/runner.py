@@ -25,6 +25,14 @@ A step an FMU refuses (fmi2Discard, e.g. a non-finite input or the paper
 formulation at the equator) ends the run cleanly: everything recorded up to
 the last good point is kept, and the reason is in the result's messages.
 
+The master follows each instance through the FMI 2.0 state machine (section
+4.2.4 of the standard) and ends it with the calls its state allows:
+fmi2Terminate only once it is initialised (stepComplete, or stepFailed after
+a refused step), then fmi2FreeInstance; after fmi2Error (a refused
+instantiation, initialisation or call) fmi2FreeInstance alone; after
+fmi2Fatal nothing at all for any instance of that FMU (section 2.1.3), whose
+library is then not reused.
+
 The stepping loop is lean (fmpy loads the FMUs and owns the instances; the loop
 calls their fmi2 functions from fmpy's library handles with ctypes arguments
 built once, and checks every status as fmpy does): the values travel through
@@ -50,6 +58,7 @@ from . import spec as _spec
 PROGRESS_EVERY = 50  # steps between updates of the progress bar (which itself shows at most 10 per s)
 INIT_PASSES = 5  # at most, for the fixed-point iteration over connections in initialisation mode
 STATUS = {0: "ok", 1: "warning", 2: "discard", 3: "error", 4: "fatal", 5: "pending"}
+INITIALISED = ("stepComplete", "stepFailed")  # the FMI 2.0 states in which fmi2Terminate is allowed
 
 
 @dataclass
@@ -80,6 +89,7 @@ class _Logger:
                                fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
         from fmpy.fmi2 import calloc, free
         self.messages: list[dict] = []
+        self.echoed: set[int] = set()  # indices in messages of those echoed on stderr
         self.echo = echo
         self.now = 0.0
         self._shown: dict[str, int] = {}
@@ -105,6 +115,7 @@ class _Logger:
             self._shown[entry["instance"]] = shown + 1
             if shown < self.ECHO_LIMIT:
                 sys.stderr.write(f"\n[{entry['status']}] {text}\n")
+                self.echoed.add(len(self.messages) - 1)
             elif shown == self.ECHO_LIMIT:
                 sys.stderr.write(f"\n[{entry['status']}] {entry['instance']}: further messages are "
                                  f"in summary.json\n")
@@ -281,7 +292,28 @@ class _FmuInstance:
         except Exception:
             fmucache.give_back(path, self.fmu)  # nothing instantiated: the library is still good
             raise
+        self.state = "instantiated"  # the instance's FMI 2.0 state, as far as the master knows it
         self.parameters = inst.parameters
+
+    def returned(self, function: str, status: int):
+        """Follow a call's status above fmi2Warning: fmi2Discard of fmi2DoStep -> stepFailed,
+        fmi2Error (or fmi2Pending, which these synchronous FMUs never mean) -> error,
+        fmi2Fatal -> fatal; a discarded get or set leaves the state as it was."""
+        if status == 4:
+            self.state = "fatal"
+        elif status in (3, 5) or status > 5:
+            self.state = "error"
+        elif status == 2 and function == "fmi2DoStep":
+            self.state = "stepFailed"
+
+    def call(self, function: str, method, *args, **kwargs):
+        """One of fmpy's wrapped calls, its refusal followed (``returned``)."""
+        from fmpy.fmi1 import FMICallException
+        try:
+            return method(*args, **kwargs)
+        except FMICallException as e:
+            self.returned(function, e.status)
+            raise
 
     def set_parameters(self):
         for name, value in self.parameters.items():
@@ -297,8 +329,8 @@ class _FmuInstance:
 
     def readers(self, names, bus, offset: int):
         """FMI calls that write the values of these variables into ``bus[offset:offset + len(names)]``
-        (a ctypes array of doubles), as (function, arguments, name) triples: the master calls
-        ``function(*arguments)`` and refuses a status above fmi2Warning exactly as fmpy does.
+        (a ctypes array of doubles), as (function, arguments, name, this instance): the master
+        calls ``function(*arguments)`` and refuses a status above fmi2Warning exactly as fmpy does.
 
         ``names`` must list the Reals first (the master orders them so): one fmi2GetReal
         writes them straight into the bus; the Booleans and Integers (recorded, never
@@ -313,7 +345,7 @@ class _FmuInstance:
         if n_real:
             vr = (fmi2ValueReference * n_real)(*[self.vars[n].valueReference for n in names[:n_real]])
             ops.append((_bare(self.fmu, "fmi2GetReal"),
-                        (comp, vr, ctypes.c_size_t(n_real), _slot(bus, offset)), "fmi2GetReal"))
+                        (comp, vr, ctypes.c_size_t(n_real), _slot(bus, offset)), "fmi2GetReal", self))
         for kind, ctype in (("Boolean", fmi2Boolean), ("Integer", fmi2Integer)):
             where = [i for i, k in enumerate(kinds) if k == kind]
             if not where:
@@ -329,22 +361,28 @@ class _FmuInstance:
                     for slot, v in zip(slots, val):
                         bus[slot] = float(v)
                 return status
-            ops.append((get, (), f"fmi2Get{kind}"))
+            ops.append((get, (), f"fmi2Get{kind}", self))
         return ops
 
     def writer(self, vrs, values_ptr):
-        """The fmi2SetReal call (function, arguments, name) that sets these Real inputs from
-        the doubles at ``values_ptr``."""
+        """The fmi2SetReal call (function, arguments, name, this instance) that sets these Real
+        inputs from the doubles at ``values_ptr``."""
         from fmpy.fmi2 import fmi2ValueReference
         varr = (fmi2ValueReference * len(vrs))(*vrs)
         return (_bare(self.fmu, "fmi2SetReal"),
-                (ctypes.c_void_p(self.fmu.component), varr, ctypes.c_size_t(len(vrs)), values_ptr), "fmi2SetReal")
+                (ctypes.c_void_p(self.fmu.component), varr, ctypes.c_size_t(len(vrs)), values_ptr), "fmi2SetReal",
+                self)
 
-    def close(self):
-        try:
-            self.fmu.terminate()
-        except Exception:
-            pass
+    def close(self, fatal: bool = False):
+        """End the instance with the calls its state allows; ``fatal``: an instance of this FMU
+        returned fmi2Fatal, so nothing may be called (the library is dropped, not reused)."""
+        if fatal or self.state == "fatal":
+            return
+        if self.state in INITIALISED:
+            try:
+                self.fmu.terminate()
+            except Exception:
+                pass
         try:
             self.fmu.fmi2FreeInstance(self.fmu.component)  # the library stays loaded for the next run
         except Exception:
@@ -352,10 +390,17 @@ class _FmuInstance:
         fmucache.give_back(self.path, self.fmu)
 
 
+def _refused(owner, function: str, status: int):
+    """The exception for a call refused with ``status`` (> fmi2Warning), the calling instance's
+    state followed (``owner``: its _FmuInstance; None for a table)."""
+    from fmpy.fmi1 import FMICallException
+    if owner is not None:
+        owner.returned(function, status)
+    return FMICallException(function=function, status=status)
+
+
 def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, echo: bool = True) -> RunResult:
     """Run a checked scenario. ``models``/``paths``: model name -> ModelDescription / FMU path."""
-    from fmpy.fmi1 import FMICallException
-
     wall0 = time.perf_counter()
     master = {**_spec.MASTER_DEFAULTS, **(getattr(sc, "master", None) or {})}
     loops = algebraic_loops(sc, models)
@@ -395,7 +440,7 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
         bus = (ctypes.c_double * width)()
         bus_np = np.ctypeslib.as_array(bus)
         reads = {n: (fmus[n].readers(wanted[n], bus, offset[n]) if n in fmus else
-                     [(tables[n].reader(wanted[n], bus, offset[n]), (), "table")]) for n in sc.instances}
+                     [(tables[n].reader(wanted[n], bus, offset[n]), (), "table", None)]) for n in sc.instances}
         # inputs per destination FMU: value references and the bus slots they take
         setters = {n: ([], []) for n in fmus}
         for si, sv, di, dv in sc.connections:
@@ -433,14 +478,14 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
                     g = gather_of.get(n)
                     if g is not None:
                         np.take(bus_np, g[0], out=g[1])
-                    fun, args, fname = writes[n]
+                    fun, args, fname, owner = writes[n]
                     status = fun(*args)
                     if status > 1:
-                        raise FMICallException(function=fname, status=status)
-                    for fun, args, fname in reads[n]:
+                        raise _refused(owner, fname, status)
+                    for fun, args, fname, owner in reads[n]:
                         status = fun(*args)
                         if status > 1:
-                            raise FMICallException(function=fname, status=status)
+                            raise _refused(owner, fname, status)
                 current = bus_np[loop_slots]
                 residual = np.abs(current - previous)
                 if np.all(residual <= tol * np.abs(current) + atol):
@@ -461,19 +506,20 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
         set_ops = list(writes.values())
         columns_at = [0] + [offset[a] + wanted[a].index(b) for a, b in sc.record]
 
-        def check(fun, args, fname):
+        def check(fun, args, fname, owner):
             status = fun(*args)
             if status > 1:
-                raise FMICallException(function=fname, status=status)
+                raise _refused(owner, fname, status)
 
         t = sc.start
         for name in order:
             if name not in fmus:
                 continue
             f = fmus[name]
-            f.set_parameters()
-            f.fmu.setupExperiment(startTime=sc.start, stopTime=sc.stop)
-            f.fmu.enterInitializationMode()
+            f.call("fmi2SetReal", f.set_parameters)
+            f.call("fmi2SetupExperiment", f.fmu.setupExperiment, startTime=sc.start, stopTime=sc.stop)
+            f.call("fmi2EnterInitializationMode", f.fmu.enterInitializationMode)
+            f.state = "initializationMode"
         # initialisation mode: outputs follow the inputs (see ballmill.fmi.slave), so pass
         # values around until they settle; a loop through the connections converges in a few
         # passes because the fed-back quantities (reaction torque) barely move the sources
@@ -487,7 +533,8 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
                     src = [si for si, _, di, _ in sc.connections if di == name]
                     ready = [(vr, bus[slot]) for vr, slot, si in zip(vrs, slots, src) if si in values]
                     if ready:  # inputs fed back from a later instance keep their start values on pass 1
-                        fmus[name].fmu.setReal([vr for vr, _ in ready], [v for _, v in ready])
+                        fmus[name].call("fmi2SetReal", fmus[name].fmu.setReal, [vr for vr, _ in ready],
+                                        [v for _, v in ready])
                 for op in reads[name]:
                     check(*op)
                 values[name] = bus[offset[name]:offset[name] + len(wanted[name])]
@@ -495,7 +542,8 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
                 break
         for name in order:
             if name in fmus:
-                fmus[name].fmu.exitInitializationMode()
+                fmus[name].call("fmi2ExitInitializationMode", fmus[name].fmu.exitInitializationMode)
+                fmus[name].state = "stepComplete"
         init_time = time.perf_counter() - wall0
         bar = _Progress(sc.stop - sc.start, progress)
         n_steps = int(round((sc.stop - sc.start) / sc.step))
@@ -505,8 +553,8 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
         memmove = ctypes.memmove
         now, size = ctypes.c_double(), ctypes.c_double()  # the doStep arguments, set at each step
         no_set_prior = ctypes.c_int(1)  # noSetFMUStatePriorToCurrentPoint = fmi2True, as fmpy's doStep
-        steppers = [(name, _bare(f.fmu, "fmi2DoStep"), (ctypes.c_void_p(f.fmu.component), now, size, no_set_prior))
-                    for name, f in fmus.items()]
+        steppers = [(f, _bare(f.fmu, "fmi2DoStep"), (ctypes.c_void_p(f.fmu.component), now, size, no_set_prior))
+                    for f in fmus.values()]
         every = PROGRESS_EVERY
         reached = sc.start  # where the last step took the FMUs
         for k in range(n_steps + 1):
@@ -515,10 +563,10 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
             t = sc.start + k * sc.step if k < n_steps else reached
             logger.now = t
             bus[0] = t
-            for fun, args, fname in step_ops:
+            for fun, args, fname, owner in step_ops:
                 status = fun(*args)
                 if status > 1:
-                    raise FMICallException(function=fname, status=status)
+                    raise _refused(owner, fname, status)
             if iterate:
                 loop_sweeps += solve_loops(t)
             memmove(record_at + k * row_bytes, bus_at, row_bytes)
@@ -527,16 +575,17 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
                 break
             for slots, staged in gathers:
                 np.take(bus_np, slots, out=staged)
-            for fun, args, fname in set_ops:
+            for fun, args, fname, owner in set_ops:
                 status = fun(*args)
                 if status > 1:
-                    raise FMICallException(function=fname, status=status)
+                    raise _refused(owner, fname, status)
             h = min(sc.step, sc.stop - t) if k == n_steps - 1 else sc.step
             now.value, size.value = t, h
-            for name, do_step, args in steppers:
+            for f, do_step, args in steppers:
                 status = do_step(*args)
                 if status > 1:
-                    e = FMICallException(function="fmi2DoStep", status=status)
+                    name = f.name
+                    e = _refused(f, "fmi2DoStep", status)
                     why = [m["message"] for m in logger.messages if m["instance"] == name
                            and m["status"] in ("discard", "error", "fatal")]
                     success = False
@@ -552,15 +601,21 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
                 bar.update(t + h - sc.start, t + h)
     except Exception as e:
         success, message = False, f"{type(e).__name__}: {e}"
-        why = [m for m in logger.messages if m["status"] in ("error", "fatal")]
-        if why:  # the FMU's own reason (an initialisation or an instance refused, an input not settable)
-            message += f" {why[-1]['message']}"
+        shown = message
+        # the FMU's own reason (an initialisation or an instance refused, an input not settable): the
+        # first error of the run, which ended it (pythonfmu adds a generic fmi2Fatal line after it)
+        why = next((i for i, m in enumerate(logger.messages) if m["status"] in ("error", "fatal")), None)
+        if why is not None:
+            message += f" {logger.messages[why]['message']}"
+            # on stderr once: where the logger echoed it, the failure points there
+            shown = f"{shown.rstrip('.')}; the FMU's reason is above" if why in logger.echoed else message
         init_time = locals().get("init_time", time.perf_counter() - wall0)
         if echo:
-            sys.stderr.write(f"\nrun failed: {message}\n")
+            sys.stderr.write(f"\nrun failed: {shown}\n")
     finally:
+        fatal = {f.path for f in fmus.values() if f.state == "fatal"}
         for f in fmus.values():
-            f.close()
+            f.close(fatal=f.path in fatal)
     data = record[:rows, columns_at] if rows else np.empty((0, len(columns)))
     return RunResult(sc, columns, data, success, message, logger.messages,
                      time.perf_counter() - wall0, init_time, steps,
@@ -599,12 +654,13 @@ class _Descriptions(Mapping):
 
 
 def prepare(name_or_path: str, overrides=(), build_dir: Path | None = None, log=print,
-            flavour: str = "native"):
+            flavour: str = "native", **check):
     """Build the FMUs if needed, read their model descriptions, load and check the scenario.
-    flavour: "native" (C, build/<Model>.fmu) or "pythonfmu" (build/pythonfmu/<Model>.fmu)."""
+    flavour: "native" (C, build/<Model>.fmu) or "pythonfmu" (build/pythonfmu/<Model>.fmu);
+    ``check``: `spec.load`'s origins and points (a sweep's)."""
     from ..fmi import build as _build
     fmus = _build.build_all(build_dir, log=log, flavour=flavour)
     paths = {p.stem: p for p in fmus}
     models = _Descriptions(paths)
-    sc = _spec.load(name_or_path, overrides, models)
+    sc = _spec.load(name_or_path, overrides, models, **check)
     return sc, models, paths

@@ -32,7 +32,13 @@ file's, a --set's, else the model's start value), so that no text can contradict
 a placeholder that names no parameter is a problem like any other.
 
 `load` returns a `Scenario` or raises `ScenarioError` listing every problem
-with its file and key.
+at once, each with where the value came from (the file and key, or the
+`--set` option). Given the FMUs' model descriptions it checks every value
+before anything runs, as the FMUs would at initialisation: the parameter
+exists and can be set (causality, variability), its type, finiteness and the
+declared [min, max], and the rules each FMU declares in
+ballmill.fmi.interface (e.g. BallInShell's r < R); `ballmill run`, `ballmill
+sweep` (every point's values too) and `ballmill export-ssp` share this check.
 """
 from __future__ import annotations
 
@@ -65,6 +71,7 @@ class Instance:
     parameters: dict = field(default_factory=dict)
     columns: list[str] = field(default_factory=list)  # table sources: signal names
     data: np.ndarray | None = None  # table sources: rows of (time, signals...)
+    origins: dict = field(default_factory=dict)  # parameter -> where its value came from (file key, --set)
 
 
 @dataclass
@@ -110,10 +117,14 @@ def parse_override(text: str):
     return inst, param, parsed
 
 
-def load(name_or_path: str, overrides: list[str] = (), models: dict | None = None) -> Scenario:
+def load(name_or_path: str, overrides: list[str] = (), models: dict | None = None, *,
+         origins: dict | None = None, points=()) -> Scenario:
     """Read a scenario and check it. ``models`` maps model name -> fmpy
     ModelDescription (to check parameters, connections and records); the
-    runner passes it once the FMUs are built."""
+    runner passes it once the FMUs are built. ``origins``: "instance.parameter"
+    -> where an override or a point's value came from (default for an override:
+    "--set TEXT"); ``points``: dicts "instance.parameter" -> value (a sweep's
+    points), each checked on top of the overrides as if it were set too."""
     path = resolve(name_or_path)
     where = path.as_posix()
     try:
@@ -160,7 +171,8 @@ def load(name_or_path: str, overrides: list[str] = (), models: dict | None = Non
         if not isinstance(params, dict):
             bad(f"{key}.parameters", f"expected a table of parameter = value, got {params!r}")
             params = {}
-        inst = Instance(name, parameters=dict(params))
+        inst = Instance(name, parameters=dict(params),
+                        origins={p: f"{where}: {key}.parameters.{p}" for p in params})
         if "fmu" in spec and "table" not in spec:
             inst.fmu = str(spec["fmu"])
         elif "table" in spec and "fmu" not in spec:
@@ -181,10 +193,12 @@ def load(name_or_path: str, overrides: list[str] = (), models: dict | None = Non
         except ScenarioError as e:
             problems += e.problems
             continue
+        origin = (origins or {}).get(f"{inst}.{param}", f"--set {text}")
         if inst not in instances:
-            problems.append(f"--set {text}: no instance {inst!r} (instances: {', '.join(instances)})")
+            problems.append(f"{origin}: no instance {inst!r} (instances: {', '.join(instances)})")
         else:
             instances[inst].parameters[param] = value
+            instances[inst].origins[param] = origin
 
     connections, connection_at = [], []  # connection_at: each readable connection's index in the file
     for i, text in enumerate(section("connections", list, [])):
@@ -241,8 +255,16 @@ def load(name_or_path: str, overrides: list[str] = (), models: dict | None = Non
                         master=master)
     if models is not None:  # check even when other sections have problems: report them all at once
         problems += check(scenario, models, record_spec is None, connection_at, record_at)
+        # a sweep's points: each kind of problem once (the first point's), with how many other
+        # values have it, so that a sample of hundreds of points does not list hundreds of lines
+        like: dict = {}
+        for point in points:
+            for kind, text in _point_problems(scenario, models, point, origins or {}):
+                like.setdefault(kind, {})[text] = None
+        problems += [next(iter(texts)) + (f" (and {len(texts) - 1} more like it)" if len(texts) > 1 else "")
+                     for texts in like.values()]
     if problems:
-        raise ScenarioError(problems)
+        raise ScenarioError(list(dict.fromkeys(problems)))
     if models is not None:
         _fill_texts(scenario, models)
     return scenario
@@ -278,6 +300,142 @@ def _load_table(inst: Instance, key: str, bad):
     inst.columns, inst.data = header[1:], data
 
 
+def _broken(sc: Scenario, models: dict) -> set:
+    """Instances that cannot be checked further: no fmu/table, an unknown model, an unreadable table."""
+    return {n for n, i in sc.instances.items() if (i.fmu is None and i.table is None)
+            or (i.fmu is not None and i.fmu not in models) or (i.table is not None and i.data is None)}
+
+
+def _start(v):
+    """A model variable's start value in its Python type (None without one)."""
+    if v.start is None:
+        return None
+    if v.type == "Real":
+        return float(v.start)
+    if v.type in ("Integer", "Enumeration"):
+        return int(v.start)
+    if v.type == "Boolean":
+        return v.start in ("true", "1", True)
+    return v.start
+
+
+def _unit(v) -> str:
+    """' m' for a variable in metres; '' for unit 1, Integers, Booleans (as the FMUs' messages)."""
+    return f" {v.unit}" if v.type == "Real" and v.unit and v.unit != "1" else ""
+
+
+def _bound(text, default: float) -> float:
+    return default if text is None else float(text)
+
+
+def parameter_problems(name: str, inst: Instance, models: dict, values: dict, only=None,
+                       where: str = "", kinds: list | None = None) -> list[str]:
+    """What is wrong with these parameter ``values`` of instance ``name`` (``inst`` gives its
+    model and the origins of its values), checked as the FMU checks them at initialisation:
+    a parameter of the model that can be set (causality parameter, variability fixed or
+    tunable), of its type, finite, within the model description's [min, max], then the
+    model's rules (ballmill.fmi.interface) in their order, each evaluated when it reads a
+    value given here (a rule reading a value already reported is left out: its problem is
+    the one shown). ``only``: check just these parameters and the rules reading them (the
+    rest was checked before). Each problem starts with where its value came from (default:
+    the key in the scenario file ``where``). ``kinds``: gets, for each problem, what it is
+    about (the parameter or the rule, with the origin), whatever the values."""
+    from ..fmi.interface import INTERFACES
+
+    def origin(param):
+        return inst.origins.get(param) or (f"{where}: " if where else "") + f"instances.{name}.parameters.{param}"
+
+    problems, bad, kinds = [], set(), [] if kinds is None else kinds
+    md = models[inst.fmu] if inst.fmu is not None else None
+    variables = {v.name: v for v in md.modelVariables} if md is not None else {}
+    parameters = [n for n, v in variables.items() if v.causality == "parameter"]
+    check = set(values) if only is None else set(only)
+    for param, value in values.items():
+        if param not in check:
+            continue
+        at = origin(param)
+        v = variables.get(param)
+        if v is None or v.causality != "parameter":
+            other = f"; {param} is an {v.causality}" if v is not None and v.causality in ("input", "output") else ""
+            problems.append(f"{at}: {inst.fmu or 'a table'} has no parameter {param!r} "
+                            f"(parameters: {', '.join(parameters)}){other}")
+            bad.add(param)
+            kinds.append((name, at, param))
+            continue
+        kind = v.type
+        ok = (kind == "Real" and isinstance(value, (int, float)) and not isinstance(value, bool)) or \
+             (kind == "Integer" and isinstance(value, int) and not isinstance(value, bool)) or \
+             (kind == "Boolean" and isinstance(value, bool)) or (kind == "String" and isinstance(value, str))
+        if v.variability not in ("fixed", "tunable"):
+            problems.append(f"{at}: {inst.fmu}'s parameter {param} has variability {v.variability!r} and "
+                            f"cannot be set")
+        elif not ok:
+            problems.append(f"{at}: expected a {kind} value, got {value!r}")
+        elif kind == "Real" and not math.isfinite(value):
+            problems.append(f"{at}: parameter {param} = {value!r}{_unit(v)} must be finite")
+        elif kind in ("Real", "Integer") and not (_bound(v.min, -math.inf) <= value <= _bound(v.max, math.inf)):
+            lo, hi = _bound(v.min, -math.inf), _bound(v.max, math.inf)
+            problems.append(f"{at}: parameter {param} = {value!r}{_unit(v)} is outside its accepted range "
+                            f"[{lo:g}, {hi:g}]{_unit(v)}")
+        else:
+            continue
+        bad.add(param)
+        kinds.append((name, at, param))
+    interface = INTERFACES.get(inst.fmu)
+    if interface is None or md is None:
+        return problems
+    p = {n: _start(variables[n]) for n in parameters}
+    p.update({k: float(x) if variables[k].type == "Real" else x for k, x in values.items()
+              if k in variables and k not in bad and variables[k].causality == "parameter"})
+    for k, rule in enumerate(interface.rules):
+        if not set(rule.names) & check or set(rule.names) & bad:
+            continue
+        if any(p.get(n) is None for n in rule.names):  # a model description unlike the declaration
+            continue
+        try:
+            holds = rule.holds(p)
+        except (ArithmeticError, ValueError):  # e.g. a square root of a negative: the rule fails
+            holds = False
+        if holds:
+            continue
+        # led by the values from outside the scenario file (--set, a sweep's), if any
+        given = [n for n in rule.names if n in values]
+        lead = [n for n in given if not (where and origin(n).startswith(f"{where}: "))] or given
+
+        def source(n):
+            return "" if n in lead else " (default)" if n not in values else f" ({Path(where).name})"
+        got = ", ".join(f"{n} = {values.get(n, p[n])!r}{_unit(variables[n])}{source(n)}" for n in rule.names)
+        at = "; ".join(dict.fromkeys(origin(n) for n in lead))
+        problems.append(f"{at}: {inst.fmu} {name!r} needs {rule.expected}, got {got}")
+        bad.update(rule.names)
+        kinds.append((name, at, k))
+    return problems
+
+
+def _point_problems(sc: Scenario, models: dict, point: dict, origins: dict) -> list[tuple]:
+    """A sweep point's values ("instance.parameter" -> value) checked on top of the scenario's:
+    (kind, problem) pairs (``parameter_problems``' kinds)."""
+    problems, given = [], {}
+    broken = _broken(sc, models)
+    for key, value in point.items():
+        name, param = key.split(".", 1)
+        at = origins.get(key, key)
+        if name not in sc.instances:
+            problems.append((at, f"{at}: no instance {name!r} (instances: {', '.join(sc.instances)})"))
+        elif name not in broken:
+            given.setdefault(name, {})[param] = (value, at)
+    for name, vals in given.items():
+        inst = sc.instances[name]
+        moved = Instance(name, fmu=inst.fmu, table=inst.table, columns=inst.columns, data=inst.data,
+                         parameters={**inst.parameters, **{p: v for p, (v, _) in vals.items()}},
+                         origins={**inst.origins, **{p: at for p, (_, at) in vals.items()}})
+        kinds = []
+        texts = parameter_problems(name, moved, models, moved.parameters, only=set(vals), where=sc.path.as_posix(),
+                                   kinds=kinds)
+        problems += zip(kinds, texts)
+    return problems
+
+
 def _variables(inst: Instance, models: dict):
     """{name: (causality, type, unit)} of an instance."""
     if inst.table is not None:
@@ -297,29 +455,13 @@ def check(sc: Scenario, models: dict, record_all: bool, connection_at=None, reco
         if inst.fmu is not None and inst.fmu not in models:
             problems.append(f"{where}: instances.{name}.fmu: unknown model {inst.fmu!r} "
                             f"(built models: {', '.join(sorted(models))})")
-    if problems:
-        return problems
-    # instances already reported as unusable (no fmu/table, unreadable table) are left out here
-    broken = {n for n, i in sc.instances.items()
-              if (i.fmu is None and i.table is None) or (i.table is not None and i.data is None)}
+    # instances already reported as unusable (no fmu/table or an unknown one, unreadable table)
+    # are left out here; the others are still checked, so that every problem shows at once
+    broken = _broken(sc, models)
     variables = {name: _variables(inst, models) for name, inst in sc.instances.items() if name not in broken}
     for name, inst in sc.instances.items():
-        if name in broken:
-            continue
-        for param, value in inst.parameters.items():
-            key = f"{where}: instances.{name}.parameters.{param}"
-            info = variables[name].get(param)
-            if info is None or info[0] != "parameter":
-                params = [v for v, i in variables[name].items() if i[0] == "parameter"]
-                problems.append(f"{key}: {inst.fmu or 'a table'} has no parameter {param!r} "
-                                f"(parameters: {', '.join(params)})")
-                continue
-            kind = info[1]
-            ok = (kind == "Real" and isinstance(value, (int, float)) and not isinstance(value, bool)) or \
-                 (kind == "Integer" and isinstance(value, int) and not isinstance(value, bool)) or \
-                 (kind == "Boolean" and isinstance(value, bool)) or (kind == "String" and isinstance(value, str))
-            if not ok:
-                problems.append(f"{key}: expected a {kind} value, got {value!r}")
+        if name not in broken:
+            problems += parameter_problems(name, inst, models, inst.parameters, where=where)
     seen_inputs = set()
     for i, (si, sv, di, dv) in enumerate(sc.connections):
         key = f"{where}: connections[{i if connection_at is None else connection_at[i]}] ({si}.{sv} -> {di}.{dv})"

@@ -47,7 +47,7 @@ from pathlib import Path
 
 from . import evaluators as _ev
 from . import indicators as _ind
-from .spec import Study, StudyError, context_hash, point_id
+from .spec import Study, StudyError, check_scenario, context_hash, point_id
 
 META = ("valid", "t_invalid", "model", "error_P_m", "error_N_N", "error_method", "status", "message",
         "point", "point_id")
@@ -202,8 +202,6 @@ def _default_batch(n: int, workers: int) -> int:
 def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int | None = None,
               batch: int | None = None, retry_failed: bool = False, progress: bool = True,
               build_dir=None, plots: bool = True, log=None) -> Outcome:
-    from ..scenario import spec as _scen
-
     log = log or (lambda m: print(m, file=sys.stderr))
     wall0 = time.perf_counter()
     out_dir = Path(out_dir)
@@ -213,11 +211,8 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
 
     if study.case is not None:  # a built-in model case: its pseudo-scenario (instances, parameters)
         sc = _ev.CASES[study.case].scenario(study.set)
-    else:
-        try:
-            sc = _scen.load(study.scenario, study.set)
-        except _scen.ScenarioError as e:
-            raise StudyError(e.problems) from None
+    else:  # checked as `ballmill run` checks it, with every point's values, before any point runs
+        sc = check_scenario(study, build_dir, log)
     if study.stop is not None:
         if study.stop <= sc.start:
             raise StudyError([f"stop = {study.stop} s must be after the scenario's start {sc.start} s"])

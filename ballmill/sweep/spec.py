@@ -33,6 +33,12 @@ command-line options; both become a `Study`:
     window = ["after", "after+10"]          # numbers [s], "start", "after", "stop" or "inst.param",
                                             # each with an optional offset in seconds
 
+`check_scenario` loads the study's scenario and checks it, the fixed
+overrides and every point's values against the FMUs' model descriptions with
+the check `ballmill run` makes (ballmill.scenario.spec), before any point
+runs; each problem names where its value came from (the study file's key,
+--set, --grid or --range).
+
 `points()` lists the points in a fixed order (grid: the first key varies
 slowest; samples: from the seed), so a study gives the same points, indices
 and ids wherever it runs. A point's id hashes its parameter values; the
@@ -93,6 +99,9 @@ class Study:
     stop: float | None = None  # overrides the scenario's experiment stop [s]
     case: str | None = None  # a built-in model case instead of an FMU scenario (evaluators.CASES)
     mode: str | None = None  # the case's mode (absorber: steady, up, down, both)
+    # "inst.param" -> where a fixed or swept value came from ("--grid drive.t0=1,2", "FILE: set.ball.mu"),
+    # for the problems the checks report (not part of the context: it does not change the results)
+    origins: dict = field(default_factory=dict)
 
     @property
     def swept(self) -> list[str]:
@@ -153,39 +162,45 @@ def _scalar(text: str):
         return text
 
 
-def parse_values(key: str, spec, where: str) -> list:
-    """A grid axis: a list, or "start:stop:count", or "a,b,c"; raises StudyError."""
+def parse_values(key: str, spec, where: str, origin: str | None = None) -> list:
+    """A grid axis: a list, or "start:stop:count", or "a,b,c"; raises StudyError, each problem
+    led by ``origin`` (e.g. "--grid drive.t0=4:1:3"), default "WHERE: KEY"."""
+    at = origin or f"{where}: {key}"
     if isinstance(spec, list):
         values = spec
     elif isinstance(spec, dict) and set(spec) == {"start", "stop", "count"}:
-        values = _linspace(key, spec["start"], spec["stop"], spec["count"], where)
+        values = _linspace(key, spec["start"], spec["stop"], spec["count"], where, origin)
     elif isinstance(spec, str) and ":" in spec:
         parts = spec.split(":")
         if len(parts) != 3:
-            raise StudyError([f"{where}: {key}: expected start:stop:count, got {spec!r}"])
-        values = _linspace(key, _scalar(parts[0]), _scalar(parts[1]), _scalar(parts[2]), where)
+            raise StudyError([f"{at}: expected start:stop:count, got {spec!r}"])
+        values = _linspace(key, _scalar(parts[0]), _scalar(parts[1]), _scalar(parts[2]), where, origin)
     elif isinstance(spec, str):
         values = [_scalar(v) for v in spec.split(",") if v.strip()]
     else:
         values = [spec]
     if not values:
-        raise StudyError([f"{where}: {key}: no values"])
+        raise StudyError([f"{at}: no values"])
     for v in values:
         if isinstance(v, float) and not math.isfinite(v):
-            raise StudyError([f"{where}: {key}: values must be finite, got {v!r}"])
+            raise StudyError([f"{at}: values must be finite, got {v!r}"])
     if len(set(map(repr, values))) != len(values):
-        raise StudyError([f"{where}: {key}: repeated values in {values}"])
+        raise StudyError([f"{at}: repeated values in {values}"])
     return values
 
 
-def _linspace(key, start, stop, count, where):
+def _linspace(key, start, stop, count, where, origin=None):
+    at = origin or f"{where}: {key}"
     ok = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (start, stop)) and \
         isinstance(count, int) and not isinstance(count, bool) and count >= 1
     if not ok or not (math.isfinite(start) and math.isfinite(stop)):
-        raise StudyError([f"{where}: {key}: start:stop:count needs two finite numbers and a count >= 1, "
+        raise StudyError([f"{at}: start:stop:count needs two finite numbers and a count >= 1, "
                           f"got {start!r}:{stop!r}:{count!r}"])
     if count == 1:
         return [float(start)]
+    if not start < stop:  # a reversed range is most often a typo; an empty one gives one value count times
+        raise StudyError([f"{at}: start:stop:count needs start < stop ({'a reversed' if start > stop else 'an empty'} "
+                          f"range; list the values to sweep downwards), got {start!r}:{stop!r}:{count!r}"])
     return [float(v) for v in np.linspace(float(start), float(stop), count)]
 
 
@@ -203,10 +218,13 @@ def _window_ok(w) -> bool:
 
 def build(scenario: str, *, name: str | None = None, description: str = "", set_=(), grid=None,
           sample=None, model=None, indicators=(), source: Path | None = None, where: str = "study",
-          stop: float | None = None, case: str | None = None, mode: str | None = None) -> Study:
+          stop: float | None = None, case: str | None = None, mode: str | None = None,
+          origins: dict | None = None) -> Study:
     """A checked Study (StudyError lists every problem). ``case``: a built-in model case
     (`evaluators.CASES`, e.g. "absorber") instead of the FMU scenario ``scenario``; its
-    ``mode``, model settings and pseudo-parameters come from the case."""
+    ``mode``, model settings and pseudo-parameters come from the case. ``origins``:
+    "inst.param" -> where a fixed or swept value came from (the problems name it)."""
+    origins = dict(origins or {})
     problems: list[str] = []
     spec_case = None
     if case is not None:
@@ -233,7 +251,7 @@ def build(scenario: str, *, name: str | None = None, description: str = "", set_
         if not _check_key(key, where, problems):
             continue
         try:
-            g[key] = parse_values(key, spec, where)
+            g[key] = parse_values(key, spec, where, origins.get(key))
         except StudyError as e:
             problems += e.problems
     smp = None
@@ -324,7 +342,7 @@ def build(scenario: str, *, name: str | None = None, description: str = "", set_
         raise StudyError(problems)
     return Study(name=name or Path(str(scenario)).stem, scenario=str(scenario), description=description,
                  set=list(set_), grid=g, sample=smp, model=m, indicators=inds, source=source,
-                 stop=None if stop is None else float(stop), case=case, mode=mode)
+                 stop=None if stop is None else float(stop), case=case, mode=mode, origins=origins)
 
 
 def resolve_study(name_or_path: str) -> Path | None:
@@ -349,12 +367,18 @@ def load(name_or_path: str, *, set_=(), grid=None, sample=None, model=None, stop
     (overrides, appended), ``grid`` (axes, replacing the file's), ``sample``, ``model``,
     ``mode`` (a case study's mode, replacing the file's)."""
     path = resolve_study(name_or_path)
+    # where each value came from: the command line's options, else the study file's keys
+    cli = {**{k: f"--range {k}={_text(v, ':')}" for k, v in ((sample or {}).get("ranges") or {}).items()},
+           **{k: f"--grid {k}={_text(v, ',')}" for k, v in (grid or {}).items()}}
+    for text in set_:
+        if "=" in text and "." in text.split("=", 1)[0]:
+            cli[text.split("=", 1)[0].strip()] = f"--set {text}"
     if path is None:
         if mode is not None:
             raise StudyError([f"--mode {mode}: only a study of a built-in case (case = ...) has a mode"])
         _scen.resolve(name_or_path)  # a clear error when it is no scenario either
         return build(name_or_path, set_=list(set_), grid=grid, sample=sample, model=model, where="command line",
-                     stop=stop)
+                     stop=stop, origins=cli)
     where = path.as_posix()
     doc = tomllib.loads(path.read_text())
     unknown = set(doc) - {"description", "scenario", "case", "mode", "stop", "set", "grid", "sample", "model",
@@ -378,10 +402,34 @@ def load(name_or_path: str, *, set_=(), grid=None, sample=None, model=None, stop
         smp = {**(smp or {}), **sample, "ranges": {**((smp or {}).get("ranges") or {}), **sample.get("ranges", {})}}
         g = {} if not grid else g
     mdl = {**(doc.get("model") or {}), **(model or {})}
+    origins = {**{k: f"{where}: set.{k}" for k in (doc.get("set") or {})},
+               **{k: f"{where}: grid.{k}" for k in (doc.get("grid") or {})},
+               **{k: f"{where}: sample.ranges.{k}" for k in ((doc.get("sample") or {}).get("ranges") or {})}, **cli}
     return build(scen, name=path.stem, description=str(doc.get("description", "")), set_=fixed, grid=g,
                  sample=smp, model=mdl, indicators=doc.get("indicators", []), source=path, where=where,
                  stop=stop if stop is not None else doc.get("stop"), case=doc.get("case"),
-                 mode=mode if mode is not None else doc.get("mode"))
+                 mode=mode if mode is not None else doc.get("mode"), origins=origins)
+
+
+def _text(v, sep: str) -> str:
+    """A command-line value as the user types it (a list's items joined by ``sep``)."""
+    return sep.join(map(str, v)) if isinstance(v, (list, tuple)) else str(v)
+
+
+def check_scenario(study: Study, build_dir=None, log=None):
+    """The study's scenario (an FMU scenario, not a case), loaded and checked as `ballmill run`
+    checks it: the FMUs built if needed, the scenario, the fixed overrides and every point's
+    values against the model descriptions and the FMUs' rules; StudyError lists every problem,
+    each with where its value came from, before any point runs."""
+    from ..scenario import runner
+
+    log = log or (lambda m: None)
+    try:
+        sc, _, _ = runner.prepare(study.scenario, study.set, build_dir, log=lambda m: m.startswith("up to date")
+                                  or log(m), origins=study.origins, points=study.points())
+    except _scen.ScenarioError as e:
+        raise StudyError(e.problems) from None
+    return sc
 
 
 def _toml_value(v) -> str:

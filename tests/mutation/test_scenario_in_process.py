@@ -64,7 +64,7 @@ def exported(models):
 
 @pytest.mark.parametrize("override,fragment", [
     ("nosuch.r=0.02", "--set nosuch.r=0.02: no instance 'nosuch' (instances: drive, ball)"),
-    ("ball.rr=0.02", "instances.ball.parameters.rr"),
+    ("ball.rr=0.02", "--set ball.rr=0.02: BallInShell has no parameter 'rr'"),
     ("ball.formulation=vector", "expected a Integer value, got 'vector'"),
     ("t0=3", "--set 't0=3': expected instance.parameter=value, e.g. drive.t0=30"),
     ("drive=3", "expected instance.parameter=value"),

@@ -21,7 +21,8 @@ BALL = '[instances.b]\nfmu = "BallInShell"\n'
 
 
 def _var(name, causality, type_="Real", unit=None):
-    return SimpleNamespace(name=name, causality=causality, type=type_, unit=unit)
+    return SimpleNamespace(name=name, causality=causality, type=type_, unit=unit, start=None, min=None, max=None,
+                           variability="fixed" if causality == "parameter" else "continuous")
 
 
 def _models():

@@ -62,7 +62,6 @@ def test_scalar(text, value):
     ("40:80:5", [40.0, 50.0, 60.0, 70.0, 80.0]),
     (" 1 : 2 : 2 ", [1.0, 2.0]),
     ("0.5:1.5:1", [0.5]),
-    ("2:1:3", [2.0, 1.5, 1.0]),
     ("1,2.5,abc,true", [1, 2.5, "abc", True]),
     (",1,,2,", [1, 2]),
     ("7", [7]),
@@ -98,6 +97,10 @@ def test_grid_axes(given, values):
     ("1:nan:3", "W: drive.t0: start:stop:count needs two finite numbers and a count >= 1, got 1:nan:3"),
     ({"start": 1, "stop": 2, "count": 0},
      "W: drive.t0: start:stop:count needs two finite numbers and a count >= 1, got 1:2:0"),
+    ("2:1:3", "W: drive.t0: start:stop:count needs start < stop (a reversed range; list the values to sweep "
+              "downwards), got 2:1:3"),
+    ({"start": 1.5, "stop": 1.5, "count": 2}, "W: drive.t0: start:stop:count needs start < stop (an empty range; "
+                                              "list the values to sweep downwards), got 1.5:1.5:2"),
 ])
 def test_grid_axis_refusals(given, message):
     with pytest.raises(StudyError) as e:
@@ -115,7 +118,8 @@ def test_linspace_values():
     got = spec._linspace("k.p", 0, 1, 5, "W")
     assert got == [0.0, 0.25, 0.5, 0.75, 1.0] and all(type(v) is float for v in got)
     assert spec._linspace("k.p", 3, 9, 1, "W") == [3.0] and type(spec._linspace("k.p", 3, 9, 1, "W")[0]) is float
-    assert spec._linspace("k.p", 1.0, 1.0, 2, "W") == [1.0, 1.0]
+    with pytest.raises(StudyError):
+        spec._linspace("k.p", 1.0, 1.0, 2, "W")
     assert spec._linspace("k.p", -1, 1, 3, "W") == [-1.0, 0.0, 1.0]
 
 
