@@ -103,7 +103,7 @@ typedef struct {
     int has_t_prev;
     double t_prev;
     int confirmed_contact, confirmed_rolling;
-    int warned, resolution_warned, inconsistency_warned;
+    int warned, resolution_warned, inconsistency_warned, ignored_warned;
     double noise_sum; /* coupling_error's drift: sum of (da H)^2 */
     int has_a_mid;
     double a_mid[3]; /* (t, ax, ay) of the previous fit mid-way through its interval */
@@ -1003,22 +1003,26 @@ static fmi2Status init_error(fmu_instance *fi, const char *fmt, const char *deta
     return fmi2Error;
 }
 
-/* motion = 1 takes only a horizontal translation: a new input away from its default is
- * refused (ballinshell_fmu.BallInShell._check_translation's message in why), never ignored */
-static int translation_only(const double *v, char *why, size_t size)
+/* motion = 1 takes a horizontal translation: the inputs of motion = 2 (z1O..az1O, Omega,
+ * Omega_dot, Q) are ignored, whatever a master sets them to (FMI lets it set any input, and
+ * some masters set every one). The first one seen away from its default is named once, in
+ * case a chamber was meant to turn (ballinshell_fmu.BallInShell._note_ignored) */
+static void note_ignored(fmu_instance *fi, ball_in_shell *b, const double *v, double t)
 {
+    if (b->motion != 1 || b->ignored_warned) return;
     for (int i = 0; i < SAMPLE_VALUES - 7; i++) {
         const fmu_variable *var = &FMU_VARIABLES[MOTION_VR[i]];
         double x = v[MOTION_VR[i]];
         if (x == var->start) continue;
         char a[32], c[32];
         int unit = *var->unit && strcmp(var->unit, "1") != 0;
-        snprintf(why, size, "input %s = %s%s%s is away from its default %s, but motion = 1 (horizontal "
-                 "translation) does not use it: set motion = 2 for a chamber that moves vertically or turns",
-                 var->name, fmu_repr(x, a), unit ? " " : "", unit ? var->unit : "", fmu_repr(var->start, c));
-        return 1;
+        b->ignored_warned = 1;
+        fmu_log(fi, fmi2Warning, "BallInShell '%s': at t = %.9g s input %s = %s%s%s (default %s) is ignored: "
+                "motion = 1 (horizontal translation) uses x1O..ay1O only, not z1O..az1O, Omega, Omega_dot or Q; "
+                "set motion = 2 for a chamber that moves vertically or turns (said once)", fmu_instance_name(fi),
+                t, var->name, fmu_repr(x, a), unit ? " " : "", unit ? var->unit : "", fmu_repr(var->start, c));
+        return;
     }
-    return 0;
 }
 
 static int positive(fmu_instance *fi, const char *name, double x, const char *unit, int allow_zero)
@@ -1162,8 +1166,6 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
                      "3 (hold)", mode);
             return init_error(fi, msg, "");
         }
-    } else if (translation_only(v, msg, sizeof msg)) {
-        return init_error(fi, msg, "");
     }
     b->motion = motion;
     if (motion == 2) { /* turning.kernel.problem's parts: the integrator (G.base) and the constants */
@@ -1207,6 +1209,9 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
         b->state.y[3] = w0[0]; b->state.y[4] = w0[1]; b->state.y[5] = w0[2];
     }
     b->state.h = NAN;
+    /* restoring an FMU state: the configuration is all; the dynamic state, the inputs and the
+     * outputs are the state's (the check below makes sure they fit it) */
+    if (fmu_setup_kind(fi) == FMU_SETUP_RESTORE) return fmi2OK;
     b->n_samples = 0;
     b->has_fed = 0;
     b->h_next = 0.0;
@@ -1222,7 +1227,7 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
     b->hist[0] = b->state;
     b->has_t_prev = 0;
     b->confirmed_contact = b->confirmed_rolling = 1;
-    b->warned = b->resolution_warned = b->inconsistency_warned = 0;
+    b->warned = b->resolution_warned = b->inconsistency_warned = b->ignored_warned = 0;
     b->noise_sum = 0.0;
     b->has_a_mid = 0;
     v[VR_coupling_error] = 0.0;
@@ -1242,7 +1247,10 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
                      FMU_VARIABLES[i].name, fmu_repr(v[i], e[5]));
             return init_error(fi, msg, "");
         }
-    report(fi, b, v, t, o);
+    if (fmu_setup_kind(fi) == FMU_SETUP_START) { /* the start's messages, once, at the exit of initialisation */
+        note_ignored(fi, b, v, t);
+        report(fi, b, v, t, o);
+    }
     return fmi2OK;
 }
 
@@ -1268,7 +1276,6 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
                 fmu_repr(t, tc));
         return fmi2Discard;
     }
-    if (b->motion == 1 && translation_only(v, problem, sizeof problem)) return refuse_step(fi, t, problem);
     b->h_next = t_end - t; /* what the Python flavour computes (set_horizon(t_end - t)) */
     int pushed = recon_push(b, v, t, problem, sizeof problem);
     if (pushed < 0) return refuse_step(fi, t, problem);
@@ -1336,6 +1343,7 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
                 "how fast the platform motion changes; outputs between communication points carry errors "
                 "of that size (warned once)", fmu_instance_name(fi), t, coupling_error, v[VR_coupling_warn]);
     }
+    note_ignored(fi, b, v, t);
     if (pushed > 0) {
         if (!b->inconsistency_warned) {
             b->inconsistency_warned = 1;

@@ -136,7 +136,6 @@ class BallInShell(Slave):
             self._state = self._model.initial(self._inputs, self.xC0, self.yC0,
                                               (self.wx0, self.wy0, self.wz0), t0=self._time)
         else:
-            self._check_translation()
             self._state = self._model.initial(self.xC0, self.yC0, (self.wx0, self.wy0, self.wz0),
                                               t0=self._time)
             problem = self._inputs.push(*self._sample(self._time))
@@ -144,6 +143,7 @@ class BallInShell(Slave):
         self._history = [self._state]
         self._fed = None
         self._coupling_warned, self.coupling_error = False, 0.0
+        self._ignored_warned = False
         self.valid, self.t_invalid = True, NEVER
         self._confirmed = (True, True)
         self._t_prev = None
@@ -161,6 +161,7 @@ class BallInShell(Slave):
     def exit_initialization_mode(self):
         super().exit_initialization_mode()
         out = self._outputs_at(self._state, self._time)
+        self._note_ignored(self._time)
         self._report(self._time, None, out, (True, True))  # once, at the exit of initialisation mode
 
     def step_limit(self):
@@ -170,24 +171,27 @@ class BallInShell(Slave):
         names = BALL_ALL_INPUTS if self._general else INPUTS
         return (t,) + tuple(getattr(self, name) for name in names)
 
-    def _check_translation(self):
-        """motion = 1 takes only a horizontal translation: a new input away from its default
-        is refused (ValueError naming it), never ignored."""
-        if _MOTION_VALUES(self) == _MOTION_DEFAULTS:  # one comparison per step
+    def _note_ignored(self, t):
+        """motion = 1 takes a horizontal translation: the inputs of motion = 2 are ignored,
+        whatever a master sets them to (FMI lets it set any input, and some masters set every
+        one). The first one seen away from its default is named once, in case a chamber was
+        meant to turn."""
+        if self._general or self._ignored_warned or _MOTION_VALUES(self) == _MOTION_DEFAULTS:
             return
         for name in BALL_MOTION_INPUTS:
             v = getattr(self, name)
             if v != BALL_MOTION_START[name]:
                 unit = _UNITS[name]
                 unit = f" {unit}" if unit and unit != "1" else ""
-                raise ValueError(f"input {name} = {v!r}{unit} is away from its default "
-                                 f"{BALL_MOTION_START[name]!r}, but motion = 1 (horizontal translation) does "
-                                 f"not use it: set motion = 2 for a chamber that moves vertically or turns")
+                self._ignored_warned = True
+                self.warn(f"{self.who}: at t = {t:.9g} s input {name} = {v!r}{unit} (default "
+                          f"{BALL_MOTION_START[name]!r}) is ignored: motion = 1 (horizontal translation) uses "
+                          f"x1O..ay1O only, not z1O..az1O, Omega, Omega_dot or Q; set motion = 2 for a chamber "
+                          f"that moves vertically or turns (said once)")
+                return
 
     def step(self, t, t_end):
         try:
-            if not self._general:
-                self._check_translation()
             self._inputs.set_horizon(t_end - t)
             problem = self._inputs.push(*self._sample(t))
             accel = self._inputs.accel_function()
@@ -240,6 +244,7 @@ class BallInShell(Slave):
                       f"off by {self.coupling_error:.3g} m (> coupling_warn = {self.coupling_warn:g} m): the "
                       f"communication step is too long for how fast the platform motion changes; outputs "
                       f"between communication points carry errors of that size (warned once)")
+        self._note_ignored(t)
         if problem:
             if not self._inconsistency_warned:
                 self._inconsistency_warned = True
@@ -267,6 +272,7 @@ class BallInShell(Slave):
     _coupling_warned = False
     _resolution_warned = False
     _inconsistency_warned = False
+    _ignored_warned = False
     _noise_sum = 0.0
     _a_mid = None
     _fields = None
@@ -424,6 +430,7 @@ class BallInShell(Slave):
                 "t_prev": self._t_prev, "confirmed": list(self._confirmed),
                 "history": [st.to_dict() for st in self._history], "warned": self._coupling_warned,
                 "resolution_warned": self._resolution_warned, "inconsistency_warned": self._inconsistency_warned,
+                "ignored_warned": self._ignored_warned,
                 "noise_sum": self._noise_sum, "a_mid": None if self._a_mid is None else list(self._a_mid),
                 "fed": None if self._fed is None else list(self._fed)}
 
@@ -446,6 +453,7 @@ class BallInShell(Slave):
         self._coupling_warned = bool(s["warned"])
         self._resolution_warned = bool(s.get("resolution_warned", False))
         self._inconsistency_warned = bool(s.get("inconsistency_warned", False))
+        self._ignored_warned = bool(s.get("ignored_warned", False))
         noise_sum = s.get("noise_sum", 0.0)
         if not (isinstance(noise_sum, (int, float)) and math.isfinite(noise_sum) and noise_sum >= 0.0):
             raise ValueError(f"noise_sum = {noise_sum!r}: expected a finite number >= 0")

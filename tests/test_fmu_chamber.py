@@ -5,7 +5,8 @@ flavours (``built_fmus`` is parametrised over native and pythonfmu).
   sha256 of every original output at every communication point of four runs (input modes
   1, 2, 3, the paper formulation with losses; 0.8 s at 2 ms) is pinned to the digests of
   the build before issue 12 (commit 21eeab2, both flavours gave these same digests on
-  x86_64 glibc); and new inputs away from their defaults are refused, named, never ignored.
+  x86_64 glibc); and new inputs away from their defaults are ignored (a master may set any
+  input), named once.
 * motion = 2 with translation-only inputs (Omega = 0, Q = I, z1O = 0) is motion = 1 to
   round-off (a different fit of the same quintic), M_reaction = MO1z = motion 1's crank
   torque + MAz.
@@ -18,7 +19,6 @@ flavours (``built_fmus`` is parametrised over native and pythonfmu).
 from __future__ import annotations
 
 import hashlib
-import shutil
 import struct
 
 import numpy as np
@@ -88,42 +88,15 @@ def test_motion_1_is_the_fmu_of_before_bit_for_bit(built_fmus, opened, case):
 
 
 @pytest.mark.parametrize("name, value", [("Omega_z", 0.5), ("Q12", 0.1), ("z1O", 1e-3), ("az1O", -9.81)])
-def test_motion_1_refuses_new_inputs_away_from_their_defaults(built_fmus, opened, name, value):
-    from fmpy.fmi1 import FMICallException
-
-    # during stepping: the step is refused (fmi2Discard), the state kept; the default works again
-    inst = opened.open(built_fmus["BallInShell"], "m1refuse")
-    inst.set(**crank(0.0))
-    inst.initialize()
-    assert inst.fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=0.002) is None
-    before = inst.reals(OUTPUTS)
+def test_motion_1_ignores_new_inputs_away_from_their_defaults(built_fmus, opened, name, value):
+    """A master may set any input: set before the initialisation and kept, an input of
+    motion = 2 leaves the motion = 1 run as it is, bit for bit, and is named once."""
+    plain = run_crank(opened.open(built_fmus["BallInShell"], "m1plain"), OUTPUTS, steps=20)
+    inst = opened.open(built_fmus["BallInShell"], "m1ignore")
     inst.set(**{name: value})
-    with pytest.raises(FMICallException) as e:
-        inst.fmu.doStep(currentCommunicationPoint=0.002, communicationStepSize=0.002)
-    assert e.value.status == 2  # fmi2Discard
+    assert np.array_equal(run_crank(inst, OUTPUTS, steps=20), plain)
     text = " | ".join(m for _, m in inst.messages)
-    assert f"input {name} = {value!r}" in text and "set motion = 2" in text, text
-    assert inst.reals(OUTPUTS) == before
-    default = 1.0 if name in ("Q11", "Q22", "Q33") else 0.0
-    inst.set(**{name: default}, **crank(0.002))
-    inst.fmu.doStep(currentCommunicationPoint=0.002, communicationStepSize=0.002)
-
-
-def test_motion_1_refuses_new_inputs_at_initialisation(built_fmus):
-    from fmpy.fmi1 import FMICallException
-
-    inst = Instance(built_fmus["BallInShell"], "m1init")
-    inst.set(Omega_x=0.25)
-    inst.fmu.setupExperiment(startTime=0.0)
-    inst.fmu.enterInitializationMode()
-    with pytest.raises(FMICallException):
-        inst.fmu.exitInitializationMode()
-    text = " | ".join(m for _, m in inst.messages)
-    assert "input Omega_x = 0.25 rad/s is away from its default 0.0" in text and "set motion = 2" in text, text
-    # pythonfmu's refusal is fmi2Fatal: its instance is not touched again (docs/conformance.md)
-    if built_fmus["BallInShell"].parent.name != "pythonfmu":
-        inst.fmu.freeInstance()  # the native instance stays in initialisation mode, usable
-    shutil.rmtree(inst.unzipdir, ignore_errors=True)
+    assert text.count("is ignored") == 1 and f"input {name} = {value!r}" in text and "set motion = 2" in text, text
 
 
 # --------------------------------------------------- motion = 2 with a translation only

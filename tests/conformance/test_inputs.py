@@ -41,6 +41,39 @@ def test_a_constant_offset_of_x1O_changes_nothing_in_the_chamber_frame(open_fmu,
     assert out["valid"]
 
 
+MOTION_2_INPUTS = ("z1O", "vz1O", "az1O", "Omega_x", "Omega_y", "Omega_z", "Omega_dot_x", "Omega_dot_y",
+                   "Omega_dot_z", "Q11", "Q12", "Q13", "Q21", "Q22", "Q23", "Q31", "Q32", "Q33")
+UNUSED = {  # input_mode: the inputs the configuration does not use (motion = 1 uses x1O..ay1O at most)
+    1: MOTION_2_INPUTS,
+    2: MOTION_2_INPUTS + ("vx1O", "vy1O", "ax1O", "ay1O"),  # positions only
+}
+
+
+@pytest.mark.parametrize("mode", sorted(UNUSED))
+def test_a_master_that_sets_every_input_runs_as_if_it_had_not_set_the_unused_ones(open_fmu, mode):
+    """FMI lets a master set any input, and some set them all (to 0, say) before the first
+    step: with motion = 1 the chamber's vertical motion and rotation inputs, and with
+    input_mode = 2 the velocities and accelerations, are ignored, the run is the one without
+    them bit for bit, and the FMU says so in one log line at most (for motion = 2's inputs)."""
+    plain, st = run_ball(open_fmu, [H] * 100, input_mode=mode)
+    assert st == OK
+    fmu = open_fmu("BallInShell", input_mode=mode)
+    zeros = dict.fromkeys(UNUSED[mode], 0.0)
+    feed(fmu, 0.0)
+    assert fmu.set(**zeros) == OK
+    assert fmu.init() == OK, fmu.messages()
+    for k in range(100):
+        assert fmu.step(H) == OK, fmu.messages()
+        feed(fmu, fmu.time)
+        # and again mid-run, to other values (a turning chamber that motion = 1 cannot take)
+        assert fmu.set(**zeros if k < 50 else dict.fromkeys(UNUSED[mode], 0.5)) == OK
+    assert fmu.outputs() == plain.outputs()
+    assert fmu.get("valid")
+    ignored = [m for _, m in fmu.log if "is ignored" in m]
+    assert len(ignored) == 1 and "input Q11 = 0.0 (default 1.0) is ignored: motion = 1" in ignored[0], fmu.log
+    assert [m for _, m in plain.log if "is ignored" in m] == []
+
+
 def test_a_position_jump_is_flagged_and_does_not_enter_the_physics(open_fmu, base):
     fmu = open_fmu("BallInShell")
     feed(fmu, 0.0)
