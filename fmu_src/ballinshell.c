@@ -26,7 +26,7 @@
  * platform.py have them: an input history of `points` + 6 samples; the fit's nodes chosen
  * at least h/2 apart, newest first (one node: the newest sample's Taylor polynomial);
  * positions fitted relative to the newest node; mode 1 leaves out position (and velocity)
- * rows that round-off would spoil; mode 2 thins samples closer than s_res; mode 4 fits
+ * rows that round-off would spoil; mode 2 keeps every sample; mode 4 fits
  * measured accelerations; mode 1's consistency check flags (and on a jump restarts the
  * history); the corrector runs over all samples in the node window; coupling_error adds
  * the drift of input noise (modes 2, 4); the validity latch (valid, t_invalid); the work
@@ -309,13 +309,6 @@ static int recon_push(ball_in_shell *b, const double *v, double t, char *why, si
         if (b->n_samples) {
             prev = b->samples[b->n_samples - 1];
             has_prev = 1;
-        }
-        if (b->mode == 2 && b->n_samples > 1) { /* too close to its predecessor to resolve an acceleration */
-            const sample *l = &b->samples[b->n_samples - 1], *l2 = &b->samples[b->n_samples - 2];
-            double X = fmax(fmax(fmax(fabs(l2->x), fabs(l2->y)), fmax(fabs(l->x), fabs(l->y))),
-                            fmax(fabs(s.x), fabs(s.y)));
-            double s_res = sqrt(GAIN_POSITIONS * ulp(X) / A_RES);
-            if (l->t - l2->t < s_res) b->n_samples--;
         }
         if (b->n_samples == b->points + HISTORY_EXTRA) { /* the oldest leaves (before the append: the array holds no more) */
             memmove(b->samples, b->samples + 1, (size_t)(b->n_samples - 1) * sizeof(sample));
@@ -1312,15 +1305,26 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
         /* what the corrector cannot repair (input noise, modes 2 and 4): each step's change
          * of the fitted acceleration mid-way through the previous interval kicks the swing;
          * kicks add in quadrature (ballinshell_fmu.py) */
-        int idx[MAX_POINTS];
-        int measured = b->mode == 2 || b->mode == 4, full = recon_nodes(b, idx) == b->points;
+        int idx[MAX_POINTS], nn = recon_nodes(b, idx);
+        int measured = b->mode == 2 || b->mode == 4, full = nn == b->points;
         if (measured && full && b->has_a_mid && b->has_t_prev) {
             double nx, ny;
             recon_accel(&f, b->a_mid[0], &nx, &ny);
             noise_sum += (py_square(b->a_mid[1] - nx) + py_square(b->a_mid[2] - ny)) * py_square(t - b->t_prev);
         }
         double drift = b->R * (5.0 / 7.0) * sqrt(noise_sum) / (b->d * b->omega_small);
-        coupling_error = sqrt(step_error * step_error + drift * drift);
+        /* positions only (mode 2): their round-off, ulp(X) for positions of magnitude X, is
+         * up to GAIN_POSITIONS ulp(X) / hs^2 in the fitted acceleration (hs >= h/2, the node
+         * spacing), which over the step h moves the ball's centre by (5/7) a h^2 / 2 relative
+         * to the chamber: at most (R/d) (5/7) 2 GAIN_POSITIONS ulp(X) at the contact point */
+        double resolution = 0.0;
+        if (b->mode == 2) {
+            double X = 0.0;
+            for (int i = 0; i < nn; i++)
+                X = fmax(X, fmax(fabs(b->samples[idx[i]].x), fabs(b->samples[idx[i]].y)));
+            resolution = b->R / b->d * (5.0 / 7.0) * 2.0 * GAIN_POSITIONS * ulp(X);
+        }
+        coupling_error = sqrt(step_error * step_error + drift * drift + resolution * resolution);
     }
     /* the commit: nothing below fails */
     b->noise_sum = noise_sum;

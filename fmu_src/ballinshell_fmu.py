@@ -46,6 +46,7 @@ from ballmill.fmi.interface import (BALL_ALL_INPUTS, BALL_FEEDTHROUGH, BALL_IN_S
                                     BALL_MOTION_INPUTS, BALL_MOTION_START, BALL_OUTPUTS)
 from ballmill.fmi.slave import NEVER, Slave
 from ballmill.physics import Ball, BallModel, BallState, InputReconstruction
+from ballmill.physics.platform import GAIN_POSITIONS, ulp
 from ballmill.physics.turning.model import ChamberModel, evaluate_c
 from ballmill.physics.turning.reconstruction import ChamberReconstruction, centre
 
@@ -221,14 +222,24 @@ class BallInShell(Slave):
             # (modes 2 and 4, the measured-motion paths; in mode 1 a noisy input is flagged by the
             # consistency check instead). Only once the fits' degree is settled.
             measured = self._inputs.mode in ("positions", "accelerations")
-            full = len(self._inputs.nodes()) == self._inputs.points
+            nodes = self._inputs.nodes()
+            full = len(nodes) == self._inputs.points
             if measured and full and self._a_mid is not None and self._t_prev is not None:
                 tm, ox, oy = self._a_mid
                 nx, ny = accel(tm)
                 noise_sum += ((ox - nx) ** 2 + (oy - ny) ** 2) * (t - self._t_prev) ** 2
             ball = self._model.ball
             drift = self.R * (5.0 / 7.0) * math.sqrt(noise_sum) / (ball.d * ball.omega_small)
-            coupling_error = math.sqrt(step_error * step_error + drift * drift)
+            # positions only: their round-off, ulp(X) for positions of magnitude X, is up to
+            # GAIN_POSITIONS ulp(X) / hs^2 in the fitted acceleration (hs >= h/2, the node
+            # spacing), which over the step h moves the ball's centre by (5/7) a h^2 / 2
+            # relative to the chamber: at most (R/d) (5/7) 2 GAIN_POSITIONS ulp(X) at the
+            # contact point (a 1e6 m offset: 3.4e-8 m)
+            resolution = 0.0
+            if self._inputs.mode == "positions":
+                X = max(max(abs(smp[1]), abs(smp[2])) for smp in nodes)
+                resolution = self.R / ball.d * (5.0 / 7.0) * 2.0 * GAIN_POSITIONS * ulp(X)
+            coupling_error = math.sqrt(step_error * step_error + drift * drift + resolution * resolution)
         self._noise_sum = noise_sum
         if self._t_prev is not None and not self._general:  # this fit's a mid-way through the interval
             tm = 0.5 * (self._t_prev + t)
