@@ -169,6 +169,27 @@ def test_fig1_machine_against_the_library_converges_at_fourth_order(built_fmus, 
     assert errs[0] / errs[1] > 16.0 and errs[1] / errs[2] > 16.0, errs
 
 
+def test_the_library_says_where_validity_ended_as_the_fmu_does(built_fmus, opened):
+    """The Fig. 1 machine slips at 2.508 s and leaves the wall at 2.585 s: the library's
+    simulate_chamber says so (t_first_slip, t_first_flight, interpolated between its 10 ms
+    samples), and the FMU at 10 ms communication steps latches valid = false at the end of the
+    step in which the slip began and names the step in which contact was lost: the library's
+    times lie within those steps."""
+    import re
+
+    h = 0.01
+    lib = simulate_chamber(Ball(), Fig1Machine(), 10.0, h)
+    assert lib.success and not lib.valid
+    inst = opened.open(built_fmus["BallInShell"], "validity", motion=2)
+    _, rows, status = drive(inst, Fig1Machine(), R, h, 2.7, ["t_invalid"])
+    assert status == 0
+    t_invalid = rows[-1][0]
+    assert t_invalid - h < lib.t_invalid == lib.t_first_slip <= t_invalid
+    text = " | ".join(m for _, m in inst.messages)
+    a, b = map(float, re.search(r"contact lost between t = (\S+) s and (\S+) s", text).groups())
+    assert a < lib.t_first_flight <= b and b - a == pytest.approx(h)
+
+
 @pytest.mark.parametrize("parameters", [
     {}, {"integrator": 1, "tolerance": 1e-10}, {"integrator": 3, "input_mode": 3}, {"corrector": False},
 ], ids=["RK45", "DOP853", "RK4-hold", "no-corrector"])
