@@ -117,6 +117,28 @@ def test_flavours_agree_on_every_start_up_law(fmu_build_dir, law):
     assert r["T_drive"][half] == pytest.approx(j * wdd * w0 / t0, rel=1e-12)
     assert r["psi"][end] == pytest.approx(c * w0 * t0 + w0 * (3.0 - t0), rel=1e-12)
     assert r["psi_dot"][end] == pytest.approx(w0, rel=1e-12) and r["psi_ddot"][end] == 0.0
+    # at rest at t = 0, exactly (the quadratic law as the paper writes it, three terms of size
+    # w0 t0 / 3, cancelled to psi(0) = -8.9e-16 rad and y1O(0) = -4.4e-16 m)
+    assert (r["psi"][0], r["psi_dot"][0], r["x1O"][0], r["y1O"][0]) == (0.0, 0.0, 0.5, 0.0)
+
+
+def test_the_fig1_drive_and_the_library_start_exactly_at_rest(fmu_build_dir):
+    """Fig1Drive's cranks and frame on the paper's quadratic rise, and the library's laws, are at
+    rest at t = 0 exactly: psi = phi = 0, O on the x1 axis (y1O = 0, z1O = 0)."""
+    from fmpy import simulate_fmu
+
+    from ballmill.fmi.build import fmu_path
+    from ballmill.physics import CrankStartup
+    from ballmill.physics.drives.crank import rise_angle
+
+    start = {"law": 1, "frame_law": 1, "t0_frame": 1.0}
+    for f in ("native", "pythonfmu"):
+        r = simulate_fmu(str(fmu_path("Fig1Drive", fmu_build_dir, f)), stop_time=0.01, output_interval=0.01,
+                         start_values=start)
+        assert (r["psi"][0], r["phi"][0], r["y1O"][0], r["z1O"][0]) == (0.0, 0.0, 0.0, 0.0), f
+    for name in ("quadratic", "scurve", "linear", "quintic"):
+        assert rise_angle(name, 2.0 * np.pi, 2.5, 0.0)[:2] == (0.0, 0.0)
+        assert CrankStartup(law=name).state(0.0)[:2] == (0.5, 0.0)
 
 
 def test_flavours_agree_coupled_on_the_quintic_start(fmu_build_dir):
