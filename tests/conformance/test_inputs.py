@@ -173,8 +173,8 @@ def test_positions_far_from_the_origin_report_at_least_what_the_offset_costs(ope
     cover what the offset costs the contact point at every communication point (actual: the
     difference from the same run without the offset, 1e-10 .. 1e-8 m; reported at least 16
     times that, 3e-7 m at 1 s, against 6e-11 m without the offset). The history keeps every
-    sample: spreading the nodes to resolve the acceleration (once the rule) widened the
-    window to a second, cost 0.1 m over 2 s, and was reported as 0 m at t = 6 ms."""
+    sample: spreading the nodes to resolve the acceleration would widen the window to a
+    second and cost 0.1 m over 2 s, reported as 0 m at t = 6 ms."""
     runs = [open_fmu("BallInShell", input_mode=2) for _ in range(2)]
     offsets = (0.0, 1e6)
     for f, offset in zip(runs, offsets):

@@ -78,8 +78,8 @@ def test_a_replaced_sample_is_checked_against_the_one_before_it():
 @pytest.mark.parametrize("x", [0.0, 1e6])
 def test_every_mode_keeps_close_samples(mode, x):
     """No sample leaves the history for being close to its predecessor, whatever the
-    positions' magnitude (mode "positions" once removed those closer than
-    sqrt(187 ulp(X) / 1e-6 m/s2), 0.2 s at 1e6 m, which widened its window to a second)."""
+    positions' magnitude (removing those closer than sqrt(187 ulp(X) / 1e-6 m/s2), 0.2 s at
+    1e6 m, would widen mode "positions"' window to a second: platform.py's docstring)."""
     rec = InputReconstruction(mode, a_tol=1e300)
     for t in (10.0, 10.1, 10.10001, 10.2, 10.20001, 10.3):
         rec.push(t, x, 0.0)
