@@ -18,8 +18,8 @@ static inline void startup_angle(int law, double w0, double t0, double t, double
         out[0] = 0.0; out[1] = 0.0; out[2] = 0.0;
     } else if (law == STARTUP_QUADRATIC) {
         if (t <= t0) {
-            double u = 1.0 - t / t0;
-            out[0] = -w0 * pow(t - t0, 3.0) / (3.0 * t0 * t0) + w0 * t - w0 * t0 / 3.0;
+            double s = t / t0, u = 1.0 - s;
+            out[0] = w0 * t0 * s * s * (1.0 - s / 3.0); /* crank.rise_angle's form: 0 at t = 0 */
             out[1] = w0 * (1.0 - u * u);
             out[2] = 2.0 * w0 * u / t0;
         } else {

@@ -26,7 +26,7 @@
  * platform.py have them: an input history of `points` + 6 samples; the fit's nodes chosen
  * at least h/2 apart, newest first (one node: the newest sample's Taylor polynomial);
  * positions fitted relative to the newest node; mode 1 leaves out position (and velocity)
- * rows that round-off would spoil; mode 2 thins samples closer than s_res; mode 4 fits
+ * rows that round-off would spoil; mode 2 keeps every sample; mode 4 fits
  * measured accelerations; mode 1's consistency check flags (and on a jump restarts the
  * history); the corrector runs over all samples in the node window; coupling_error adds
  * the drift of input noise (modes 2, 4); the validity latch (valid, t_invalid); the work
@@ -103,7 +103,7 @@ typedef struct {
     int has_t_prev;
     double t_prev;
     int confirmed_contact, confirmed_rolling;
-    int warned, resolution_warned, inconsistency_warned;
+    int warned, resolution_warned, inconsistency_warned, ignored_warned;
     double noise_sum; /* coupling_error's drift: sum of (da H)^2 */
     int has_a_mid;
     double a_mid[3]; /* (t, ax, ay) of the previous fit mid-way through its interval */
@@ -309,13 +309,6 @@ static int recon_push(ball_in_shell *b, const double *v, double t, char *why, si
         if (b->n_samples) {
             prev = b->samples[b->n_samples - 1];
             has_prev = 1;
-        }
-        if (b->mode == 2 && b->n_samples > 1) { /* too close to its predecessor to resolve an acceleration */
-            const sample *l = &b->samples[b->n_samples - 1], *l2 = &b->samples[b->n_samples - 2];
-            double X = fmax(fmax(fmax(fabs(l2->x), fabs(l2->y)), fmax(fabs(l->x), fabs(l->y))),
-                            fmax(fabs(s.x), fabs(s.y)));
-            double s_res = sqrt(GAIN_POSITIONS * ulp(X) / A_RES);
-            if (l->t - l2->t < s_res) b->n_samples--;
         }
         if (b->n_samples == b->points + HISTORY_EXTRA) { /* the oldest leaves (before the append: the array holds no more) */
             memmove(b->samples, b->samples + 1, (size_t)(b->n_samples - 1) * sizeof(sample));
@@ -1003,22 +996,26 @@ static fmi2Status init_error(fmu_instance *fi, const char *fmt, const char *deta
     return fmi2Error;
 }
 
-/* motion = 1 takes only a horizontal translation: a new input away from its default is
- * refused (ballinshell_fmu.BallInShell._check_translation's message in why), never ignored */
-static int translation_only(const double *v, char *why, size_t size)
+/* motion = 1 takes a horizontal translation: the inputs of motion = 2 (z1O..az1O, Omega,
+ * Omega_dot, Q) are ignored, whatever a master sets them to (FMI lets it set any input, and
+ * some masters set every one). The first one seen away from its default is named once, in
+ * case a chamber was meant to turn (ballinshell_fmu.BallInShell._note_ignored) */
+static void note_ignored(fmu_instance *fi, ball_in_shell *b, const double *v, double t)
 {
+    if (b->motion != 1 || b->ignored_warned) return;
     for (int i = 0; i < SAMPLE_VALUES - 7; i++) {
         const fmu_variable *var = &FMU_VARIABLES[MOTION_VR[i]];
         double x = v[MOTION_VR[i]];
         if (x == var->start) continue;
         char a[32], c[32];
         int unit = *var->unit && strcmp(var->unit, "1") != 0;
-        snprintf(why, size, "input %s = %s%s%s is away from its default %s, but motion = 1 (horizontal "
-                 "translation) does not use it: set motion = 2 for a chamber that moves vertically or turns",
-                 var->name, fmu_repr(x, a), unit ? " " : "", unit ? var->unit : "", fmu_repr(var->start, c));
-        return 1;
+        b->ignored_warned = 1;
+        fmu_log(fi, fmi2Warning, "BallInShell '%s': at t = %.9g s input %s = %s%s%s (default %s) is ignored: "
+                "motion = 1 (horizontal translation) uses x1O..ay1O only, not z1O..az1O, Omega, Omega_dot or Q; "
+                "set motion = 2 for a chamber that moves vertically or turns (said once)", fmu_instance_name(fi),
+                t, var->name, fmu_repr(x, a), unit ? " " : "", unit ? var->unit : "", fmu_repr(var->start, c));
+        return;
     }
-    return 0;
 }
 
 static int positive(fmu_instance *fi, const char *name, double x, const char *unit, int allow_zero)
@@ -1162,8 +1159,6 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
                      "3 (hold)", mode);
             return init_error(fi, msg, "");
         }
-    } else if (translation_only(v, msg, sizeof msg)) {
-        return init_error(fi, msg, "");
     }
     b->motion = motion;
     if (motion == 2) { /* turning.kernel.problem's parts: the integrator (G.base) and the constants */
@@ -1207,6 +1202,9 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
         b->state.y[3] = w0[0]; b->state.y[4] = w0[1]; b->state.y[5] = w0[2];
     }
     b->state.h = NAN;
+    /* restoring an FMU state: the configuration is all; the dynamic state, the inputs and the
+     * outputs are the state's (the check below makes sure they fit it) */
+    if (fmu_setup_kind(fi) == FMU_SETUP_RESTORE) return fmi2OK;
     b->n_samples = 0;
     b->has_fed = 0;
     b->h_next = 0.0;
@@ -1222,7 +1220,7 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
     b->hist[0] = b->state;
     b->has_t_prev = 0;
     b->confirmed_contact = b->confirmed_rolling = 1;
-    b->warned = b->resolution_warned = b->inconsistency_warned = 0;
+    b->warned = b->resolution_warned = b->inconsistency_warned = b->ignored_warned = 0;
     b->noise_sum = 0.0;
     b->has_a_mid = 0;
     v[VR_coupling_error] = 0.0;
@@ -1242,7 +1240,10 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
                      FMU_VARIABLES[i].name, fmu_repr(v[i], e[5]));
             return init_error(fi, msg, "");
         }
-    report(fi, b, v, t, o);
+    if (fmu_setup_kind(fi) == FMU_SETUP_START) { /* the start's messages, once, at the exit of initialisation */
+        note_ignored(fi, b, v, t);
+        report(fi, b, v, t, o);
+    }
     return fmi2OK;
 }
 
@@ -1268,7 +1269,6 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
                 fmu_repr(t, tc));
         return fmi2Discard;
     }
-    if (b->motion == 1 && translation_only(v, problem, sizeof problem)) return refuse_step(fi, t, problem);
     b->h_next = t_end - t; /* what the Python flavour computes (set_horizon(t_end - t)) */
     int pushed = recon_push(b, v, t, problem, sizeof problem);
     if (pushed < 0) return refuse_step(fi, t, problem);
@@ -1305,15 +1305,26 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
         /* what the corrector cannot repair (input noise, modes 2 and 4): each step's change
          * of the fitted acceleration mid-way through the previous interval kicks the swing;
          * kicks add in quadrature (ballinshell_fmu.py) */
-        int idx[MAX_POINTS];
-        int measured = b->mode == 2 || b->mode == 4, full = recon_nodes(b, idx) == b->points;
+        int idx[MAX_POINTS], nn = recon_nodes(b, idx);
+        int measured = b->mode == 2 || b->mode == 4, full = nn == b->points;
         if (measured && full && b->has_a_mid && b->has_t_prev) {
             double nx, ny;
             recon_accel(&f, b->a_mid[0], &nx, &ny);
             noise_sum += (py_square(b->a_mid[1] - nx) + py_square(b->a_mid[2] - ny)) * py_square(t - b->t_prev);
         }
         double drift = b->R * (5.0 / 7.0) * sqrt(noise_sum) / (b->d * b->omega_small);
-        coupling_error = sqrt(step_error * step_error + drift * drift);
+        /* positions only (mode 2): their round-off, ulp(X) for positions of magnitude X, is
+         * up to GAIN_POSITIONS ulp(X) / hs^2 in the fitted acceleration (hs >= h/2, the node
+         * spacing), which over the step h moves the ball's centre by (5/7) a h^2 / 2 relative
+         * to the chamber: at most (R/d) (5/7) 2 GAIN_POSITIONS ulp(X) at the contact point */
+        double resolution = 0.0;
+        if (b->mode == 2) {
+            double X = 0.0;
+            for (int i = 0; i < nn; i++)
+                X = fmax(X, fmax(fabs(b->samples[idx[i]].x), fabs(b->samples[idx[i]].y)));
+            resolution = b->R / b->d * (5.0 / 7.0) * 2.0 * GAIN_POSITIONS * ulp(X);
+        }
+        coupling_error = sqrt(step_error * step_error + drift * drift + resolution * resolution);
     }
     /* the commit: nothing below fails */
     b->noise_sum = noise_sum;
@@ -1336,6 +1347,7 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
                 "how fast the platform motion changes; outputs between communication points carry errors "
                 "of that size (warned once)", fmu_instance_name(fi), t, coupling_error, v[VR_coupling_warn]);
     }
+    note_ignored(fi, b, v, t);
     if (pushed > 0) {
         if (!b->inconsistency_warned) {
             b->inconsistency_warned = 1;

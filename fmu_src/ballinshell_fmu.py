@@ -47,6 +47,7 @@ from ballmill.fmi.interface import (BALL_ALL_INPUTS, BALL_FEEDTHROUGH, BALL_IN_S
                                     MAX_INTERNAL_STEPS)
 from ballmill.fmi.slave import NEVER, Slave
 from ballmill.physics import Ball, BallModel, BallState, InputReconstruction
+from ballmill.physics.platform import GAIN_POSITIONS, ulp
 from ballmill.physics.turning.model import ChamberModel, evaluate_c
 from ballmill.physics.turning.reconstruction import ChamberReconstruction, centre
 
@@ -135,7 +136,6 @@ class BallInShell(Slave):
             self._state = self._model.initial(self._inputs, self.xC0, self.yC0,
                                               (self.wx0, self.wy0, self.wz0), t0=self._time)
         else:
-            self._check_translation()
             self._state = self._model.initial(self.xC0, self.yC0, (self.wx0, self.wy0, self.wz0),
                                               t0=self._time)
             problem = self._inputs.push(*self._sample(self._time))
@@ -143,6 +143,7 @@ class BallInShell(Slave):
         self._history = [self._state]
         self._fed = None
         self._coupling_warned, self.coupling_error = False, 0.0
+        self._ignored_warned = False
         self.valid, self.t_invalid = True, NEVER
         self._confirmed = (True, True)
         self._t_prev = None
@@ -160,6 +161,7 @@ class BallInShell(Slave):
     def exit_initialization_mode(self):
         super().exit_initialization_mode()
         out = self._outputs_at(self._state, self._time)
+        self._note_ignored(self._time)
         self._report(self._time, None, out, (True, True))  # once, at the exit of initialisation mode
 
     def step_limit(self):
@@ -169,24 +171,27 @@ class BallInShell(Slave):
         names = BALL_ALL_INPUTS if self._general else INPUTS
         return (t,) + tuple(getattr(self, name) for name in names)
 
-    def _check_translation(self):
-        """motion = 1 takes only a horizontal translation: a new input away from its default
-        is refused (ValueError naming it), never ignored."""
-        if _MOTION_VALUES(self) == _MOTION_DEFAULTS:  # one comparison per step
+    def _note_ignored(self, t):
+        """motion = 1 takes a horizontal translation: the inputs of motion = 2 are ignored,
+        whatever a master sets them to (FMI lets it set any input, and some masters set every
+        one). The first one seen away from its default is named once, in case a chamber was
+        meant to turn."""
+        if self._general or self._ignored_warned or _MOTION_VALUES(self) == _MOTION_DEFAULTS:
             return
         for name in BALL_MOTION_INPUTS:
             v = getattr(self, name)
             if v != BALL_MOTION_START[name]:
                 unit = _UNITS[name]
                 unit = f" {unit}" if unit and unit != "1" else ""
-                raise ValueError(f"input {name} = {v!r}{unit} is away from its default "
-                                 f"{BALL_MOTION_START[name]!r}, but motion = 1 (horizontal translation) does "
-                                 f"not use it: set motion = 2 for a chamber that moves vertically or turns")
+                self._ignored_warned = True
+                self.warn(f"{self.who}: at t = {t:.9g} s input {name} = {v!r}{unit} (default "
+                          f"{BALL_MOTION_START[name]!r}) is ignored: motion = 1 (horizontal translation) uses "
+                          f"x1O..ay1O only, not z1O..az1O, Omega, Omega_dot or Q; set motion = 2 for a chamber "
+                          f"that moves vertically or turns (said once)")
+                return
 
     def step(self, t, t_end):
         try:
-            if not self._general:
-                self._check_translation()
             self._inputs.set_horizon(t_end - t)
             problem = self._inputs.push(*self._sample(t))
             accel = self._inputs.accel_function()
@@ -216,14 +221,24 @@ class BallInShell(Slave):
             # (modes 2 and 4, the measured-motion paths; in mode 1 a noisy input is flagged by the
             # consistency check instead). Only once the fits' degree is settled.
             measured = self._inputs.mode in ("positions", "accelerations")
-            full = len(self._inputs.nodes()) == self._inputs.points
+            nodes = self._inputs.nodes()
+            full = len(nodes) == self._inputs.points
             if measured and full and self._a_mid is not None and self._t_prev is not None:
                 tm, ox, oy = self._a_mid
                 nx, ny = accel(tm)
                 noise_sum += ((ox - nx) ** 2 + (oy - ny) ** 2) * (t - self._t_prev) ** 2
             ball = self._model.ball
             drift = self.R * (5.0 / 7.0) * math.sqrt(noise_sum) / (ball.d * ball.omega_small)
-            coupling_error = math.sqrt(step_error * step_error + drift * drift)
+            # positions only: their round-off, ulp(X) for positions of magnitude X, is up to
+            # GAIN_POSITIONS ulp(X) / hs^2 in the fitted acceleration (hs >= h/2, the node
+            # spacing), which over the step h moves the ball's centre by (5/7) a h^2 / 2
+            # relative to the chamber: at most (R/d) (5/7) 2 GAIN_POSITIONS ulp(X) at the
+            # contact point (a 1e6 m offset: 3.4e-8 m)
+            resolution = 0.0
+            if self._inputs.mode == "positions":
+                X = max(max(abs(smp[1]), abs(smp[2])) for smp in nodes)
+                resolution = self.R / ball.d * (5.0 / 7.0) * 2.0 * GAIN_POSITIONS * ulp(X)
+            coupling_error = math.sqrt(step_error * step_error + drift * drift + resolution * resolution)
         self._noise_sum = noise_sum
         if self._t_prev is not None and not self._general:  # this fit's a mid-way through the interval
             tm = 0.5 * (self._t_prev + t)
@@ -239,6 +254,7 @@ class BallInShell(Slave):
                       f"off by {self.coupling_error:.3g} m (> coupling_warn = {self.coupling_warn:g} m): the "
                       f"communication step is too long for how fast the platform motion changes; outputs "
                       f"between communication points carry errors of that size (warned once)")
+        self._note_ignored(t)
         if problem:
             if not self._inconsistency_warned:
                 self._inconsistency_warned = True
@@ -266,6 +282,7 @@ class BallInShell(Slave):
     _coupling_warned = False
     _resolution_warned = False
     _inconsistency_warned = False
+    _ignored_warned = False
     _noise_sum = 0.0
     _a_mid = None
     _fields = None
@@ -423,6 +440,7 @@ class BallInShell(Slave):
                 "t_prev": self._t_prev, "confirmed": list(self._confirmed),
                 "history": [st.to_dict() for st in self._history], "warned": self._coupling_warned,
                 "resolution_warned": self._resolution_warned, "inconsistency_warned": self._inconsistency_warned,
+                "ignored_warned": self._ignored_warned,
                 "noise_sum": self._noise_sum, "a_mid": None if self._a_mid is None else list(self._a_mid),
                 "fed": None if self._fed is None else list(self._fed)}
 
@@ -445,6 +463,7 @@ class BallInShell(Slave):
         self._coupling_warned = bool(s["warned"])
         self._resolution_warned = bool(s.get("resolution_warned", False))
         self._inconsistency_warned = bool(s.get("inconsistency_warned", False))
+        self._ignored_warned = bool(s.get("ignored_warned", False))
         noise_sum = s.get("noise_sum", 0.0)
         if not (isinstance(noise_sum, (int, float)) and math.isfinite(noise_sum) and noise_sum >= 0.0):
             raise ValueError(f"noise_sum = {noise_sum!r}: expected a finite number >= 0")

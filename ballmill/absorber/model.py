@@ -60,6 +60,7 @@ from ballmill.physics import outputs as _out
 from ballmill.physics.equations import ROLLING_EPS, VectorFormulation, omega_dot, omega_dot_lossy
 from ballmill.physics.errors import ParameterError
 from ballmill.physics.integrators import Integrator
+from ballmill.physics.model import judge
 from ballmill.physics.params import Ball
 
 from .structure import NoExcitation, Structure, StructureModel
@@ -322,6 +323,12 @@ class AbsorberResult:
     message: str = "completed"
     steps: int = 0
     nfev: int = 0
+    # the ball's rolling model (`ballmill.physics.model.Trajectory`'s meaning; None: not
+    # judged, record = "motion" keeps no N)
+    valid: bool | None = None
+    t_invalid: float | None = None
+    t_first_slip: float | None = None
+    t_first_flight: float | None = None
 
     def __getitem__(self, key):
         return self.data[key]
@@ -353,7 +360,9 @@ def simulate_absorber(system: StructureBall, t_end: float, dt: float, state: Abs
     x_ref: typical structure displacement [m]; sets the absolute tolerances.
     Where the excitation has breakpoints (a ground record's samples) the
     integrator lands on each. Stops early with success False and the message
-    when a step fails.
+    when a step fails. With record "full" the result carries the ball's validity
+    (valid, t_invalid, t_first_slip, t_first_flight, and the message, as
+    `ballmill.physics.model.Trajectory`); success stays True when only that ended.
     """
     if record not in RECORDS:
         raise ValueError(f"record must be one of {RECORDS}, got {record!r}")
@@ -420,8 +429,10 @@ def simulate_absorber(system: StructureBall, t_end: float, dt: float, state: Abs
                 acc = c[3] * zs[:, off + j] if j == 0 else acc + c[3] * zs[:, off + j]
             pos.append(acc)
         data = {"xO": pos[0], "yO": pos[1]}
-    return AbsorberResult(times, zs, data, AbsorberState(float(times[-1]), zs[-1].copy(), h),
-                          success, message, steps, nfev)
+    result = AbsorberResult(times, zs, data, AbsorberState(float(times[-1]), zs[-1].copy(), h),
+                            success, message, steps, nfev)
+    judge(result, system.ball.mu)
+    return result
 
 
 def simulate_structure(structure: Structure, excitation, t_end: float, dt: float, tol: float = 1e-9,

@@ -129,8 +129,8 @@ static void bm_motion_state(const bm_problem *P, double t, double o[6])
             psi = 0.0; wd = 0.0; wdd = 0.0;
         } else if (law == BM_LAW_QUADRATIC) {
             if (t <= t0) {
-                double u = 1.0 - t / t0;
-                psi = -w0 * pow(t - t0, 3.0) / (3.0 * t0 * t0) + w0 * t - w0 * t0 / 3.0;
+                double s = t / t0, u = 1.0 - s;
+                psi = w0 * t0 * s * s * (1.0 - s / 3.0); /* crank.rise_angle's form: 0 at t = 0 */
                 wd = w0 * (1.0 - u * u);
                 wdd = 2.0 * w0 * u / t0;
             } else {
@@ -755,8 +755,8 @@ static void bmg_law(int law, const double *p, double t, double a[3])
     if (t < 0.0) {
         a[0] = 0.0; a[1] = 0.0; a[2] = 0.0;
     } else if (t <= t0) {
-        double u = 1.0 - t / t0;
-        a[0] = -w0 * pow(t - t0, 3.0) / (3.0 * t0 * t0) + w0 * t - w0 * t0 / 3.0;
+        double s = t / t0, u = 1.0 - s;
+        a[0] = w0 * t0 * s * s * (1.0 - s / 3.0); /* crank.rise_angle's form: 0 at t = 0 */
         a[1] = w0 * (1.0 - u * u);
         a[2] = 2.0 * w0 * u / t0;
     } else {

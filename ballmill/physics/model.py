@@ -174,7 +174,18 @@ class BallModel:
 
 @dataclass
 class Trajectory:
-    """Result of `simulate`: outputs on the time grid, like scipy's OdeResult."""
+    """Result of `simulate` (and of the turning model's `simulate_general`/`simulate_chamber`):
+    outputs on the time grid, like scipy's OdeResult.
+
+    ``success`` says whether the integration reached t_end (False: it stopped, ``message``
+    says where and why). It stays True when the rolling model stopped holding on the way:
+    the equations were integrated to the end, but past ``t_invalid`` they describe a ball
+    that slips or has left the wall, which it does not model (the BallInShell FMU's
+    ``valid``/``t_invalid``). That is said by ``valid`` (None when the run recorded no
+    outputs to judge), ``t_first_slip`` (rolling ended by slip, the ball still in contact),
+    ``t_first_flight`` (contact lost, N = 0) and ``t_invalid`` (the earlier of the two), in
+    seconds interpolated between the samples (`outputs.validity`), and ``message`` carries
+    it: "completed; rolling ended (slip) at t = 2.50811 s; contact lost at 2.58462 s"."""
 
     t: np.ndarray
     y: np.ndarray
@@ -182,9 +193,34 @@ class Trajectory:
     success: bool = True
     message: str = "completed"
     info: StepInfo | None = None
+    valid: bool | None = None
+    t_invalid: float | None = None
+    t_first_slip: float | None = None
+    t_first_flight: float | None = None
 
     def __getitem__(self, name):
         return self.out[name]
+
+    def judge(self, mu: float) -> "Trajectory":
+        """Set the validity attributes from the N and Ft outputs (friction coefficient mu) and
+        add what failed, and when, to the message; returns self. Without outputs: unjudged."""
+        judge(self, mu)
+        return self
+
+
+def judge(result, mu: float) -> None:
+    """The validity of a sampled run (`Trajectory`, the absorber's `AbsorberResult`): its
+    ``t`` and the ``N`` and ``Ft`` columns of its outputs (``out``, or ``data``) give
+    ``valid``, ``t_invalid``, ``t_first_slip``, ``t_first_flight`` (`outputs.validity`); what
+    failed is appended to ``message``. Left unjudged (valid None) without those outputs."""
+    cols = result.out if hasattr(result, "out") else result.data
+    if "N" not in cols or "Ft" not in cols or not len(result.t):
+        return
+    v = _out.validity(result.t, cols["N"], cols["Ft"], mu)
+    result.valid, result.t_invalid = v.valid, v.t_invalid
+    result.t_first_slip, result.t_first_flight = v.t_first_slip, v.t_first_flight
+    if not v.valid:
+        result.message = f"{result.message}; {v.describe()}"
 
 
 def simulate(model: BallModel, motion, t_end: float, dt: float, state: BallState | None = None,
@@ -192,7 +228,9 @@ def simulate(model: BallModel, motion, t_end: float, dt: float, state: BallState
     """Monolithic run: the ball driven by a platform motion with exact
     derivatives (``motion.state(t) -> (x, y, vx, vy, ax, ay)``), sampled every
     dt up to t_end. Stops early (success False, with the message) when the
-    formulation or the integrator gives up.
+    formulation or the integrator gives up. The result carries the rolling model's
+    validity (`Trajectory`: valid, t_invalid, t_first_slip, t_first_flight, and the
+    message); success stays True when only that ended.
 
     kernel: ``"auto"`` (default) runs in the compiled kernel (`ballmill.physics.fast`)
     when it is built and covers the run (vector formulation; CrankStartup, Fixed,
@@ -219,7 +257,7 @@ def simulate(model: BallModel, motion, t_end: float, dt: float, state: BallState
         if not why:
             ys, arr, success, message, last = fast.simulate(model, motion, times, state, outputs)
             out = {name: arr[:, j] for j, name in enumerate(_out.Outputs._fields)} if outputs else {}
-            return Trajectory(times[:last + 1], ys, out, success, message, model.info)
+            return Trajectory(times[:last + 1], ys, out, success, message, model.info).judge(model.ball.mu)
         if kernel == "c":
             raise fast.KernelUnavailable(f"simulate(kernel='c'): {why}")
     ys = np.empty((n_steps + 1, state.y.size))
@@ -242,7 +280,7 @@ def simulate(model: BallModel, motion, t_end: float, dt: float, state: BallState
     if outputs and outs:
         arr = np.array([tuple(o) for o in outs], dtype=float)
         out = {name: arr[:, j] for j, name in enumerate(_out.Outputs._fields)}
-    return Trajectory(times, ys, out, success, message, model.info)
+    return Trajectory(times, ys, out, success, message, model.info).judge(model.ball.mu)
 
 
 def _stopped(times, i, e) -> str:

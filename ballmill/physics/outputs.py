@@ -1,4 +1,5 @@
-"""What the model reports: contact point, forces, torques, validity, energy.
+"""What the model reports: contact point, forces, torques, validity, energy; and, over a
+sampled run, where its validity ended (`validity`).
 
 All from the state (n, omega) and the platform's motion at the same instant
 (docs/design.md section 3). Pure functions; no integration here.
@@ -7,6 +8,8 @@ from __future__ import annotations
 
 import math
 from typing import NamedTuple
+
+import numpy as np
 
 from .equations import loss_constants, omega_dot, omega_dot_lossy
 from .params import Ball
@@ -159,3 +162,62 @@ def energy(ball: Ball, n, w, vx: float = 0.0, vy: float = 0.0) -> float:
 def spin(n, w) -> float:
     """Spin about the normal, omega . n [rad/s]: constant for any platform motion."""
     return n[0] * w[0] + n[1] * w[1] + n[2] * w[2]
+
+
+# ----------------------------------------------------------------------------- validity
+def first_failure(t, margin):
+    """Time where a validity margin (N, or mu N - |F_t|) first drops to <= 0, by linear
+    interpolation between the samples; None if it never does (the first sample's time if it
+    starts there)."""
+    k = np.flatnonzero(np.asarray(margin) <= 0.0)
+    if not k.size:
+        return None
+    i = int(k[0])
+    if i == 0:
+        return float(t[0])
+    a, b = margin[i - 1], margin[i]
+    return float(t[i - 1] + (t[i] - t[i - 1]) * a / (a - b))
+
+
+class Validity(NamedTuple):
+    """Where a run's rolling model stopped holding, from its sampled outputs (the BallInShell
+    FMU's validity signals, judged the same way: contact = N > 0, rolling = contact and
+    |F_t| <= mu N), the times interpolated linearly between the samples where the margin
+    (N, resp. mu N - |F_t|) changes sign (as the scenario report's first failures)."""
+
+    t_first_slip: float | None  # rolling ended by slip, the ball still in contact [s]; None: it did not
+    t_first_flight: float | None  # contact lost, N reached 0 [s]; None: never
+
+    @property
+    def valid(self) -> bool:
+        return self.t_first_slip is None and self.t_first_flight is None
+
+    @property
+    def t_invalid(self) -> float | None:
+        """The end of the model's validity: the earlier of the two [s]; None while valid."""
+        times = [x for x in (self.t_first_slip, self.t_first_flight) if x is not None]
+        return min(times) if times else None
+
+    def describe(self) -> str:
+        """'rolling ended (slip) at t = 2.50811 s; contact lost at 2.58462 s', or '' while valid."""
+        parts = []
+        if self.t_first_slip is not None:
+            parts.append(f"rolling ended (slip) at t = {self.t_first_slip:.6g} s")
+        if self.t_first_flight is not None:
+            parts.append(f"contact lost at {'t = ' if not parts else ''}{self.t_first_flight:.6g} s")
+        return "; ".join(parts)
+
+
+def validity(t, N, Ft, mu: float) -> Validity:
+    """`Validity` of outputs sampled at times t: N [N], |F_t| [N], friction coefficient mu.
+    Slip counts only where the ball is still in contact at the sample where rolling fails
+    (a ball that leaves the wall stops rolling by losing contact, said by t_first_flight)."""
+    t = np.asarray(t, dtype=float)
+    N = np.asarray(N, dtype=float)
+    rolling_margin = np.where(N > 0.0, mu * N - np.asarray(Ft, dtype=float), N)
+    t_slip = None
+    k = np.flatnonzero(rolling_margin <= 0.0)
+    if k.size and N[k[0]] > 0.0:
+        i = int(k[0])
+        t_slip = first_failure(t[max(i - 1, 0):i + 1], rolling_margin[max(i - 1, 0):i + 1])
+    return Validity(t_slip, first_failure(t, N))

@@ -32,10 +32,16 @@ The step-size policy of the fit (docs/conformance.md, "reconstruction"):
   of the older nodes are left out when the round-off of the positions,
   6 ulp(X) / w^2 (X the largest |x| of the nodes, w the window span), would
   exceed A_RES = 1e-6 m/s2 of acceleration (the fit then takes v and a), and
-  the velocity rows too when 4 ulp(V) / w > A_RES; in mode "positions" the
-  newest history sample, when closer than s_res = sqrt(187 ulp(X) / A_RES) to
-  the one before it (X over those two and the new sample), leaves the history
-  when the next sample arrives (187: the 6-node quintic's noise gain);
+  the velocity rows too when 4 ulp(V) / w > A_RES; in mode "positions" every
+  sample stays, whatever the positions' magnitude: the round-off of positions
+  far from the origin, amplified in the fitted acceleration (by up to
+  187 ulp(X) / h^2 for the 6-node quintic at node spacing h), is integrated
+  twice back into the ball's motion, where it costs little (the contact point
+  moves by 2e-9 m for a 1e6 m offset at 2 ms), and the fit's changes from step
+  to step enter coupling_error's drift; spreading the nodes to keep that
+  acceleration error below A_RES would widen the window to about a second at
+  1e6 m, and its truncation error, which no estimate sees, is then 1e8 times
+  larger (docs/coupling.md);
 * consistency (mode "derivatives"): each new sample k is checked against the
   previous one with the Euler-Maclaurin residual
   r = x_k - x_{k-1} - H (v_{k-1} + v_k)/2 + H^2 (a_k - a_{k-1})/12 per axis
@@ -199,11 +205,6 @@ class InputReconstruction(SampleHistory):
             prev = self.samples[-2] if len(self.samples) > 1 else None
         else:
             prev = self.samples[-1] if self.samples else None
-            if self.mode == "positions" and len(self.samples) > 1:
-                X = max(abs(v) for smp in self.samples[-2:] + [sample] for v in smp[1:3])
-                s_res = math.sqrt(GAIN_POSITIONS * ulp(X) / A_RES)
-                if self.samples[-1][0] - self.samples[-2][0] < s_res:
-                    del self.samples[-1]  # too close to its predecessor to resolve an acceleration
             self.samples.append(sample)
             if len(self.samples) > self.points + HISTORY_EXTRA:
                 del self.samples[0]

@@ -23,6 +23,8 @@ import math
 
 import numpy as np
 
+from ballmill.physics.outputs import first_failure  # noqa: F401 (the validity margins' zero, written once)
+
 N_BANDS, N_SECTORS = 40, 32  # 1280 cells of 0.61 dm^2 (side ~25 mm on R = 0.25 m)
 N_CELLS = N_BANDS * N_SECTORS
 
@@ -60,19 +62,6 @@ def visited_curve(u) -> np.ndarray:
             count += 1
         out[i] = count / N_CELLS
     return out
-
-
-def first_failure(t, margin):
-    """Time where a validity margin (N, or mu N - |F_t|) first drops to <= 0, by linear
-    interpolation between the samples; None if it never does."""
-    k = np.flatnonzero(np.asarray(margin) <= 0.0)
-    if not k.size:
-        return None
-    i = int(k[0])
-    if i == 0:
-        return float(t[0])
-    a, b = margin[i - 1], margin[i]
-    return float(t[i - 1] + (t[i] - t[i - 1]) * a / (a - b))
 
 
 def hemisphere_xy(u, upper: bool):

@@ -222,6 +222,20 @@ the noise and never under-reports it. With measured accelerations it is
 about twice the largest measured error; with positions only it is a loose
 upper bound (about 50 times), the warning sign that the inputs are too noisy
 to differentiate: there 1 um of noise already costs 43 N of normal force.
+
+**Positions far from the origin (input_mode 2).** Positions given in map
+coordinates, say 1e6 m from the origin, carry a round-off of ulp(1e6 m) =
+1.2e-10 m, which the quintic amplifies into the fitted acceleration like
+noise (up to 187 ulp(X) / H^2: 5e-3 m/s2 at 2 ms). Integrated back into the
+ball's motion it costs little: over 2 s of the fast start at 2 ms the contact
+point moves by 1e-10 .. 1e-8 m against the same run at the origin, and N by
+1e-4 N. coupling_error covers it at every communication point (it adds the
+round-off's worst effect over a step, (R/(R - r)) (5/7) 2 * 187 ulp(X), 3.4e-8 m
+here, to the corrector's estimate and the drift; 3e-14 m near the origin, where
+it changes nothing that shows). Every sample is used: spreading the fit's
+nodes until the round-off alone stays below 1e-6 m/s2 would widen the window
+to a second at 1e6 m, and its truncation error, invisible to the estimate,
+would cost 0.1 m of contact point over 2 s (5e-3 m reported).
 """
 
 

@@ -55,6 +55,7 @@ struct fmu_instance {
     unsigned char *data; /* the model's data */
     double *v_work;      /* scratch copies for steps */
     double call_t, call_h; /* the arguments of the fmi2DoStep being run */
+    fmu_setup_kind_t setup_kind; /* why setup runs (fmu_setup_kind) */
     unsigned char *data_work;
 };
 
@@ -73,6 +74,8 @@ static const char *state_name(fmu_state s)
 
 /* ------------------------------------------------------------------ logging */
 const char *fmu_instance_name(const fmu_instance *fi) { return fi->name; }
+
+fmu_setup_kind_t fmu_setup_kind(const fmu_instance *fi) { return fi->setup_kind; }
 
 double fmu_step_call(const fmu_instance *fi, char buf[160])
 {
@@ -216,7 +219,7 @@ static fmi2Status check_outputs(fmu_instance *fi, const double *v, double t)
 }
 
 /* setup on the work copies from the current values; committed on success */
-static fmi2Status build(fmu_instance *fi)
+static fmi2Status build(fmu_instance *fi, fmu_setup_kind_t kind)
 {
     size_t nv = (size_t)FMU_MODEL.n_vars * sizeof(double);
     memcpy(fi->v_work, fi->v, nv);
@@ -224,6 +227,7 @@ static fmi2Status build(fmu_instance *fi)
     /* the declared bounds of every parameter first (docs/conformance.md), then the
      * model's own checks (its messages say what the physics needs) */
     fmi2Status s = check_parameters(fi, fi->v);
+    fi->setup_kind = kind;
     if (s == fmi2OK) s = FMU_MODEL.setup(fi, fi->data_work, fi->v_work, fi->t_start);
     if (s > fmi2Warning || check_outputs(fi, fi->v_work, fi->t_start) != fmi2OK) {
         memcpy(fi->data_work, fi->data, FMU_MODEL.data_size); /* keep the copies equal */
@@ -346,7 +350,7 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c)
 {
     fmu_instance *fi = c;
     if (!allowed(fi, "fmi2ExitInitializationMode", S_INIT)) return fmi2Error;
-    fmi2Status s = build(fi);
+    fmi2Status s = build(fi, FMU_SETUP_START);
     if (s > fmi2Warning) return fmi2Error; /* stays in initialisation mode: fix the parameters and retry */
     fi->state = S_STEP_COMPLETE;
     return s;
@@ -402,7 +406,7 @@ static fmi2Status get_values(fmu_instance *fi, const char *function, const fmi2V
     if (nvr && (!vr || !out)) return fmi2Error;
     for (size_t i = 0; i < nvr; i++)
         if (check_vr(fi, function, vr[i], type) != fmi2OK) return fmi2Error;
-    if (fi->state == S_INIT && build(fi) > fmi2Warning) /* outputs consistent with the inputs set so far */
+    if (fi->state == S_INIT && build(fi, FMU_SETUP_PREVIEW) > fmi2Warning) /* outputs consistent with the inputs set so far */
         return fmi2Error;
     for (size_t i = 0; i < nvr; i++) out[i] = fi->v[vr[i]];
     return fmi2OK;
@@ -786,6 +790,7 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state)
         memcpy(fi->v_work, v, nv);
         memset(fi->data_work, 0, FMU_MODEL.data_size);
         if (check_parameters(fi, v) != fmi2OK) goto refused;
+        fi->setup_kind = FMU_SETUP_RESTORE;
         if (FMU_MODEL.setup(fi, fi->data_work, fi->v_work, h.t_start) > fmi2Warning) goto refused;
         memcpy(fi->v_work, v, nv); /* outputs and inputs as they were saved */
         memcpy(fi->data_work + FMU_MODEL.dyn_offset, data + FMU_MODEL.dyn_offset,

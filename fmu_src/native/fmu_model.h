@@ -45,7 +45,10 @@ typedef struct {
     size_t dyn_offset; /* the dynamic state starts here */
     /* Build the configuration from the parameters in v (bounds already checked) and the
      * start state at time t; publish the outputs at t from the inputs in v.
-     * fmi2OK, or fmi2Error after fmu_log said why. */
+     * fmi2OK, or fmi2Error after fmu_log said why. fmu_setup_kind says why it runs: the
+     * start (its messages belong to fmi2ExitInitializationMode only), or the configuration
+     * alone for fmi2SetFMUstate (the dynamic state, the outputs and the inputs then come
+     * from the FMU state: nothing about the start is computed, checked or logged). */
     fmi2Status (*setup)(fmu_instance *fi, void *data, double *v, double t);
     /* One communication step t -> t_end (t the instance's time, t_end = the master's
      * currentCommunicationPoint + communicationStepSize > t: what the Python flavour's
@@ -81,6 +84,14 @@ const char *fmu_instance_name(const fmu_instance *fi);
  * "doStep(currentCommunicationPoint = <tc> s, communicationStepSize = <h> s)" in buf
  * unless buf is NULL (formatting costs microseconds: only for messages) */
 double fmu_step_call(const fmu_instance *fi, char buf[160]);
+
+/* why setup runs: FMU_SETUP_START at fmi2ExitInitializationMode (the start state, its
+ * outputs, checks and messages); FMU_SETUP_PREVIEW for a read in initialisation mode (the
+ * same outputs from the inputs set so far; a failure is reported, the start's warnings are
+ * left to fmi2ExitInitializationMode); FMU_SETUP_RESTORE in fmi2SetFMUstate (the
+ * configuration from the state's parameters only) */
+typedef enum { FMU_SETUP_START, FMU_SETUP_PREVIEW, FMU_SETUP_RESTORE } fmu_setup_kind_t;
+fmu_setup_kind_t fmu_setup_kind(const fmu_instance *fi);
 
 /* x as Python's repr(float) writes it (1.0, 0.3, 1e-05, nan, inf), for messages */
 const char *fmu_repr(double x, char buf[32]);

@@ -41,6 +41,39 @@ def test_a_constant_offset_of_x1O_changes_nothing_in_the_chamber_frame(open_fmu,
     assert out["valid"]
 
 
+MOTION_2_INPUTS = ("z1O", "vz1O", "az1O", "Omega_x", "Omega_y", "Omega_z", "Omega_dot_x", "Omega_dot_y",
+                   "Omega_dot_z", "Q11", "Q12", "Q13", "Q21", "Q22", "Q23", "Q31", "Q32", "Q33")
+UNUSED = {  # input_mode: the inputs the configuration does not use (motion = 1 uses x1O..ay1O at most)
+    1: MOTION_2_INPUTS,
+    2: MOTION_2_INPUTS + ("vx1O", "vy1O", "ax1O", "ay1O"),  # positions only
+}
+
+
+@pytest.mark.parametrize("mode", sorted(UNUSED))
+def test_a_master_that_sets_every_input_runs_as_if_it_had_not_set_the_unused_ones(open_fmu, mode):
+    """FMI lets a master set any input, and some set them all (to 0, say) before the first
+    step: with motion = 1 the chamber's vertical motion and rotation inputs, and with
+    input_mode = 2 the velocities and accelerations, are ignored, the run is the one without
+    them bit for bit, and the FMU says so in one log line at most (for motion = 2's inputs)."""
+    plain, st = run_ball(open_fmu, [H] * 100, input_mode=mode)
+    assert st == OK
+    fmu = open_fmu("BallInShell", input_mode=mode)
+    zeros = dict.fromkeys(UNUSED[mode], 0.0)
+    feed(fmu, 0.0)
+    assert fmu.set(**zeros) == OK
+    assert fmu.init() == OK, fmu.messages()
+    for k in range(100):
+        assert fmu.step(H) == OK, fmu.messages()
+        feed(fmu, fmu.time)
+        # and again mid-run, to other values (a turning chamber that motion = 1 cannot take)
+        assert fmu.set(**zeros if k < 50 else dict.fromkeys(UNUSED[mode], 0.5)) == OK
+    assert fmu.outputs() == plain.outputs()
+    assert fmu.get("valid")
+    ignored = [m for _, m in fmu.log if "is ignored" in m]
+    assert len(ignored) == 1 and "input Q11 = 0.0 (default 1.0) is ignored: motion = 1" in ignored[0], fmu.log
+    assert [m for _, m in plain.log if "is ignored" in m] == []
+
+
 def test_a_position_jump_is_flagged_and_does_not_enter_the_physics(open_fmu, base):
     fmu = open_fmu("BallInShell")
     feed(fmu, 0.0)
@@ -132,3 +165,28 @@ def test_positions_only_with_noise_report_at_least_their_error(open_fmu, base, s
     err = _contact_error(fmu.outputs(), base)
     assert err > 10 * sigma  # the noise really shows (amplified)
     assert worst >= err
+
+
+def test_positions_far_from_the_origin_report_at_least_what_the_offset_costs(open_fmu):
+    """input_mode = 2 with x1O a position in map coordinates, 1e6 m from the origin: its
+    round-off (ulp = 1.2e-10 m) enters the fit's acceleration amplified; coupling_error must
+    cover what the offset costs the contact point at every communication point (actual: the
+    difference from the same run without the offset, 1e-10 .. 1e-8 m; reported at least 16
+    times that, 3e-7 m at 1 s, against 6e-11 m without the offset). The history keeps every
+    sample: spreading the nodes to resolve the acceleration would widen the window to a
+    second and cost 0.1 m over 2 s, reported as 0 m at t = 6 ms."""
+    runs = [open_fmu("BallInShell", input_mode=2) for _ in range(2)]
+    offsets = (0.0, 1e6)
+    for f, offset in zip(runs, offsets):
+        feed(f, 0.0, offset)
+        assert f.init() == OK
+    for _ in range(500):
+        for f, offset in zip(runs, offsets):
+            assert f.step(H) == OK
+            feed(f, f.time, offset)
+        plain, far = (f.outputs() for f in runs)
+        actual = _contact_error(far, plain)
+        assert far["coupling_error"] >= actual, (runs[1].time, actual, far["coupling_error"])
+    assert 1e-10 < actual < 1e-7  # the offset does cost something, and little (1.4e-9 m)
+    assert far["coupling_error"] < 1e-6
+    assert far["valid"] and "coupling_warn" not in runs[1].messages()

@@ -331,7 +331,9 @@ def _project(y):
 def simulate_general(model: ChamberModel, motion: ChamberMotion, t_end: float, dt: float,
                      state: BallState | None = None, outputs: bool = True, kernel: str | None = None) -> Trajectory:
     """Monolithic run of the general model, sampled every dt; stops early (success False,
-    with the message) when a step fails. ``kernel`` (default: the model's) as ChamberModel."""
+    with the message) when a step fails. ``kernel`` (default: the model's) as ChamberModel.
+    The result carries the rolling model's validity (`Trajectory`: valid, t_invalid,
+    t_first_slip, t_first_flight, and the message); success stays True when only that ended."""
     from . import kernel as fast_turning
 
     if not (dt > 0 and math.isfinite(dt)):
@@ -349,7 +351,7 @@ def simulate_general(model: ChamberModel, motion: ChamberMotion, t_end: float, d
         if not why:
             ys, arr, success, message, last = fast_turning.simulate(model, motion, times, state, outputs)
             out = _columns(arr) if outputs else {}
-            return Trajectory(times[:last + 1], ys, out, success, message, model.info)
+            return Trajectory(times[:last + 1], ys, out, success, message, model.info).judge(model.ball.mu)
         if kernel == "c":
             raise fast_turning.KernelUnavailable(f"simulate_general(kernel='c'): {why}")
     ys = np.empty((n_steps + 1, 6))
@@ -366,7 +368,7 @@ def simulate_general(model: ChamberModel, motion: ChamberMotion, t_end: float, d
         if outputs:
             outs.append(tuple(model.outputs(state, motion)))
     out = _columns(np.array(outs, dtype=float)) if outputs and outs else {}
-    return Trajectory(times[:last + 1], ys[:last + 1], out, success, message, model.info)
+    return Trajectory(times[:last + 1], ys[:last + 1], out, success, message, model.info).judge(model.ball.mu)
 
 
 def _columns(arr) -> dict:
@@ -392,7 +394,10 @@ def simulate_chamber(ball: Ball, motion: ChamberMotion, t_end: float, dt: float,
     no vertical motion) runs on the translation-only model (model.simulate, exactly as
     before: it does not pay for the general model); any other motion on `ChamberModel`.
     The ball starts at (xC0, yC0) in the chamber's axes, at rest relative to the chamber
-    plus w_rel (for a Translation: absolute angular velocity w_rel, as BallModel.initial)."""
+    plus w_rel (for a Translation: absolute angular velocity w_rel, as BallModel.initial).
+    Both carry the rolling model's validity (`Trajectory`: valid, t_invalid, t_first_slip,
+    t_first_flight; "completed; rolling ended (slip) at t = ... s; contact lost at ... s"):
+    success says only that the integration reached t_end."""
     if not motion.rotates:
         bm = BallModel(ball, method=method, tol=tol, h_fixed=h_fixed, h_max=h_max, kernel=kernel)
         traj = simulate(bm, motion.platform, t_end, dt, bm.initial(xC0, yC0, tuple(w_rel)), kernel=kernel)
