@@ -413,6 +413,21 @@ class Slave(Fmi2Slave):
             self.valid, self.t_invalid = False, float(t)
             self.warn(f"{self.who}: valid = false from t = {t:.9g} s (latched until reset): {reason}")
 
+    # -- serialised FMU states (state_to_bytes, state_from_bytes) ---------------
+    # pythonfmu calls these two on the class (no instance: the message names the model)
+    @classmethod
+    def _fmu_state_to_bytes(cls, state) -> bytes:
+        return state_to_bytes(state)
+
+    @classmethod
+    def _fmu_state_from_bytes(cls, blob) -> dict:
+        """fmi2DeSerializeFMUstate: the state, or Refused naming what failed."""
+        try:
+            return state_from_bytes(blob)
+        except ValueError as e:
+            raise Refused(f"{cls.__name__}: fmi2DeSerializeFMUstate: FMU state refused, the instance keeps its "
+                          f"state: {e}") from None
+
     # -- state save/restore ------------------------------------------------
     def internal_state(self) -> dict:
         """Subclasses: everything beyond the registered variables, as plain data."""
@@ -467,20 +482,6 @@ class Slave(Fmi2Slave):
             if not isinstance(internal, dict):
                 raise ValueError("the internal state is missing")
             self.restore_internal_state(copy.deepcopy(internal))
-
-    # pythonfmu calls these two on the class (no instance: the message names the model)
-    @classmethod
-    def _fmu_state_to_bytes(cls, state) -> bytes:
-        return state_to_bytes(state)
-
-    @classmethod
-    def _fmu_state_from_bytes(cls, blob) -> dict:
-        """fmi2DeSerializeFMUstate: the state, or Refused naming what failed."""
-        try:
-            return state_from_bytes(blob)
-        except ValueError as e:
-            raise Refused(f"{cls.__name__}: fmi2DeSerializeFMUstate: FMU state refused, the instance keeps its "
-                          f"state: {e}") from None
 
     def _set_fmu_state(self, state):
         """The one restore path (fmi2SetFMUstate, also after fmi2DeSerializeFMUstate):
