@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import ctypes
 import math
+import zlib
 
 import pytest
 from fmpy.fmi1 import FMICallException
@@ -138,13 +139,19 @@ def test_fmu_states_from_elsewhere_are_refused(opened, fmus_of):
         assert info.value.status == ERROR
         assert fragment in _errors(inst)[-1], _errors(inst)[-1]
 
-    refused(blob[:100], "shorter than a state header")
+    refused(blob[:100], "size 100, shorter than a state header and its checksum (164 bytes)")
     bad = bytearray(blob)
     bad[0] ^= 0xFF
-    refused(bad, "not a ballmill FMU state")
-    refused(blob, "a state of another model", inst=drive)
-    refused(blob + b"\0", "size does not match")
+    refused(bad, "magic '?allmill', expected 'ballmill': not a ballmill FMU state")
+    refused(blob, "model 'BallInShell', expected 'MotorStartup'", inst=drive)
+    refused(blob + b"\0", f"size {len(blob) + 1}, expected {len(blob)} (the size its header gives)")
     assert ball.get("xC") == before
+
+
+def _sealed(blob: bytearray) -> bytes:
+    """A native state with its checksum made right again (docs/conformance.md: the CRC-32 of
+    every byte before the last 4, little-endian), so that the check of what it holds is reached."""
+    return bytes(blob[:-4]) + zlib.crc32(bytes(blob[:-4])).to_bytes(4, "little")
 
 
 def test_a_state_with_impossible_parameters_is_refused_instance_unchanged(opened, fmus_of):
@@ -156,7 +163,10 @@ def test_a_state_with_impossible_parameters_is_refused_instance_unchanged(opened
     at = bytes(blob).find(bytes(r))
     assert at > 0 and names.index("r") == 0
     blob[at:at + 8] = bytes(ctypes.c_double(-1.0))
-    state = ball.fmu.deSerializeFMUstate(bytes(blob))  # the format is right: it loads
+    with pytest.raises(FMICallException):  # a changed byte: the checksum refuses it
+        ball.fmu.deSerializeFMUstate(bytes(blob))
+    assert "checksum mismatch" in _errors(ball)[-1]
+    state = ball.fmu.deSerializeFMUstate(_sealed(blob))  # the format is right: it loads
     before = ball.get("xC")
     with pytest.raises(FMICallException) as info:
         ball.fmu.setFMUstate(state)

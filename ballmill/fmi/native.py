@@ -1,8 +1,9 @@
 """Build the native (C) flavour of the FMUs: no Python inside, only libc and libm.
 
-Each native FMU is the FMI plumbing written once (fmu_src/native/fmi2.c and its
-contract fmu_native/fmu_model.h), one C file for the model (next to its pythonfmu
-adapter: fmu_src/ballinshell.c, drive_models/*.c) and, for the ball, the compiled
+Each native FMU is the FMI plumbing written once (fmu_src/native/fmi2.c, its
+contract fmu_src/native/fmu_model.h, the FMU state's layout and check fmu_state.c/.h),
+one C file for the model (next to its pythonfmu adapter: fmu_src/ballinshell.c,
+drive_models/*.c) and, for the ball, the compiled
 kernel (ballmill/physics/_kernel.c, #included). What a build step can make is made
 here from the one declaration (ballmill/fmi/interface.py), never checked in: the
 model description and the header of value references and variable table
@@ -71,13 +72,14 @@ def fmi_headers_dir() -> Path:
 def source_files(name: str, model_source: Path | None = None) -> list[Path]:
     """Every file a native FMU is built from (its sources/ folder, less the generated headers)."""
     hdr = fmi_headers_dir()
-    return ([PLUMBING / "fmi2.c", PLUMBING / "fmu_model.h", model_source or MODEL_SOURCES[name], KERNEL]
+    return ([PLUMBING / "fmi2.c", PLUMBING / "fmu_state.c", PLUMBING / "fmu_model.h", PLUMBING / "fmu_state.h",
+             model_source or MODEL_SOURCES[name], KERNEL]
             + MODEL_HEADERS.get(name, []) + [hdr / h for h in FMI_HEADERS])
 
 
 def compiled_units(name: str, model_source: Path | None = None) -> list[str]:
     """The files a compiler compiles (SourceFiles); the kernel is #included by the models that use it."""
-    return ["fmi2.c", (model_source or MODEL_SOURCES[name]).name]
+    return ["fmi2.c", "fmu_state.c", (model_source or MODEL_SOURCES[name]).name]
 
 
 def guid(interface: Interface, sources: list[Path]) -> str:

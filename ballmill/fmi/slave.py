@@ -24,6 +24,9 @@ It owns, once for every FMU (docs/conformance.md):
   model's name, a format number, every variable and the internal state; it is
   validated, the model is rebuilt from the restored parameters, and anything
   wrong restores the instance as it was and refuses the call;
+* the serialised form of an FMU state (`state_to_bytes`, `state_from_bytes`): a
+  header line with the format number, the state as JSON, and a CRC-32 of all of it,
+  so that a state with any byte changed is refused before it is parsed;
 * the validity latch (outputs ``valid`` and ``t_invalid``, `Slave.invalidate`).
 
 Everything here is FMI plumbing: no physics.
@@ -31,8 +34,10 @@ Everything here is FMI plumbing: no physics.
 from __future__ import annotations
 
 import copy
+import json
 import math
 import re
+import zlib
 from xml.etree.ElementTree import Element, SubElement
 
 from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
@@ -49,9 +54,47 @@ _TYPES = {float: Real, int: Integer, bool: Boolean}
 # the FMU's time t_c and a doStep's currentCommunicationPoint agree when they differ
 # by at most T_REL max(1 s, |t_c|) (a master's own time arithmetic)
 T_REL = 1e-13
-STATE_FORMAT = 2  # version of the FMU-state layout (`Slave._get_fmu_state`)
+STATE_FORMAT = 3  # version of the FMU-state layout (`Slave._get_fmu_state`, `state_to_bytes`)
+STATE_MAGIC = b"ballmill FMU state, format "  # a serialised state's first line: this, the format, LF
 BIG = 1e300  # stands for +-infinity in outputs (FMI tools choke on inf); see `Slave.finite`
 NEVER = 1e300  # t_invalid while the model is valid
+
+
+def state_to_bytes(state: dict) -> bytes:
+    """A serialised FMU state: the line ``ballmill FMU state, format 3`` (LF), the state as
+    JSON, and the CRC-32 (zlib.crc32) of every byte before it, 4 bytes little-endian."""
+    body = STATE_MAGIC + str(STATE_FORMAT).encode() + b"\n" + json.dumps(state).encode()
+    return body + zlib.crc32(body).to_bytes(4, "little")
+
+
+def state_from_bytes(blob: bytes) -> dict:
+    """The state in a serialised FMU state, or ValueError naming what failed: not a
+    ballmill state, another format version, a checksum mismatch (any byte changed), JSON
+    that does not parse. What the state holds is checked when it is set (`Slave`)."""
+    blob = bytes(blob)
+    head = blob.split(b"\n", 1)[0]
+    if not head.startswith(STATE_MAGIC):
+        try:  # format 2 and older: the JSON alone, its format inside
+            old = json.loads(blob)
+        except ValueError:
+            old = None
+        if isinstance(old, dict) and "__format__" in old:
+            raise ValueError(f"format version {old['__format__']!r}, expected {STATE_FORMAT}")
+        raise ValueError(f"it begins with {blob[:len(STATE_MAGIC)]!r}, expected {STATE_MAGIC!r}: "
+                         f"not a ballmill FMU state")
+    version = head[len(STATE_MAGIC):]
+    if version != str(STATE_FORMAT).encode():
+        raise ValueError(f"format version {version[:20].decode('ascii', 'replace')}, expected {STATE_FORMAT}")
+    if len(blob) < len(head) + 1 + 4:
+        raise ValueError(f"size {len(blob)} bytes, shorter than its header line and checksum")
+    stored, computed = int.from_bytes(blob[-4:], "little"), zlib.crc32(blob[:-4])
+    if stored != computed:
+        raise ValueError(f"checksum mismatch: stored 0x{stored:08x}, computed 0x{computed:08x} (the state was "
+                         f"changed after it was serialised)")
+    try:
+        return json.loads(blob[len(head) + 1:-4])
+    except ValueError as e:
+        raise ValueError(f"its JSON does not parse: {e}") from None
 
 
 class Refused(ValueError):
@@ -369,6 +412,21 @@ class Slave(Fmi2Slave):
         if self.valid:
             self.valid, self.t_invalid = False, float(t)
             self.warn(f"{self.who}: valid = false from t = {t:.9g} s (latched until reset): {reason}")
+
+    # -- serialised FMU states (state_to_bytes, state_from_bytes) ---------------
+    # pythonfmu calls these two on the class (no instance: the message names the model)
+    @classmethod
+    def _fmu_state_to_bytes(cls, state) -> bytes:
+        return state_to_bytes(state)
+
+    @classmethod
+    def _fmu_state_from_bytes(cls, blob) -> dict:
+        """fmi2DeSerializeFMUstate: the state, or Refused naming what failed."""
+        try:
+            return state_from_bytes(blob)
+        except ValueError as e:
+            raise Refused(f"{cls.__name__}: fmi2DeSerializeFMUstate: FMU state refused, the instance keeps its "
+                          f"state: {e}") from None
 
     # -- state save/restore ------------------------------------------------
     def internal_state(self) -> dict:

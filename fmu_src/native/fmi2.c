@@ -3,8 +3,8 @@
  * Written once for all models (fmu_model.h is the contract): the fmi2 functions, one
  * state machine that checks every call against the instance's state, logging,
  * parameter bounds, atomic steps (a refused step keeps the last good state), and FMU
- * states with their serialisation (validated before use: size, magic, version, model
- * identity, configuration). Nothing here knows physics.
+ * states with their serialisation (layout, checksum and check in fmu_state.c; restored
+ * states are rebuilt and checked like at initialisation). Nothing here knows physics.
  *
  * Semantics (FMI 2.0, section 4.2.4 for the allowed calls):
  *   - a call that is not allowed in the instance's state: fmi2Error, "fmi2X is not
@@ -32,6 +32,7 @@
 #include <string.h>
 
 #include "fmu_model.h"
+#include "fmu_state.h"
 
 typedef enum {
     S_INSTANTIATED = 1,
@@ -690,80 +691,22 @@ fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2Stri
 }
 
 /* ------------------------------------------------------------------ FMU states */
-#define BLOB_MAGIC "ballmill"
-#define BLOB_VERSION 1u
-
-/* An FMU state is one block: this header, the values v[], the model's data. Serialised,
- * it is the same bytes (same machine and build: the model identity includes the GUID). */
-typedef struct {
-    char magic[8];
-    uint32_t version;
-    uint32_t n_vars;
-    uint64_t data_size;
-    uint64_t total_size;
-    char identifier[32];
-    char guid[64];
-    int32_t state, built;
-    double t_start, t;
-} blob_header;
-
-static size_t blob_size(void)
-{
-    return sizeof(blob_header) + (size_t)FMU_MODEL.n_vars * sizeof(double) + FMU_MODEL.data_size;
-}
-
-static void blob_identity(blob_header *h)
-{
-    memset(h, 0, sizeof *h);
-    memcpy(h->magic, BLOB_MAGIC, 8);
-    h->version = BLOB_VERSION;
-    h->n_vars = (uint32_t)FMU_MODEL.n_vars;
-    h->data_size = FMU_MODEL.data_size;
-    h->total_size = blob_size();
-    strncpy(h->identifier, FMU_MODEL.identifier, sizeof h->identifier - 1);
-    strncpy(h->guid, FMU_MODEL.guid, sizeof h->guid - 1);
-}
-
-/* '' when the bytes are a state of this model, else why not */
-static const char *blob_invalid(const unsigned char *bytes, size_t size)
-{
-    blob_header ref, h;
-    if (!bytes) return "no state given (NULL)";
-    if (size < sizeof h) return "it is shorter than a state header";
-    memcpy(&h, bytes, sizeof h);
-    blob_identity(&ref);
-    if (memcmp(h.magic, ref.magic, 8) != 0) return "it is not a ballmill FMU state (wrong magic)";
-    if (h.version != ref.version) return "it was written by another version of the FMU state format";
-    if (strncmp(h.identifier, ref.identifier, sizeof h.identifier) != 0) return "it is a state of another model";
-    if (strncmp(h.guid, ref.guid, sizeof h.guid) != 0) return "it is a state of another build of this model (GUID differs)";
-    if (h.n_vars != ref.n_vars || h.data_size != ref.data_size || h.total_size != ref.total_size || size != ref.total_size)
-        return "its size does not match this model's";
-    if (!(h.state == S_INSTANTIATED || h.state == S_INIT || h.state == S_STEP_COMPLETE ||
-          h.state == S_STEP_FAILED || h.state == S_TERMINATED))
-        return "its instance state is not one a state can be taken in";
-    if (!(isfinite(h.t_start) && isfinite(h.t))) return "its times are not finite";
-    return "";
-}
+/* The layout, checksum and check of a state are fmu_state.c's; here: which instance states
+ * a state may carry, and what the fmi2 calls do with one. */
+#define FMI_VERSION 2u
+#define STATE_PHASES (S_INSTANTIATED | S_INIT | S_STEP_COMPLETE | S_STEP_FAILED | S_TERMINATED)
 
 fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state)
 {
     fmu_instance *fi = c;
     if (!allowed(fi, "fmi2GetFMUstate", ANY_STATE)) return fmi2Error;
     if (!state) return fmi2Error;
-    unsigned char *b = *state ? *state : malloc(blob_size()); /* a given state is overwritten */
+    unsigned char *b = *state ? *state : malloc(fmu_state_size()); /* a given state is overwritten */
     if (!b) {
         fmu_log(fi, fmi2Error, "%s '%s': fmi2GetFMUstate: out of memory", FMU_MODEL.identifier, fi->name);
         return fmi2Error;
     }
-    blob_header h;
-    blob_identity(&h);
-    h.state = fi->state;
-    h.built = fi->built;
-    h.t_start = fi->t_start;
-    h.t = fi->t;
-    memcpy(b, &h, sizeof h);
-    memcpy(b + sizeof h, fi->v, (size_t)FMU_MODEL.n_vars * sizeof(double));
-    memcpy(b + sizeof h + (size_t)FMU_MODEL.n_vars * sizeof(double), fi->data, FMU_MODEL.data_size);
+    fmu_state_write(b, FMI_VERSION, (int32_t)fi->state, fi->built, fi->t_start, fi->t, fi->v, fi->data);
     *state = b;
     return fmi2OK;
 }
@@ -773,16 +716,16 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state)
     fmu_instance *fi = c;
     const unsigned char *b = state;
     if (!allowed(fi, "fmi2SetFMUstate", ANY_STATE)) return fmi2Error;
-    const char *why = blob_invalid(b, b ? blob_size() : 0);
-    if (*why) {
+    char why[FMU_STATE_WHY];
+    if (fmu_state_check(b, fmu_state_size(), FMI_VERSION, STATE_PHASES, 0, why)) {
         fmu_log(fi, fmi2Error, "%s '%s': fmi2SetFMUstate: state refused, instance unchanged: %s",
                 FMU_MODEL.identifier, fi->name, why);
         return fmi2Error;
     }
-    blob_header h;
-    memcpy(&h, b, sizeof h);
-    const double *v = (const double *)(b + sizeof h);
-    const unsigned char *data = b + sizeof h + (size_t)FMU_MODEL.n_vars * sizeof(double);
+    fmu_state_header h;
+    fmu_state_header_of(b, &h);
+    const double *v = fmu_state_values(b);
+    const unsigned char *data = fmu_state_data(b);
     size_t nv = (size_t)FMU_MODEL.n_vars * sizeof(double);
     if (h.built) {
         /* the configuration is rebuilt from the state's parameters (checked like at
@@ -803,7 +746,7 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state)
         memcpy(fi->v_work, v, nv);
     }
     memcpy(fi->v, fi->v_work, nv);
-    fi->state = (fmu_state)h.state;
+    fi->state = (fmu_state)h.phase;
     fi->built = h.built;
     fi->t_start = h.t_start;
     fi->t = h.t;
@@ -831,7 +774,7 @@ fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate state, size_
     fmu_instance *fi = c;
     (void)state;
     if (!allowed(fi, "fmi2SerializedFMUstateSize", ANY_STATE) || !size) return fmi2Error;
-    *size = blob_size();
+    *size = fmu_state_size();
     return fmi2OK;
 }
 
@@ -839,14 +782,19 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate state, fmi2Byte s
 {
     fmu_instance *fi = c;
     if (!allowed(fi, "fmi2SerializeFMUstate", ANY_STATE)) return fmi2Error;
-    const char *why = blob_invalid(state, blob_size());
-    if (!*why && size < blob_size()) why = "the buffer is smaller than fmi2SerializedFMUstateSize";
-    if (*why || !serializedState) {
-        fmu_log(fi, fmi2Error, "%s '%s': fmi2SerializeFMUstate: %s", FMU_MODEL.identifier, fi->name,
-                *why ? why : "no buffer given");
+    char why[FMU_STATE_WHY];
+    if (!fmu_state_check(state, fmu_state_size(), FMI_VERSION, STATE_PHASES, 0, why)) {
+        if (!serializedState) snprintf(why, sizeof why, "no buffer given");
+        else if (size < fmu_state_size())
+            snprintf(why, sizeof why, "the buffer has %zu bytes, fewer than fmi2SerializedFMUstateSize = %zu", size,
+                     fmu_state_size());
+    }
+    if (*why) {
+        fmu_log(fi, fmi2Error, "%s '%s': fmi2SerializeFMUstate: %s", FMU_MODEL.identifier, fi->name, why);
         return fmi2Error;
     }
-    memcpy(serializedState, state, blob_size());
+    memcpy(serializedState, state, fmu_state_size());
+    fmu_state_seal((unsigned char *)serializedState); /* the checksum: only serialised states carry it */
     return fmi2OK;
 }
 
@@ -855,8 +803,8 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedSta
 {
     fmu_instance *fi = c;
     if (!allowed(fi, "fmi2DeSerializeFMUstate", ANY_STATE) || !state) return fmi2Error;
-    const char *why = blob_invalid((const unsigned char *)serializedState, size);
-    if (*why) {
+    char why[FMU_STATE_WHY];
+    if (fmu_state_check((const unsigned char *)serializedState, size, FMI_VERSION, STATE_PHASES, 1, why)) {
         fmu_log(fi, fmi2Error, "%s '%s': fmi2DeSerializeFMUstate: state refused: %s", FMU_MODEL.identifier,
                 fi->name, why);
         return fmi2Error;

@@ -73,6 +73,7 @@ import sys
 import json
 sys.path.insert(0, sys.argv[1])
 from tests.conformance.harness import Fmu
+from ballmill.fmi.slave import state_from_bytes, state_to_bytes
 path, model, edit = sys.argv[2], sys.argv[3], sys.argv[4]
 fmu = Fmu(path, "victim")
 if model == "BallInShell":
@@ -81,9 +82,12 @@ assert fmu.init() == 0, fmu.messages()
 for _ in range(3):
     assert fmu.step(1e-3) == 0
 before = fmu.outputs()
-state = json.loads(fmu.serialize(fmu.get_state()).decode())
-exec(edit)
-st, s = fmu.deserialize(json.dumps(state).encode())
+blob = fmu.serialize(fmu.get_state())
+state = state_from_bytes(blob)
+exec(edit)  # edits the state (serialised again, with its checksum) or the bytes themselves
+if not edit.startswith("blob"):
+    blob = state_to_bytes(state)
+st, s = fmu.deserialize(blob)
 st2 = fmu.set_state(s) if st == 0 else None
 alive = not fmu.dead
 finish({"deserialize": st, "set": st2, "same": alive and fmu.outputs() == before,
@@ -100,6 +104,11 @@ EDITS = {
     "bad_type": ("InductionMotor", "state['model'] = 'dq'", "wrong type"),
     "drive_state": ("InductionMotor", "state['__internal__']['z'] = [0.0]", "drive state"),
     "nan_time": ("MotorStartup", "state['__time__'] = None", "time must be finite"),
+    # the bytes themselves (every byte: tests/test_fmu_state_bytes.py)
+    "flipped_bit": ("BallInShell", "blob = blob[:200] + bytes([blob[200] ^ 4]) + blob[201:]", "checksum mismatch"),
+    "flipped_checksum": ("Structure", "blob = blob[:-1] + bytes([blob[-1] ^ 1])", "checksum mismatch"),
+    "format_2": ("MotorStartup", "blob = json.dumps(dict(state, __format__=2)).encode()",
+                 "format version 2, expected 3"),
 }
 
 
@@ -109,7 +118,8 @@ def test_an_invalid_state_blob_is_refused_and_the_instance_keeps_its_state(fmus,
     if flavour.name == "native":
         pytest.skip("these edits are of pythonfmu's JSON state; the native flavour's binary states "
                     "are validated the same way in tests/test_native_fmi.py (foreign, short, "
-                    "corrupted, impossible parameters, impossible ball state)")
+                    "corrupted, impossible parameters, impossible ball state) and "
+                    "tests/test_fmu_state_bytes.py (every byte changed)")
     model, edit, expected = EDITS[case]
     res = run_host(SCRIPT, [ROOT, fmus[model], model, edit], tmp_path / "result.json", cwd=ROOT)
     assert res["deserialize"] == flavour.refusal or res["set"] == flavour.refusal, res

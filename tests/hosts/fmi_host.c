@@ -2,7 +2,8 @@
  *
  * No Python, no LD_PRELOAD: it dlopens the FMU's binary, and `cycles` times instantiates
  * it, runs `steps` communication steps of `h` seconds from t = 0, reads one Real output,
- * terminates and frees it; then it dlcloses the library and exits. It prints the output's
+ * takes an FMU state through its serialised form (a copy with one bit changed must be
+ * refused with fmi2Error, the intact one is restored), terminates and frees it; then it dlcloses the library and exits. It prints the output's
  * last value and the resident set size (kB) after the first and after the last cycle, so
  * that a test can see leaks as growth; the exit status is 0 only when every call
  * returned fmi2OK (or fmi2Warning).
@@ -84,6 +85,12 @@ int main(int argc, char **argv)
     LOAD(fmi2SetInteger)
     LOAD(fmi2Terminate)
     LOAD(fmi2FreeInstance)
+    LOAD(fmi2GetFMUstate)
+    LOAD(fmi2SetFMUstate)
+    LOAD(fmi2FreeFMUstate)
+    LOAD(fmi2SerializedFMUstateSize)
+    LOAD(fmi2SerializeFMUstate)
+    LOAD(fmi2DeSerializeFMUstate)
     fmi2CallbackFunctions cb = {logger, calloc, free, NULL, NULL};
     int failed = 0;
     long rss_first = -1;
@@ -116,6 +123,27 @@ int main(int argc, char **argv)
         CHECK(fmi2ExitInitializationMode(inst));
         for (long k = 0; k < steps && !failed; k++) CHECK(fmi2DoStep(inst, (double)k * h, h, fmi2True));
         CHECK(fmi2GetReal(inst, &vr, 1, &value));
+        fmi2FMUstate saved = NULL, restored = NULL;
+        size_t size = 0;
+        CHECK(fmi2GetFMUstate(inst, &saved));
+        CHECK(fmi2SerializedFMUstateSize(inst, saved, &size));
+        fmi2Byte *bytes = malloc(size ? size : 1);
+        if (bytes) {
+            CHECK(fmi2SerializeFMUstate(inst, saved, bytes, size));
+            bytes[size / 2] ^= 1;
+            if (fmi2DeSerializeFMUstate(inst, bytes, size, &restored) != fmi2Error) {
+                fprintf(stderr, "fmi_host: a serialised state with a changed bit was not refused\n");
+                failed = 1;
+            }
+            bytes[size / 2] ^= 1;
+            CHECK(fmi2DeSerializeFMUstate(inst, bytes, size, &restored));
+            CHECK(fmi2SetFMUstate(inst, restored));
+            CHECK(fmi2FreeFMUstate(inst, &restored));
+            free(bytes);
+        } else {
+            failed = 1;
+        }
+        CHECK(fmi2FreeFMUstate(inst, &saved));
         CHECK(fmi2Terminate(inst));
         fmi2FreeInstance(inst);
         if (c == 0) rss_first = rss_kb();

@@ -355,12 +355,13 @@ def test_an_inconsistent_input_is_latched_with_its_description():
 def test_the_noise_sum_only_grows(mode):
     """The noise estimate is a running sum of squares: it never decreases, and it grows by
     more than the last term alone."""
-    import json
     from test_adapters_in_process import _noisy_run
+
+    from ballmill.fmi.slave import state_from_bytes
     sums = []
     for n in (20, 25, 30, 35, 40):
         fmu = _noisy_run(mode, 1, 1e-7, n=n)
-        sums.append(json.loads(fmu.serialize(fmu.get_state()).decode())["__internal__"]["noise_sum"])
+        sums.append(state_from_bytes(fmu.serialize(fmu.get_state()))["__internal__"]["noise_sum"])
     assert sums[0] > 0.0
     assert all(b > a for a, b in zip(sums, sums[1:])), sums
 

@@ -31,6 +31,8 @@ from conformance.test_steps import *  # noqa: E402,F401,F403
 from conformance.test_validity import *  # noqa: E402,F401,F403
 from inprocess import InProcessFmu, open_fmu as open_fmu_in_process, write_model_descriptions  # noqa: E402
 
+from ballmill.fmi.slave import state_from_bytes, state_to_bytes  # noqa: E402
+
 # the host-process version of the blob test is replaced by the in-process one below
 del test_an_invalid_state_blob_is_refused_and_the_instance_keeps_its_state  # noqa: F821
 
@@ -85,16 +87,18 @@ def _stepped_state(open_fmu, model):
     assert fmu.init() == OK, fmu.messages()
     for _ in range(3):
         assert fmu.step(1e-3) == OK
-    return fmu, fmu.outputs(), json.loads(fmu.serialize(fmu.get_state()).decode())
+    return fmu, fmu.outputs(), fmu.serialize(fmu.get_state())
 
 
 @pytest.mark.parametrize("case", sorted(EDITS))
 def test_an_invalid_state_blob_is_refused_in_process_state_kept(open_fmu, case):
     model, edit, expected = EDITS[case]
-    fmu, before, state = _stepped_state(open_fmu, model)
-    exec(edit, {"state": state})
+    fmu, before, blob = _stepped_state(open_fmu, model)
+    scope = {"state": state_from_bytes(blob), "blob": blob, "json": json}
+    exec(edit, scope)
+    blob = scope["blob"] if edit.startswith("blob") else state_to_bytes(scope["state"])
     n = len(fmu.log)
-    st, s = fmu.deserialize(json.dumps(state).encode())
+    st, s = fmu.deserialize(blob)
     st2 = fmu.set_state(s) if st == OK else None
     assert FATAL in (st, st2)
     assert expected in fmu.messages(n)
@@ -145,9 +149,9 @@ MORE_EDITS = {
     "internal_missing": ("MotorStartup", "state['__internal__'] = None", "the internal state is missing"),
     "phase": ("MotorStartup", "state['__phase__'] = 'running'", "unknown phase 'running'"),
     "not_a_mapping": ("MotorStartup", "state.clear(); state['x'] = 1",
-                      "the state belongs to model None with format None, expected 'MotorStartup' with format 2"),
+                      "the state belongs to model None with format None, expected 'MotorStartup' with format 3"),
     "format": ("MotorStartup", "state['__format__'] = 1",
-               "the state belongs to model 'MotorStartup' with format 1, expected 'MotorStartup' with format 2"),
+               "the state belongs to model 'MotorStartup' with format 1, expected 'MotorStartup' with format 3"),
     "bool_type": ("MotorStartup", "state['law'] = True", "variable law = True has the wrong type (expected int)"),
     "int_as_bool": ("BallInShell", "state['valid'] = 1", "variable valid = 1 has the wrong type (expected bool)"),
     "real_as_bool": ("MotorStartup", "state['l'] = False", "variable l = False has the wrong type (expected float)"),
@@ -179,7 +183,8 @@ MORE_EDITS = {
 @pytest.mark.parametrize("case", sorted(MORE_EDITS))
 def test_every_internal_state_check_refuses_state_kept(open_fmu, case):
     model, edit, expected = MORE_EDITS[case]
-    fmu, before, state = _stepped_state(open_fmu, model)
+    fmu, before, blob = _stepped_state(open_fmu, model)
+    state = state_from_bytes(blob)
     exec(edit, {"state": state})
     n = len(fmu.log)
     assert fmu.set_state(state) == FATAL
@@ -213,13 +218,13 @@ def test_a_state_saved_before_initialisation_restores_the_instantiated_phase(ope
 
 def test_a_state_with_nulls_where_allowed_is_taken(open_fmu):
     fmu, st = run_ball(open_fmu, [1e-3] * 3)
-    state = json.loads(fmu.serialize(fmu.get_state()).decode())
+    state = state_from_bytes(fmu.serialize(fmu.get_state()))
     state["__internal__"].update(t_prev=None, a_mid=None, noise_sum=0)
     state["__internal__"]["state"]["h"] = None
     assert fmu.set_state(state) == OK, fmu.messages()
     motor = open_fmu("InductionMotor")
     assert motor.init() == OK and motor.step(1e-3) == OK
-    state = json.loads(motor.serialize(motor.get_state()).decode())
+    state = state_from_bytes(motor.serialize(motor.get_state()))
     state["__internal__"]["h"] = None
     assert motor.set_state(state) == OK, motor.messages()
     assert motor.step(1e-3) == OK
