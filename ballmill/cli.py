@@ -26,13 +26,20 @@ import sys
 from pathlib import Path
 
 
+def _say(message: str) -> None:
+    print(message, file=sys.stderr, flush=True)
+
+
 def _build(args) -> int:
     from .fmi import build
+    build_dir = Path(args.build_dir) if args.build_dir else None
     try:
-        build.build_all(Path(args.build_dir) if args.build_dir else None, force=args.force)
+        paths = build.build_all(build_dir, force=args.force, log=_say)
     except build.BuildError as e:
         print(f"ballmill build: {e}", file=sys.stderr)
         return 1
+    print(f"{len(paths)} FMUs built and validated, up to date: native in {build.fmu_path('', build_dir).parent}, "
+          f"pythonfmu in {build.fmu_path('', build_dir, 'pythonfmu').parent}")
     return 0
 
 
@@ -40,32 +47,36 @@ def _run(args) -> int:
     from .fmi.build import BuildError
     from .scenario import report, runner
     from .scenario.spec import ScenarioError
+    say = (lambda m: None) if args.quiet else _say  # --quiet: only errors
     try:
         sc, models, paths = runner.prepare(args.scenario, args.set or (),
                                            Path(args.build_dir) if args.build_dir else None,
-                                           log=lambda m: print(m, file=sys.stderr), flavour=args.flavour)
+                                           log=say, flavour=args.flavour)
     except (ScenarioError, BuildError) as e:
         print(f"ballmill run: {e}", file=sys.stderr)
         return 2
     out = Path(args.out or Path("out") / sc.name)
-    print(f"running {sc.name}: {sc.description}", file=sys.stderr)
-    res = runner.run(sc, models, paths, progress=not args.quiet)
+    say(f"running {sc.name}: {sc.description}")
+    res = runner.run(sc, models, paths, progress=not args.quiet, echo=not args.quiet)
     bare = None
     structure = sc.summary.get("structure")
     if structure and sc.summary.get("bare", True) and res.success:
         ball = report._ball_instance(res)
-        print(f"running {sc.name} again without {ball!r}: the bare structure", file=sys.stderr)
+        say(f"running {sc.name} again without {ball!r}: the bare structure")
         bare = runner.run(runner.without(sc, ball, [(structure, v) for v in report.STRUCTURE_RECORD]),
-                          models, paths, progress=not args.quiet)
+                          models, paths, progress=not args.quiet, echo=not args.quiet)
     summary = report.write_all(res, models, out, bare)
-    brief = {k: summary.get(k) for k in ("success", "message", "wall_time_s", "statistics_over", "N", "ring",
-                                         "zP_max_m", "M_reaction_peak_abs_Nm", "structure", "validity",
-                                         "t_invalid_s")
-             if k in summary}
-    print(json.dumps(brief, indent=2))
-    print(f"results: {out / 'results.csv'}, {out / 'summary.json'}, plots: "
-          f"{', '.join(str(out / p) for p in summary.get('plots', []))}", file=sys.stderr)
+    if not args.quiet:
+        brief = {k: summary.get(k) for k in ("success", "message", "wall_time_s", "statistics_over", "N", "ring",
+                                             "zP_max_m", "M_reaction_peak_abs_Nm", "structure", "validity",
+                                             "t_invalid_s")
+                 if k in summary}
+        print(json.dumps(brief, indent=2))
+        say(f"results: {out / 'results.csv'}, {out / 'summary.json'}, plots: "
+            f"{', '.join(str(out / p) for p in summary.get('plots', []))}")
     if not res.success:
+        if args.quiet:  # otherwise the summary above says it
+            print(f"ballmill run: {sc.name} stopped: {res.message}", file=sys.stderr)
         return 1
     if summary.get("left_validity"):
         print(f"ballmill run: the model's validity ended at t = {summary['t_invalid_s']:.6g} s; the "
@@ -178,7 +189,8 @@ def main(argv=None) -> int:
     r = sub.add_parser("run", help="run a scenario (builds the FMUs if needed)")
     _scenario_arguments(r)
     r.add_argument("--out", help="output folder (default: out/SCENARIO)")
-    r.add_argument("--quiet", action="store_true", help="no progress bar")
+    r.add_argument("--quiet", action="store_true",
+                   help="print only errors (nothing on success: the exit status tells)")
     r.add_argument("--flavour", choices=("native", "pythonfmu"), default="native",
                    help="which FMUs to run: native (C, build/, the default) or pythonfmu (the Python "
                         "reference, build/pythonfmu/)")

@@ -603,7 +603,7 @@ def prepare(name_or_path: str, overrides=(), build_dir: Path | None = None, log=
     """Build the FMUs if needed, read their model descriptions, load and check the scenario.
     flavour: "native" (C, build/<Model>.fmu) or "pythonfmu" (build/pythonfmu/<Model>.fmu)."""
     from ..fmi import build as _build
-    fmus = _build.build_all(build_dir, log=log, flavour=flavour)
+    fmus = _build.build_all(build_dir, log=log, flavour=flavour, only=True)
     paths = {p.stem: p for p in fmus}
     models = _Descriptions(paths)
     sc = _spec.load(name_or_path, overrides, models)
