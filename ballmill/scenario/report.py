@@ -269,6 +269,19 @@ def _plot_slip_margin(res: RunResult, models, spec, plt):
     return fig
 
 
+def _save(fig, path: Path) -> None:
+    """The figure as a PNG at 110 dpi, without redundant work: a figure laid out by
+    ``tight_layout`` keeps a placeholder layout engine, which makes ``savefig`` draw the
+    whole figure once more (text, ticks) before the real draw only to lay it out again;
+    dropping it saves that draw and nothing else changes (the PNG is identical pixel for
+    pixel). zlib level 1: the same pixels in about a third less encoding time (files ~10 % larger)."""
+    from matplotlib.layout_engine import PlaceHolderLayoutEngine
+
+    if isinstance(fig.get_layout_engine(), PlaceHolderLayoutEngine):
+        fig.set_layout_engine(None)
+    fig.savefig(path, dpi=110, pil_kwargs={"compress_level": 1})
+
+
 def plot(res: RunResult, out_dir: Path, models=None) -> list[Path]:
     """The scenario's [[plots]] as PNG files (``models``: the model descriptions, for the
     parameters the shell and slip-margin kinds need)."""
@@ -282,7 +295,7 @@ def plot(res: RunResult, out_dir: Path, models=None) -> list[Path]:
         if kind in ("shell", "slip_margin"):
             fig = (_plot_shell if kind == "shell" else _plot_slip_margin)(res, models, spec, plt)
             path = out_dir / spec["file"]
-            fig.savefig(path, dpi=110)
+            _save(fig, path)
             plt.close(fig)
             files.append(path)
             continue
@@ -305,7 +318,7 @@ def plot(res: RunResult, out_dir: Path, models=None) -> list[Path]:
         ax.grid(alpha=0.3)
         fig.tight_layout()
         path = out_dir / spec["file"]
-        fig.savefig(path, dpi=110)
+        _save(fig, path)
         plt.close(fig)
         files.append(path)
     return files
@@ -333,7 +346,7 @@ def plot_bare(res: RunResult, bare: RunResult, out_dir: Path) -> list[Path]:
         ax.grid(alpha=0.3)
         fig.tight_layout()
         path = out_dir / f"structure_{axis}_with_without_ball.png"
-        fig.savefig(path, dpi=110)
+        _save(fig, path)
         plt.close(fig)
         files.append(path)
     return files
