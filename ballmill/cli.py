@@ -23,7 +23,126 @@ import argparse
 import json
 import os
 import sys
+import time
 from pathlib import Path
+
+
+class _Phases:
+    """Wall-clock marks (time.perf_counter, the system's monotonic clock: comparable with the
+    clock of the process that started this one) at the ends of a command's phases. With
+    $BALLMILL_PHASES set to a file name they are written there as JSON when the command ends
+    (ballmill bench's start-up section reads them); otherwise they cost nothing."""
+
+    def __init__(self):
+        self.marks = [("cli imported", time.perf_counter())]
+        self.extra = {}
+
+    def __call__(self, name: str) -> None:
+        self.marks.append((name, time.perf_counter()))
+
+    def write(self) -> None:
+        path = os.environ.get("BALLMILL_PHASES")
+        if path:
+            Path(path).write_text(json.dumps({"marks": self.marks, **self.extra}))
+
+
+_phases = _Phases()
+
+
+class _Plotter:
+    """A run's plots drawn in a second process, forked before the run's own imports: importing
+    matplotlib and drawing (two thirds of a warm `ballmill run fast_start`'s CPU) then overlap
+    the imports, the run and the writing of the results, on a second core where there is one.
+    The PNGs are the same (the same code draws them). Where fork is not the way to do this
+    (not Linux, other threads running), the second process fails, or $BALLMILL_NO_PLOT_PROCESS
+    is 1, they are drawn in this process, as they always were."""
+
+    def __init__(self):
+        import threading
+
+        self.pid = None
+        if (not sys.platform.startswith("linux") or threading.active_count() > 1
+                or os.environ.get("BALLMILL_NO_PLOT_PROCESS") == "1"):
+            return
+        job_r, job_w = os.pipe()
+        answer_r, answer_w = os.pipe()
+        sys.stdout.flush()
+        sys.stderr.flush()
+        pid = os.fork()
+        if pid == 0:  # the plotting process: never returns, never runs the exit handlers
+            code = 1
+            try:
+                os.close(job_w)
+                os.close(answer_r)
+                import pickle
+
+                import matplotlib
+                matplotlib.use("Agg")
+                import matplotlib.pyplot  # noqa: F401  (the import is what is done ahead)
+
+                from .scenario import report
+                marks = [("plot process: matplotlib imported", time.perf_counter())]
+                with os.fdopen(job_r, "rb") as f:
+                    job = pickle.load(f)
+                marks.append(("plot process: run received", time.perf_counter()))
+                names = report.draw(*job)
+                marks.append(("plot process: plots drawn", time.perf_counter()))
+                with os.fdopen(answer_w, "wb") as f:
+                    pickle.dump((names, marks), f)
+                code = 0
+            except BaseException:  # noqa: BLE001  (the parent draws the plots itself)
+                pass
+            finally:
+                os._exit(code)
+        os.close(job_r)
+        os.close(answer_w)
+        self.pid, self.job_w, self.answer_r = pid, job_w, answer_r
+
+    def draw(self, res, models, out: Path, bare):
+        """report.write_all's ``plots``: a function returning the PNGs' names, drawn by the
+        second process (sent now, by a thread: the pipe fills until that process has imported
+        matplotlib), else here."""
+        from .scenario import report
+
+        if self.pid is None:
+            return None
+        import pickle
+        import threading
+
+        job = pickle.dumps((res, models, out, bare), protocol=pickle.HIGHEST_PROTOCOL)
+
+        def send():
+            try:
+                with os.fdopen(self.job_w, "wb") as f:
+                    f.write(job)
+            except OSError:  # the plotting process is gone: result() draws here
+                pass
+        sender = threading.Thread(target=send, daemon=True)
+        sender.start()
+
+        def result():
+            sender.join()
+            try:
+                with os.fdopen(self.answer_r, "rb") as f:
+                    names, marks = pickle.load(f)
+                _phases.extra["plot_process"] = marks
+            except (EOFError, OSError, pickle.UnpicklingError):
+                names = None
+            _, status = os.waitpid(self.pid, 0)
+            self.pid = None
+            return names if status == 0 and names is not None else report.draw(res, models, out, bare)
+        return result
+
+    def cancel(self):
+        """No plots to draw: end the second process."""
+        if self.pid is not None:
+            import signal
+
+            os.kill(self.pid, signal.SIGKILL)
+            os.waitpid(self.pid, 0)
+            os.close(self.job_w)
+            os.close(self.answer_r)
+            self.pid = None
 
 
 def _say(message: str) -> None:
@@ -44,9 +163,18 @@ def _build(args) -> int:
 
 
 def _run(args) -> int:
+    plotter = _Plotter()
+    try:
+        return _run_with(args, plotter)
+    finally:
+        plotter.cancel()
+
+
+def _run_with(args, plotter: _Plotter) -> int:
     from .fmi.build import BuildError
     from .scenario import report, runner
     from .scenario.spec import ScenarioError
+    _phases("imports")
     say = (lambda m: None) if args.quiet else _say  # --quiet: only errors
     try:
         sc, models, paths = runner.prepare(args.scenario, args.set or (),
@@ -55,9 +183,14 @@ def _run(args) -> int:
     except (ScenarioError, BuildError) as e:
         print(f"ballmill run: {e}", file=sys.stderr)
         return 2
+    _phases("prepare")  # the build check, the scenario and the model descriptions it uses
+    if not sc.plots and not sc.summary.get("structure"):
+        plotter.cancel()
     out = Path(args.out or Path("out") / sc.name)
     say(f"running {sc.name}: {sc.description}")
     res = runner.run(sc, models, paths, progress=not args.quiet, echo=not args.quiet)
+    _phases("run")
+    _phases.extra.update(init_s=res.init_time, wall_s=res.wall_time)  # FMU load + initialisation, of the run
     bare = None
     structure = sc.summary.get("structure")
     if structure and sc.summary.get("bare", True) and res.success:
@@ -65,7 +198,10 @@ def _run(args) -> int:
         say(f"running {sc.name} again without {ball!r}: the bare structure")
         bare = runner.run(runner.without(sc, ball, [(structure, v) for v in report.STRUCTURE_RECORD]),
                           models, paths, progress=not args.quiet, echo=not args.quiet)
-    summary = report.write_all(res, models, out, bare)
+    if bare is not None:
+        _phases("bare run")
+    summary = report.write_all(res, models, out, bare, plots=plotter.draw(res, models, out, bare))
+    _phases("results and plots")
     if not args.quiet:
         brief = {k: summary.get(k) for k in ("success", "message", "wall_time_s", "statistics_over", "N", "ring",
                                              "zP_max_m", "M_reaction_peak_abs_Nm", "structure", "validity",
@@ -255,6 +391,8 @@ def entry() -> None:
     code = main()
     sys.stdout.flush()
     sys.stderr.flush()
+    _phases("end")
+    _phases.write()
     os._exit(code or 0)
 
 

@@ -159,3 +159,32 @@ def test_quiet_still_reports_errors(fmu_build_dir, tmp_path, capfd, argv, status
     captured = capfd.readouterr()
     assert rc == status and captured.out == ""
     assert captured.err.startswith("ballmill run: ") and says in captured.err, captured.err
+
+
+def test_plots_drawn_in_a_second_process_are_the_same(fmu_build_dir, tmp_path):
+    """`ballmill run` draws its plots in a second process (forked ahead, so that importing
+    matplotlib overlaps the run): the PNGs and summary.json are byte for byte those drawn in
+    the same process (BALLMILL_NO_PLOT_PROCESS=1), and the command's phase clock shows that the
+    second process drew them."""
+    scenario = _short_scenario(tmp_path, stop=0.5)
+    outs = {}
+    for mode, extra in (("second process", {}), ("same process", {"BALLMILL_NO_PLOT_PROCESS": "1"})):
+        out, phases = tmp_path / mode.replace(" ", "_"), tmp_path / f"{mode.replace(' ', '_')}.json"
+        env = {k: v for k, v in os.environ.items() if not k.startswith("BALLMILL_")}
+        env.update(PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]),
+                   BALLMILL_PHASES=str(phases), **extra)
+        proc = subprocess.run([sys.executable, "-m", "ballmill.cli", "run", str(scenario), "--quiet",
+                               "--build-dir", str(fmu_build_dir), "--out", str(out)],
+                              capture_output=True, text=True, env=env, cwd=tmp_path)
+        assert (proc.returncode, proc.stdout, proc.stderr) == (0, "", ""), mode
+        drawn_by = [name for name, _ in json.loads(phases.read_text()).get("plot_process", [])]
+        assert bool(drawn_by) == (mode == "second process"), (mode, drawn_by)
+        outs[mode] = out
+    summary = json.loads((outs["second process"] / "summary.json").read_text())
+    assert len(summary["plots"]) == 4
+    for name in summary["plots"] + ["results.csv"]:
+        assert (outs["second process"] / name).read_bytes() == (outs["same process"] / name).read_bytes(), name
+    same = json.loads((outs["same process"] / "summary.json").read_text())
+    for s in (summary, same):
+        s.pop("wall_time_s"), s.pop("startup_time_s")
+    assert summary == same

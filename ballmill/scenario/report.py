@@ -352,14 +352,26 @@ def plot_bare(res: RunResult, bare: RunResult, out_dir: Path) -> list[Path]:
     return files
 
 
-def write_all(res: RunResult, models, out_dir: Path, bare: RunResult | None = None) -> dict:
+def draw(res: RunResult, models, out_dir: Path, bare: RunResult | None = None) -> list[str]:
+    """Every PNG of a run: the scenario's plots and, with the bare structure's run, the
+    comparison with it; their file names."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    names = [p.name for p in plot(res, out_dir, models)] if len(res.data) > 1 else []
+    if bare is not None and bare.success and len(bare.data) > 1:
+        names += [p.name for p in plot_bare(res, bare, out_dir)]
+    return names
+
+
+def write_all(res: RunResult, models, out_dir: Path, bare: RunResult | None = None, plots=None) -> dict:
+    """results.csv (and bare.csv), the plots and summary.json. ``plots``: when the plots are
+    drawn elsewhere meanwhile (`ballmill run` draws them in a second process), a function
+    returning their names, called once the rest is written."""
     out_dir.mkdir(parents=True, exist_ok=True)
     write_csv(res, out_dir / "results.csv")
-    summary = summarise(res, models, bare)
-    summary["plots"] = [p.name for p in plot(res, out_dir, models)] if len(res.data) > 1 else []
     if bare is not None and bare.success and len(bare.data) > 1:
         write_csv(bare, out_dir / "bare.csv")
-        summary["plots"] += [p.name for p in plot_bare(res, bare, out_dir)]
+    summary = summarise(res, models, bare)
+    summary["plots"] = plots() if plots is not None else draw(res, models, out_dir, bare)
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=_json_default))
     return summary
 
