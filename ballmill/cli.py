@@ -52,17 +52,17 @@ _phases = _Phases()
 class _Plotter:
     """A run's plots drawn in a second process, forked before the run's own imports: importing
     matplotlib and drawing (two thirds of a warm `ballmill run fast_start`'s CPU) then overlap
-    the imports, the run and the writing of the results, on a second core where there is one.
-    The PNGs are the same (the same code draws them). Where fork is not the way to do this
-    (not Linux, other threads running), the second process fails, or $BALLMILL_NO_PLOT_PROCESS
-    is 1, they are drawn in this process, as they always were."""
+    the imports, the run and the writing of the results. The PNGs are the same (the same code
+    draws them). That pays only on a core nobody else uses: by default the second process is
+    started when the 1-minute load average leaves one free for it ($BALLMILL_PLOT_PROCESS=1:
+    always, 0: never). Where it is not started (not Linux, other threads running in this
+    process) or fails, the plots are drawn in this process, as they always were."""
 
     def __init__(self):
         import threading
 
         self.pid = None
-        if (not sys.platform.startswith("linux") or threading.active_count() > 1
-                or os.environ.get("BALLMILL_NO_PLOT_PROCESS") == "1"):
+        if not sys.platform.startswith("linux") or threading.active_count() > 1 or not self.wanted():
             return
         job_r, job_w = os.pipe()
         answer_r, answer_w = os.pipe()
@@ -97,6 +97,16 @@ class _Plotter:
         os.close(job_r)
         os.close(answer_w)
         self.pid, self.job_w, self.answer_r = pid, job_w, answer_r
+
+    @staticmethod
+    def wanted() -> bool:
+        choice = os.environ.get("BALLMILL_PLOT_PROCESS", "")
+        if choice in ("0", "1"):
+            return choice == "1"
+        try:
+            return os.getloadavg()[0] + 2.0 <= len(os.sched_getaffinity(0)) + 0.5  # room for both processes
+        except (AttributeError, OSError):
+            return False
 
     def draw(self, res, models, out: Path, bare):
         """report.write_all's ``plots``: a function returning the PNGs' names, drawn by the
