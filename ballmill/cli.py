@@ -167,8 +167,8 @@ def _build(args) -> int:
     except build.BuildError as e:
         print(f"ballmill build: {e}", file=sys.stderr)
         return 1
-    print(f"{len(paths)} FMUs built and validated, up to date: native in {build.fmu_path('', build_dir).parent}, "
-          f"pythonfmu in {build.fmu_path('', build_dir, 'pythonfmu').parent}")
+    print(f"{len(paths)} FMUs, both flavours, built, validated and up to date: native in "
+          f"{build.fmu_path('', build_dir).parent}, pythonfmu in {build.fmu_path('', build_dir, 'pythonfmu').parent}")
     return 0
 
 
