@@ -120,10 +120,11 @@ class _Plotter:
         import threading
 
         job = pickle.dumps((res, models, out, bare), protocol=pickle.HIGHEST_PROTOCOL)
+        job_w, self.job_w = self.job_w, None  # the sending thread owns (and closes) it now
 
         def send():
             try:
-                with os.fdopen(self.job_w, "wb") as f:
+                with os.fdopen(job_w, "wb") as f:
                     f.write(job)
             except OSError:  # the plotting process is gone: result() draws here
                 pass
@@ -132,8 +133,9 @@ class _Plotter:
 
         def result():
             sender.join()
+            answer_r, self.answer_r = self.answer_r, None
             try:
-                with os.fdopen(self.answer_r, "rb") as f:
+                with os.fdopen(answer_r, "rb") as f:
                     names, marks = pickle.load(f)
                 _phases.extra["plot_process"] = marks
             except (EOFError, OSError, pickle.UnpicklingError):
@@ -144,14 +146,15 @@ class _Plotter:
         return result
 
     def cancel(self):
-        """No plots to draw: end the second process."""
+        """End the second process if it is still there (no plots to draw, or the run failed)."""
         if self.pid is not None:
             import signal
 
             os.kill(self.pid, signal.SIGKILL)
             os.waitpid(self.pid, 0)
-            os.close(self.job_w)
-            os.close(self.answer_r)
+            for fd in (self.job_w, self.answer_r):
+                if fd is not None:
+                    os.close(fd)
             self.pid = None
 
 

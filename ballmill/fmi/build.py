@@ -330,6 +330,7 @@ def _build(base: Path, wanted, force: bool, log) -> dict:
 
     order = [(fl, n) for fl in ("pythonfmu", "native") for n in script_of if (fl, n) in need]
     srcs = {key: sources(*key) for key in order}
+    built_from = {key: {p: sha(p) for p in srcs[key]} for key in order}  # hashed before building
     todo = [key for key in order if stale(key[0], key[1], srcs[key])]
     # a native copy follows its pythonfmu FMU
     todo += [("native", n) for fl, n in todo if fl == "pythonfmu" and ("native", n) in need
@@ -385,7 +386,7 @@ def _build(base: Path, wanted, force: bool, log) -> dict:
         log(f"built {len(todo)} FMU{'s' if len(todo) != 1 else ''} in {time.perf_counter() - t_start:.1f} s")
     for fl, name in order:
         fmus[f"{fl}/{name}"] = {"stat": _stat(fmu_path(name, base, fl)), "copy": fl == "native" and name not in real_native,
-                                "sources": {p: sha(p) for p in srcs[(fl, name)]}}
+                                "sources": built_from[(fl, name)]}
     for script in script_of.values():
         sha(str(script))
     stamp = {"format": STAMP_FORMAT, "dirs": dirs, "scripts": {str(s): n for n, s in script_of.items()},
