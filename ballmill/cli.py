@@ -50,7 +50,7 @@ _phases = _Phases()
 
 
 class _Plotter:
-    """A run's plots drawn in a second process, forked before the run's own imports: importing
+    """A run's plots drawn in a second process, forked before the run starts: importing
     matplotlib and drawing (two thirds of a warm `ballmill run fast_start`'s CPU) then overlap
     the imports, the run and the writing of the results. The PNGs are the same (the same code
     draws them). That pays only on a core nobody else uses: by default the second process is
@@ -176,6 +176,8 @@ def _build(args) -> int:
 
 
 def _run(args) -> int:
+    from .scenario import report, runner  # noqa: F401  (what both processes need: numpy, the report)
+    _phases("imports")
     plotter = _Plotter()
     try:
         return _run_with(args, plotter)
@@ -187,7 +189,6 @@ def _run_with(args, plotter: _Plotter) -> int:
     from .fmi.build import BuildError
     from .scenario import report, runner
     from .scenario.spec import ScenarioError
-    _phases("imports")
     say = (lambda m: None) if args.quiet else _say  # --quiet: only errors
     try:
         sc, models, paths = runner.prepare(args.scenario, args.set or (),
