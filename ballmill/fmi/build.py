@@ -220,7 +220,7 @@ def _read_stamp(base: Path) -> dict:
     return stamp if isinstance(stamp, dict) and stamp.get("format") == STAMP_FORMAT else {}
 
 
-def _fresh(base: Path, wanted) -> dict | None:
+def _fresh(base: Path, wanted, names) -> dict | None:
     """{flavour: FMU paths} when the stamp shows every FMU of the wanted flavours up to date,
     else None (the full check decides). A native FMU that is a copy of the pythonfmu one (no C
     compiler when it was built) always goes to the full check, which looks for a compiler."""
@@ -244,6 +244,8 @@ def _fresh(base: Path, wanted) -> dict | None:
         for flavour in wanted:
             out[flavour] = []
             for name in stamp["scripts"].values():
+                if names is not None and name not in names:
+                    continue
                 entry = stamp["fmus"].get(f"{flavour}/{name}")
                 path = fmu_path(name, base, flavour)
                 if entry is None or entry["copy"] or entry["stat"] != _stat(path):
@@ -272,23 +274,30 @@ def _workers() -> int:
 
 
 def build_all(build_dir: Path | None = None, force: bool = False, log=print,
-              flavour: str = "native", only: bool = False) -> list[Path]:
+              flavour: str = "native", only: bool = False, names=None) -> list[Path]:
     """Build every FMU that is missing or whose sources changed, in both flavours (``only``:
-    just what ``flavour`` needs: its FMUs, and the pythonfmu ones a native copy is made of),
-    validate each; return the paths of ``flavour``'s FMUs. When something is built, ``log``
-    gets a line announcing how many FMUs and about how long, then one line per FMU; an up to
-    date build logs nothing (``log=None``: never anything)."""
+    just what ``flavour`` needs: its FMUs, and the pythonfmu ones a native copy is made of;
+    ``names``: only these models, names of no model ignored), validate each; return the paths
+    of ``flavour``'s FMUs. When something is built, ``log`` gets a line announcing how many
+    FMUs and about how long, then one line per FMU; an up to date build logs nothing
+    (``log=None``: never anything)."""
     _check_flavour(flavour)
     base = Path(build_dir or ROOT / "build")
     wanted = (flavour,) if only else FLAVOURS
+    names = None if names is None else set(names)
     if not force:
-        fresh = _fresh(base, wanted)
+        fresh = _fresh(base, wanted, names)
         if fresh is not None:
             return fresh[flavour]
-    return _build(base, wanted, force, log or (lambda message: None))[flavour]
+    return _build(base, wanted, force, log or (lambda message: None), names)[flavour]
 
 
-def _build(base: Path, wanted, force: bool, log) -> dict:
+def model_names() -> list[str]:
+    """Every model the project builds, in the order of its adapter scripts."""
+    return [model_name(s) for s in scripts()]
+
+
+def _build(base: Path, wanted, force: bool, log, names=None) -> dict:
     """The full check and the build of what it finds out of date; writes the stamp."""
     from concurrent.futures import ThreadPoolExecutor
 
@@ -306,7 +315,8 @@ def _build(base: Path, wanted, force: bool, log) -> dict:
             rec = files[path] = now + [prev[2] if prev and prev[:2] == now else _sha256(path)]
         return rec[2]
 
-    script_of = {model_name(s): s for s in scripts()}
+    all_scripts = {model_name(s): s for s in scripts()}
+    script_of = {n: s for n, s in all_scripts.items() if names is None or n in names}
     compiled = native.has_compiler()
     real_native = {n for n in script_of if n in native.available() and compiled}
     need = {(fl, n) for fl in wanted for n in script_of}
@@ -387,9 +397,9 @@ def _build(base: Path, wanted, force: bool, log) -> dict:
     for fl, name in order:
         fmus[f"{fl}/{name}"] = {"stat": _stat(fmu_path(name, base, fl)), "copy": fl == "native" and name not in real_native,
                                 "sources": built_from[(fl, name)]}
-    for script in script_of.values():
+    for script in all_scripts.values():
         sha(str(script))
-    stamp = {"format": STAMP_FORMAT, "dirs": dirs, "scripts": {str(s): n for n, s in script_of.items()},
+    stamp = {"format": STAMP_FORMAT, "dirs": dirs, "scripts": {str(s): n for n, s in all_scripts.items()},
              "fmus": fmus, "files": {**{p: r for p, r in old_files.items() if p not in files}, **files}}
     tmp = base / f"{STAMP}.{os.getpid()}.part"
     base.mkdir(parents=True, exist_ok=True)
