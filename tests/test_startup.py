@@ -93,8 +93,8 @@ def test_first_build_announces_itself_and_builds_only_what_the_run_needs(first_b
     names = ["BallInShell", "MotorStartup"]  # what fast_start instantiates
     lines = err.splitlines()
     head = lines.index(next(line for line in lines if line.startswith("building ")))
-    assert re.fullmatch(rf"building {len(names)} FMUs in {re.escape(str(bdir))} \(first build; about \d+ s\)\.\.\.",
-                        lines[head]), lines[head]
+    assert re.fullmatch(rf"building {len(names)} FMUs in {re.escape(str(bdir))} "
+                        rf"\(first build; about \d+ s on \d+ free cores?\)\.\.\.", lines[head]), lines[head]
     progress = [re.fullmatch(rf"  \[(\d+)/{len(names)}\] {re.escape(str(bdir / 'pythonfmu'))}/(\w+)\.fmu: built "
                              rf"and validated in \d+\.\d s.*", line) for line in lines[head + 1:head + 1 + len(names)]]
     assert all(progress), lines[head + 1:head + 1 + len(names)]
@@ -142,7 +142,8 @@ def test_quiet_prints_nothing_on_success(fmu_build_dir, tmp_path, capfd):
     """`ballmill run --quiet`: exit status 0 and not a byte on stdout or stderr (no build lines,
     no progress, no summary), the results written all the same."""
     out = tmp_path / "out"
-    rc = cli.main(["run", str(_short_scenario(tmp_path, "spinning_bowl", 1.0)), "--quiet", "--build-dir", str(fmu_build_dir), "--out", str(out)])
+    rc = cli.main(["run", str(_short_scenario(tmp_path, "spinning_bowl", 1.0)), "--quiet",
+                   "--build-dir", str(fmu_build_dir), "--out", str(out)])
     captured = capfd.readouterr()
     assert (rc, captured.out, captured.err) == (0, "", "")
     summary = json.loads((out / "summary.json").read_text())

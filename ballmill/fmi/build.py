@@ -360,7 +360,7 @@ def _build(base: Path, wanted, force: bool, log, names=None) -> dict:
                                                                   (len(todo) - missing, "with changed sources"))
                             if count)
         log(f"building {len(todo)} FMU{'s' if len(todo) != 1 else ''} in {base} ({why}; about "
-            f"{max(1, round(estimate))} s)...")
+            f"{max(1, round(estimate))} s on {workers} free core{'s' if workers != 1 else ''})...")
         t_start, done = time.perf_counter(), [0]
 
         def report(path: Path, seconds: float, note: str = ""):
@@ -395,7 +395,8 @@ def _build(base: Path, wanted, force: bool, log, names=None) -> dict:
                 report(nat, 0.0, f" ({why_not}: a copy of the pythonfmu flavour)")
         log(f"built {len(todo)} FMU{'s' if len(todo) != 1 else ''} in {time.perf_counter() - t_start:.1f} s")
     for fl, name in order:
-        fmus[f"{fl}/{name}"] = {"stat": _stat(fmu_path(name, base, fl)), "copy": fl == "native" and name not in real_native,
+        fmus[f"{fl}/{name}"] = {"stat": _stat(fmu_path(name, base, fl)),
+                                "copy": fl == "native" and name not in real_native,
                                 "sources": built_from[(fl, name)]}
     for script in all_scripts.values():
         sha(str(script))
