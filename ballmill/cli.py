@@ -2,10 +2,12 @@
 
     ballmill build [--force]                 build and validate every FMU, both flavours: native
                                              (C) in build/, pythonfmu in build/pythonfmu/
-    ballmill run SCENARIO [--out DIR] [--set inst.param=value ...] [--flavour pythonfmu]
+    ballmill run SCENARIO [--out DIR] [--set inst.param=value ...] [--flavour pythonfmu] [--quiet]
                                              exit status: 0 ran and stayed valid, 1 an FMU stopped
                                              the run, 2 bad scenario, 3 ran but the ball model's
-                                             validity ended (statistics over the valid span only)
+                                             validity ended (statistics over the valid span only);
+                                             builds the FMUs the scenario uses when needed, and
+                                             says so; --quiet: only errors, nothing on success
     ballmill bench [...]                      speed/accuracy map -> BENCHMARKS.md
     ballmill export-ssp SCENARIO OUT.ssp [--set inst.param=value ...]
                                              the scenario as an SSP package for other FMI tools
