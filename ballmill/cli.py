@@ -2,11 +2,13 @@
 
     ballmill build [--force]                 build and validate every FMU, both flavours: native
                                              (C) in build/, pythonfmu in build/pythonfmu/
-    ballmill run SCENARIO [--out DIR] [--set inst.param=value ...] [--flavour pythonfmu]
+    ballmill run SCENARIO [--out DIR] [--set inst.param=value ...] [--flavour pythonfmu] [--quiet]
                                              exit status: 0 ran and stayed valid, 1 an FMU stopped
                                              the run, 2 bad scenario or value (every problem listed
                                              before anything runs), 3 ran but the ball model's
-                                             validity ended (statistics over the valid span only)
+                                             validity ended (statistics over the valid span only);
+                                             builds the FMUs the scenario uses when needed, and
+                                             says so; --quiet: only errors, nothing on success
     ballmill bench [...]                      speed/accuracy map -> BENCHMARKS.md
     ballmill export-ssp SCENARIO OUT.ssp [--set inst.param=value ...]
                                              the scenario as an SSP package for other FMI tools
@@ -27,16 +29,46 @@ import argparse
 import json
 import os
 import sys
+import time
 from pathlib import Path
+
+
+class _Phases:
+    """Wall-clock marks (time.perf_counter, the system's monotonic clock: comparable with the
+    clock of the process that started this one) at the ends of a command's phases. With
+    $BALLMILL_PHASES set to a file name they are written there as JSON when the command ends
+    (ballmill bench's start-up section reads them); otherwise they cost nothing."""
+
+    def __init__(self):
+        self.marks = [("cli imported", time.perf_counter())]
+        self.extra = {}
+
+    def __call__(self, name: str) -> None:
+        self.marks.append((name, time.perf_counter()))
+
+    def write(self) -> None:
+        path = os.environ.get("BALLMILL_PHASES")
+        if path:
+            Path(path).write_text(json.dumps({"marks": self.marks, **self.extra}))
+
+
+_phases = _Phases()
+
+
+def _say(message: str) -> None:
+    print(message, file=sys.stderr, flush=True)
 
 
 def _build(args) -> int:
     from .fmi import build
+    build_dir = Path(args.build_dir) if args.build_dir else None
     try:
-        build.build_all(Path(args.build_dir) if args.build_dir else None, force=args.force)
+        paths = build.build_all(build_dir, force=args.force, log=_say)
     except build.BuildError as e:
         print(f"ballmill build: {e}", file=sys.stderr)
         return 1
+    print(f"{len(paths)} FMUs, both flavours, built, validated and up to date: native in "
+          f"{build.fmu_path('', build_dir).parent}, pythonfmu in {build.fmu_path('', build_dir, 'pythonfmu').parent}")
     return 0
 
 
@@ -44,32 +76,42 @@ def _run(args) -> int:
     from .fmi.build import BuildError
     from .scenario import report, runner
     from .scenario.spec import ScenarioError
+    say = (lambda m: None) if args.quiet else _say  # --quiet: only errors
     try:
         sc, models, paths = runner.prepare(args.scenario, args.set or (),
                                            Path(args.build_dir) if args.build_dir else None,
-                                           log=lambda m: print(m, file=sys.stderr), flavour=args.flavour)
+                                           log=say, flavour=args.flavour)
     except (ScenarioError, BuildError) as e:
         print(f"ballmill run: {e}", file=sys.stderr)
         return 2
+    _phases("prepare")  # the build check, the scenario and the model descriptions it uses
     out = Path(args.out or Path("out") / sc.name)
-    print(f"running {sc.name}: {sc.description}", file=sys.stderr)
-    res = runner.run(sc, models, paths, progress=not args.quiet)
+    say(f"running {sc.name}: {sc.description}")
+    res = runner.run(sc, models, paths, progress=not args.quiet, echo=not args.quiet)
+    _phases("run")
+    _phases.extra.update(init_s=res.init_time, wall_s=res.wall_time)  # FMU load + initialisation, of the run
     bare = None
     structure = sc.summary.get("structure")
     if structure and sc.summary.get("bare", True) and res.success:
         ball = report._ball_instance(res)
-        print(f"running {sc.name} again without {ball!r}: the bare structure", file=sys.stderr)
+        say(f"running {sc.name} again without {ball!r}: the bare structure")
         bare = runner.run(runner.without(sc, ball, [(structure, v) for v in report.STRUCTURE_RECORD]),
-                          models, paths, progress=not args.quiet)
+                          models, paths, progress=not args.quiet, echo=not args.quiet)
+    if bare is not None:
+        _phases("bare run")
     summary = report.write_all(res, models, out, bare)
-    brief = {k: summary.get(k) for k in ("success", "message", "wall_time_s", "statistics_over", "N", "ring",
-                                         "zP_max_m", "M_reaction_peak_abs_Nm", "structure", "validity",
-                                         "t_invalid_s")
-             if k in summary}
-    print(json.dumps(brief, indent=2))
-    print(f"results: {out / 'results.csv'}, {out / 'summary.json'}, plots: "
-          f"{', '.join(str(out / p) for p in summary.get('plots', []))}", file=sys.stderr)
+    _phases("results and plots")
+    if not args.quiet:
+        brief = {k: summary.get(k) for k in ("success", "message", "wall_time_s", "statistics_over", "N", "ring",
+                                             "zP_max_m", "M_reaction_peak_abs_Nm", "structure", "validity",
+                                             "t_invalid_s")
+                 if k in summary}
+        print(json.dumps(brief, indent=2))
+        say(f"results: {out / 'results.csv'}, {out / 'summary.json'}, plots: "
+            f"{', '.join(str(out / p) for p in summary.get('plots', []))}")
     if not res.success:
+        if args.quiet:  # otherwise the summary above says it
+            print(f"ballmill run: {sc.name} stopped: {res.message}", file=sys.stderr)
         return 1
     if summary.get("left_validity"):
         print(f"ballmill run: the model's validity ended at t = {summary['t_invalid_s']:.6g} s; the "
@@ -191,7 +233,8 @@ def main(argv=None) -> int:
     r = sub.add_parser("run", help="run a scenario (builds the FMUs if needed)")
     _scenario_arguments(r)
     r.add_argument("--out", help="output folder (default: out/SCENARIO)")
-    r.add_argument("--quiet", action="store_true", help="no progress bar")
+    r.add_argument("--quiet", action="store_true",
+                   help="print only errors (nothing on success: the exit status tells)")
     r.add_argument("--flavour", choices=("native", "pythonfmu"), default="native",
                    help="which FMUs to run: native (C, build/, the default) or pythonfmu (the Python "
                         "reference, build/pythonfmu/)")
@@ -256,6 +299,8 @@ def entry() -> None:
     code = main()
     sys.stdout.flush()
     sys.stderr.flush()
+    _phases("end")
+    _phases.write()
     os._exit(code or 0)
 
 

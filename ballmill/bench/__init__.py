@@ -21,7 +21,10 @@ figures in benchmarks/figures/):
 7. a chamber that turns (bench/turning.py): the general model's cost per
    step (Fig. 1 machine, spinning bowl, the same translation) against the
    translation-only model, Python and compiled kernel, and what a scene
-   without rotation pays through simulate_chamber.
+   without rotation pays through simulate_chamber;
+8. start-up (bench/startup.py): what `ballmill --help` and a warm `ballmill run
+   fast_start` cost as whole processes, phase by phase, and the first run's build,
+   against the code before the start-up work in the same rounds.
 
 Speed is measured here, never asserted in tests. ``--quick`` runs a reduced
 grid (about a minute) and by default writes to benchmarks/_work/ so that it
@@ -70,9 +73,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--cc", default="gcc", help="C compiler for the compiled peer (default gcc)")
     p.add_argument("--no-compiled", action="store_true", help="skip the compiled (C) peer")
     p.add_argument("--debug", action="store_true", help="show the traceback when a benchmark fails")
-    p.add_argument("--section", choices=("all", "studies", "absorber"), default="all",
+    p.add_argument("--section", choices=("all", "studies", "absorber", "startup"), default="all",
                    help="'studies': run only the design-study section (ballmill/bench/studies.py), "
-                        "'absorber': only the absorber co-simulation section (ballmill/bench/absorber.py), and "
+                        "'absorber': only the absorber co-simulation section (ballmill/bench/absorber.py), "
+                        "'startup': only the command start-up section (ballmill/bench/startup.py), and "
                         "splice it into the report (default: all sections)")
     return p
 
@@ -125,6 +129,9 @@ def main(argv=None) -> int:
         if args.section in ("all", "absorber"):
             from . import absorber  # the absorber co-simulation section, likewise
             absorber.run_section(Path(out).resolve(), args.quick, progress)
+        if args.section in ("all", "startup"):
+            from . import startup  # what a command costs before and around its run, likewise
+            startup.run_section(Path(out).resolve(), args.quick, progress)
     except KeyboardInterrupt:
         print("ballmill bench: interrupted", file=sys.stderr)
         return 130

@@ -25,13 +25,16 @@ why and the FMU runs in pure Python with the same results.
 """
 from __future__ import annotations
 
+import hashlib
+import json
+import math
+import os
 import shutil
 import tempfile
+import time
 from pathlib import Path
 
 import ballmill
-
-from . import native
 
 PACKAGE_DIR = Path(ballmill.__file__).resolve().parent
 ROOT = PACKAGE_DIR.parent
@@ -106,6 +109,10 @@ def fmu_path(name: str, build_dir: Path | None = None, flavour: str = "native") 
 
 
 def up_to_date(script: Path, build_dir: Path | None = None, flavour: str = "pythonfmu") -> bool:
+    """Whether the FMU of `script` is newer than every file it is built from (the rule for a
+    build folder without a stamp: `build_all` decides by content where it has one)."""
+    from . import native
+
     name = model_name(script)
     target = fmu_path(name, build_dir, flavour)
     if not target.exists():
@@ -154,6 +161,8 @@ def _validated(fmu: Path) -> Path:
 
 def build_native_one(name: str, build_dir: Path | None = None) -> Path:
     """Build and validate the native FMU of model `name`."""
+    from . import native
+
     try:
         return _validated(native.build_native(name, Path(build_dir or ROOT / "build")))
     except native.NativeBuildError as e:
@@ -174,32 +183,233 @@ def build_one(script: Path, build_dir: Path | None = None) -> Path:
     return _validated(Path(fmu))
 
 
+# ----------------------------------------------------------------------------- the build's stamp
+# build_dir/STAMP records, for every FMU built there, the content (SHA-256) of each file it was
+# built from, and for each of those files the size and modification time at which that hash was
+# taken; with the modification times of the folders whose listing decides what the sources are.
+# When every one of those stats is unchanged and every hash is the one its FMU was built from,
+# the build is up to date: one JSON read and a few dozen stat calls, without importing anything.
+# Otherwise the full check hashes what changed, and rebuilds only the FMUs whose sources' content
+# changed (a checkout that only touched modification times rebuilds nothing).
+STAMP = ".ballmill-build.json"
+STAMP_FORMAT = 1
+# what building an FMU costs, for the estimate the build announces: the compiler's CPU seconds
+# per native model (at -O2; BallInShell and InductionMotor #include the kernel), measured on a
+# 2-core x86-64 machine, and packaging a pythonfmu FMU
+NATIVE_S = {"BallInShell": 2.6, "InductionMotor": 1.8}
+NATIVE_OTHER_S, PYTHONFMU_S = 0.8, 0.4
+
+
+def _stat(path) -> list:
+    st = os.stat(path)
+    return [st.st_mtime_ns, st.st_size]
+
+
+def _source_dirs() -> list[Path]:
+    """The folders whose listing decides the sources: the adapter scripts' and the bundled packages'."""
+    dirs = [ROOT / d for d in SOURCE_DIRS]
+    for item in BUNDLED:
+        p = PACKAGE_DIR / item
+        if p.is_dir():
+            dirs += [p] + sorted(d for d in p.rglob("*") if d.is_dir() and d.name != "__pycache__")
+    return dirs
+
+
+def _read_stamp(base: Path) -> dict:
+    try:
+        stamp = json.loads((base / STAMP).read_text())
+    except (OSError, ValueError):
+        return {}
+    return stamp if isinstance(stamp, dict) and stamp.get("format") == STAMP_FORMAT else {}
+
+
+def _fresh(base: Path, wanted, names) -> dict | None:
+    """{flavour: FMU paths} when the stamp shows every FMU of the wanted flavours up to date,
+    else None (the full check decides). A native FMU that is a copy of the pythonfmu one (no C
+    compiler when it was built) always goes to the full check, which looks for a compiler."""
+    stamp = _read_stamp(base)
+    if not stamp:
+        return None
+    files, known = stamp["files"], {}
+
+    def unchanged(path: str) -> bool:
+        ok = known.get(path)
+        if ok is None:
+            rec = files.get(path)
+            ok = known[path] = rec is not None and rec[:2] == _stat(path)
+        return ok
+    try:
+        if any(os.stat(d).st_mtime_ns != m for d, m in stamp["dirs"].items()):
+            return None
+        if not all(unchanged(s) for s in stamp["scripts"]):
+            return None
+        out = {}
+        for flavour in wanted:
+            out[flavour] = []
+            for name in stamp["scripts"].values():
+                if names is not None and name not in names:
+                    continue
+                entry = stamp["fmus"].get(f"{flavour}/{name}")
+                path = fmu_path(name, base, flavour)
+                if entry is None or entry["copy"] or entry["stat"] != _stat(path):
+                    return None
+                if not all(unchanged(src) and files[src][2] == sha for src, sha in entry["sources"].items()):
+                    return None
+                out[flavour].append(path)
+    except (OSError, KeyError, TypeError, IndexError):
+        return None
+    return out
+
+
+def _sha256(path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _workers() -> int:
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not on Linux
+        return max(1, os.cpu_count() or 1)
+
+
 def build_all(build_dir: Path | None = None, force: bool = False, log=print,
-              flavour: str = "native") -> list[Path]:
-    """Build both flavours of every FMU that is missing or older than its sources;
-    return the paths of `flavour`'s FMUs."""
+              flavour: str = "native", only: bool = False, names=None) -> list[Path]:
+    """Build every FMU that is missing or whose sources changed, in both flavours (``only``:
+    just what ``flavour`` needs: its FMUs, and the pythonfmu ones a native copy is made of;
+    ``names``: only these models, names of no model ignored), validate each; return the paths
+    of ``flavour``'s FMUs. When something is built, ``log`` gets a line announcing how many
+    FMUs and about how long, then one line per FMU; an up to date build logs nothing
+    (``log=None``: never anything)."""
     _check_flavour(flavour)
-    paths = {f: [] for f in FLAVOURS}
-    for script in scripts():
-        name = model_name(script)
-        py = fmu_path(name, build_dir, "pythonfmu")
-        if force or not up_to_date(script, build_dir, "pythonfmu"):
-            build_one(script, build_dir)
-            why = kernel_to_bundle()[1]
-            log(f"built and validated: {py}" + (f" (without the compiled kernel: {why})" if why else ""))
+    base = Path(build_dir or ROOT / "build")
+    wanted = (flavour,) if only else FLAVOURS
+    names = None if names is None else set(names)
+    if not force:
+        fresh = _fresh(base, wanted, names)
+        if fresh is not None:
+            return fresh[flavour]
+    return _build(base, wanted, force, log or (lambda message: None), names)[flavour]
+
+
+def model_names() -> list[str]:
+    """Every model the project builds, in the order of its adapter scripts."""
+    return [model_name(s) for s in scripts()]
+
+
+def _build(base: Path, wanted, force: bool, log, names=None) -> dict:
+    """The full check and the build of what it finds out of date; writes the stamp."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from . import native
+
+    dirs = {str(d): os.stat(d).st_mtime_ns for d in _source_dirs()}  # before listing them
+    old = _read_stamp(base)
+    old_files, old_fmus = old.get("files", {}), old.get("fmus", {})
+    files: dict[str, list] = {}
+
+    def sha(path: str) -> str:
+        rec = files.get(path)
+        if rec is None:
+            now, prev = _stat(path), old_files.get(path)
+            rec = files[path] = now + [prev[2] if prev and prev[:2] == now else _sha256(path)]
+        return rec[2]
+
+    all_scripts = {model_name(s): s for s in scripts()}
+    script_of = {n: s for n, s in all_scripts.items() if names is None or n in names}
+    compiled = native.has_compiler()
+    real_native = {n for n in script_of if n in native.available() and compiled}
+    need = {(fl, n) for fl in wanted for n in script_of}
+    need |= {("pythonfmu", n) for fl, n in need if fl == "native" and n not in real_native}
+
+    def sources(fl: str, name: str) -> list[str]:
+        srcs = native.build_inputs(name) if fl == "native" and name in real_native else _sources(script_of[name])
+        return sorted({str(p) for p in srcs})
+
+    def stale(fl: str, name: str, srcs: list[str]) -> bool:
+        target = fmu_path(name, base, fl)
+        if force or not target.exists():
+            return True
+        entry = old_fmus.get(f"{fl}/{name}")
+        if entry is None or entry.get("stat") != _stat(target):
+            # built before this folder had a stamp, or since by someone else: the times decide
+            return not up_to_date(script_of[name], base, fl)
+        if fl == "native" and entry.get("copy") and name in real_native:
+            return True  # a copy of the pythonfmu flavour, and now there is a compiler
+        return sorted(entry.get("sources", {})) != srcs or any(sha(p) != h for p, h in entry["sources"].items())
+
+    order = [(fl, n) for fl in ("pythonfmu", "native") for n in script_of if (fl, n) in need]
+    srcs = {key: sources(*key) for key in order}
+    built_from = {key: {p: sha(p) for p in srcs[key]} for key in order}  # hashed before building
+    todo = [key for key in order if stale(key[0], key[1], srcs[key])]
+    # a native copy follows its pythonfmu FMU
+    todo += [("native", n) for fl, n in todo if fl == "pythonfmu" and ("native", n) in need
+             and n not in real_native and ("native", n) not in todo]
+    fmus = {k: v for k, v in old_fmus.items() if tuple(k.split("/", 1)) not in need}
+    if todo:
+        workers = _workers()
+        costs = [NATIVE_S.get(n, NATIVE_OTHER_S) for fl, n in todo if fl == "native" and n in real_native]
+        # in parallel, one per core: at least the longest, at least an even share of the total
+        estimate = (max(max(costs, default=0.0), sum(costs) / workers)
+                    + (len(todo) - len(costs)) * PYTHONFMU_S)
+        missing = sum(not fmu_path(n, base, fl).exists() for fl, n in todo)
+        if force:
+            why = "--force"
+        elif not any(fmu_path(n, base, fl).exists() for fl, n in need):
+            why = "first build"
         else:
-            log(f"up to date: {py}")
-        paths["pythonfmu"].append(py)
-        nat = fmu_path(name, build_dir, "native")
-        if not force and up_to_date(script, build_dir, "native"):
-            log(f"up to date: {nat}")
-        elif name in native.available() and native.has_compiler():
-            build_native_one(name, build_dir)
-            log(f"built and validated: {nat} (native)")
-        else:
-            shutil.copy2(py, nat)
-            why = "no native model" if name not in native.available() else \
-                "no C compiler (cc, gcc, clang or $CC) to build the native FMU"
-            log(f"{why} for {name}: {nat} is a copy of the pythonfmu flavour")
-        paths["native"].append(nat)
-    return paths[flavour]
+            why = ", ".join(f"{count} {text}" for count, text in ((missing, "not built yet"),
+                                                                  (len(todo) - missing, "with changed sources"))
+                            if count)
+        log(f"building {len(todo)} FMU{'s' if len(todo) != 1 else ''} in {base} ({why}; about "
+            f"{max(1, math.ceil(estimate))} s on {workers} free core{'s' if workers != 1 else ''})...")
+        t_start, done = time.perf_counter(), [0]
+
+        def report(path: Path, seconds: float, note: str = ""):
+            done[0] += 1
+            log(f"  [{done[0]}/{len(todo)}] {path}: built and validated in {seconds:.1f} s{note}")
+
+        for fl, name in todo:
+            if fl == "pythonfmu":
+                t0 = time.perf_counter()
+                path = build_one(script_of[name], base)
+                why_not = kernel_to_bundle()[1]
+                report(path, time.perf_counter() - t0, f" (without the compiled kernel: {why_not})" if why_not else "")
+
+        def compile_one(name: str):
+            t0 = time.perf_counter()
+            try:
+                return native.build_native(name, base), time.perf_counter() - t0
+            except native.NativeBuildError as e:
+                raise BuildError(str(e)) from None
+        natives = [n for fl, n in todo if fl == "native" and n in real_native]
+        with ThreadPoolExecutor(max_workers=min(workers, max(len(natives), 1))) as pool:
+            futures = [pool.submit(compile_one, n) for n in natives]
+            for future in futures:  # validated in this thread, in order
+                path, seconds = future.result()
+                t0 = time.perf_counter()
+                report(_validated(path), seconds + time.perf_counter() - t0, " (native)")
+        for fl, name in todo:
+            if fl == "native" and name not in real_native:
+                py, nat = fmu_path(name, base, "pythonfmu"), fmu_path(name, base, "native")
+                shutil.copy2(py, nat)
+                why_not = "no native model" if name not in native.available() else \
+                    "no C compiler (cc, gcc, clang or $CC) to build the native FMU"
+                report(nat, 0.0, f" ({why_not}: a copy of the pythonfmu flavour)")
+        log(f"built {len(todo)} FMU{'s' if len(todo) != 1 else ''} in {time.perf_counter() - t_start:.1f} s")
+    for fl, name in order:
+        fmus[f"{fl}/{name}"] = {"stat": _stat(fmu_path(name, base, fl)),
+                                "copy": fl == "native" and name not in real_native,
+                                "sources": built_from[(fl, name)]}
+    for script in all_scripts.values():
+        sha(str(script))
+    stamp = {"format": STAMP_FORMAT, "dirs": dirs, "scripts": {str(s): n for n, s in all_scripts.items()},
+             "fmus": fmus, "files": {**{p: r for p, r in old_files.items() if p not in files}, **files}}
+    tmp = base / f"{STAMP}.{os.getpid()}.part"
+    base.mkdir(parents=True, exist_ok=True)
+    tmp.write_text(json.dumps(stamp, indent=0))
+    tmp.replace(base / STAMP)
+    return {fl: [fmu_path(n, base, fl) for n in script_of] for fl in wanted}

@@ -317,6 +317,12 @@ def is_native(fmu: Path) -> bool:
         return False
 
 
+def build_inputs(name: str) -> list[Path]:
+    """Every file the native FMU of model `name` is made from: its sources, and the Python
+    that generates its model description and headers."""
+    return source_files(name) + [Path(__file__), PACKAGE_DIR / "fmi" / "interface.py",
+                                 PACKAGE_DIR / "physics" / "integrators.py"]
+
+
 def newest_source_mtime(name: str) -> float:
-    return max(f.stat().st_mtime for f in source_files(name) + [
-        Path(__file__), PACKAGE_DIR / "fmi" / "interface.py", PACKAGE_DIR / "physics" / "integrators.py"])
+    return max(f.stat().st_mtime for f in build_inputs(name))

@@ -403,6 +403,19 @@ def _legend(ax):
         ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), fontsize=8, frameon=False)
 
 
+def _save(fig, path: Path) -> None:
+    """The figure as a PNG at 110 dpi, without redundant work: a figure laid out by
+    ``tight_layout`` keeps a placeholder layout engine, which makes ``savefig`` draw the
+    whole figure once more (text, ticks) before the real draw only to lay it out again;
+    dropping it saves that draw and nothing else changes (the PNG is identical pixel for
+    pixel). zlib level 1: the same pixels in about a third less encoding time (files ~10 % larger)."""
+    from matplotlib.layout_engine import PlaceHolderLayoutEngine
+
+    if isinstance(fig.get_layout_engine(), PlaceHolderLayoutEngine):
+        fig.set_layout_engine(None)
+    fig.savefig(path, dpi=110, pil_kwargs={"compress_level": 1})
+
+
 def plot(res: RunResult, out_dir: Path, models=None, summary: dict | None = None) -> list[Path]:
     """The scenario's [[plots]] as PNG files (``models``: the model descriptions, for the
     parameters the shell and slip-margin kinds and the vlines need; ``summary``: the run's
@@ -419,7 +432,7 @@ def plot(res: RunResult, out_dir: Path, models=None, summary: dict | None = None
         else:
             fig = _plot_series(res, models, spec, plt, summary)
         path = out_dir / spec["file"]
-        fig.savefig(path, dpi=110)
+        _save(fig, path)
         plt.close(fig)
         files.append(path)
     return files
@@ -479,20 +492,32 @@ def plot_bare(res: RunResult, bare: RunResult, out_dir: Path) -> list[Path]:
         ax.grid(alpha=0.3)
         fig.tight_layout()
         path = out_dir / f"structure_{axis}_with_without_ball.png"
-        fig.savefig(path, dpi=110)
+        _save(fig, path)
         plt.close(fig)
         files.append(path)
     return files
 
 
+def draw(res: RunResult, models, out_dir: Path, bare: RunResult | None = None,
+         summary: dict | None = None) -> list[str]:
+    """Every PNG of a run: the scenario's plots and, with the bare structure's run, the
+    comparison with it; their file names (``summary``: the run's, for the ring's radii and the
+    statistics' window)."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    names = [p.name for p in plot(res, out_dir, models, summary)] if len(res.data) > 1 else []
+    if bare is not None and bare.success and len(bare.data) > 1:
+        names += [p.name for p in plot_bare(res, bare, out_dir)]
+    return names
+
+
 def write_all(res: RunResult, models, out_dir: Path, bare: RunResult | None = None) -> dict:
+    """results.csv (and bare.csv), the plots and summary.json."""
     out_dir.mkdir(parents=True, exist_ok=True)
     write_csv(res, out_dir / "results.csv")
-    summary = summarise(res, models, bare)
-    summary["plots"] = [p.name for p in plot(res, out_dir, models, summary)] if len(res.data) > 1 else []
     if bare is not None and bare.success and len(bare.data) > 1:
         write_csv(bare, out_dir / "bare.csv")
-        summary["plots"] += [p.name for p in plot_bare(res, bare, out_dir)]
+    summary = summarise(res, models, bare)
+    summary["plots"] = draw(res, models, out_dir, bare, summary)
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=_json_default))
     return summary
 

@@ -653,14 +653,29 @@ class _Descriptions(Mapping):
         return len(self._paths)
 
 
+def _models_used(name_or_path: str) -> list[str]:
+    """The models a scenario file instantiates (its instances' ``fmu``), the ones a run must
+    have built; none when the file cannot be read (the scenario's check then says why)."""
+    import tomllib
+
+    try:
+        doc = tomllib.loads(_spec.resolve(name_or_path).read_text())
+        return sorted({str(i["fmu"]) for i in doc.get("instances", {}).values() if isinstance(i, dict) and "fmu" in i})
+    except Exception:  # noqa: BLE001  (reported by spec.load, with where and why)
+        return []
+
+
 def prepare(name_or_path: str, overrides=(), build_dir: Path | None = None, log=print,
             flavour: str = "native", **check):
-    """Build the FMUs if needed, read their model descriptions, load and check the scenario.
+    """Build the FMUs the scenario uses if needed (only the flavour asked), read their model
+    descriptions, load and check the scenario.
     flavour: "native" (C, build/<Model>.fmu) or "pythonfmu" (build/pythonfmu/<Model>.fmu);
     ``check``: `spec.load`'s origins and points (a sweep's)."""
     from ..fmi import build as _build
-    fmus = _build.build_all(build_dir, log=log, flavour=flavour)
+    fmus = _build.build_all(build_dir, log=log, flavour=flavour, only=True, names=_models_used(name_or_path))
     paths = {p.stem: p for p in fmus}
+    for name in _build.model_names():  # and the others, not built for this run: the check names them
+        paths.setdefault(name, _build.fmu_path(name, build_dir, flavour))
     models = _Descriptions(paths)
     sc = _spec.load(name_or_path, overrides, models, **check)
     return sc, models, paths

@@ -23,7 +23,8 @@ def test_prepare_builds_the_flavour_asked_and_loads_the_scenario(native_fmus, mo
     monkeypatch.setattr(_build, "build_all", build_all)
     logs = []
     sc, models, paths = runner.prepare("fast_start", ["drive.t0=1.5"], tmp_path, log=logs.append)
-    assert calls == [((tmp_path,), {"log": logs.append, "flavour": "native"})]
+    assert calls == [((tmp_path,), {"log": logs.append, "flavour": "native", "only": True,
+                                     "names": ["BallInShell", "MotorStartup"]})]
     assert paths == native_fmus and list(paths) == list(native_fmus)
     assert isinstance(models, runner._Descriptions) and list(models) == list(native_fmus)
     assert models["MotorStartup"].modelName == "MotorStartup"
@@ -32,7 +33,8 @@ def test_prepare_builds_the_flavour_asked_and_loads_the_scenario(native_fmus, mo
     # the defaults: no overrides, the default build folder, print, the native flavour
     calls.clear()
     sc, _, _ = runner.prepare("fast_start")
-    assert calls == [((None,), {"log": print, "flavour": "native"})]
+    assert calls == [((None,), {"log": print, "flavour": "native", "only": True,
+                                 "names": ["BallInShell", "MotorStartup"]})]
     assert sc.instances["drive"].parameters["t0"] == 2.5
     # the scenario is checked against the model descriptions: a parameter the FMU lacks is refused
     with pytest.raises(spec.ScenarioError) as e:
@@ -41,7 +43,8 @@ def test_prepare_builds_the_flavour_asked_and_loads_the_scenario(native_fmus, mo
         e.value.problems
     calls.clear()
     runner.prepare("fast_start", flavour="pythonfmu")
-    assert calls == [((None,), {"log": print, "flavour": "pythonfmu"})]
+    assert calls == [((None,), {"log": print, "flavour": "pythonfmu", "only": True,
+                                 "names": ["BallInShell", "MotorStartup"]})]
 
 
 def test_the_progress_of_a_run_that_starts_later_counts_from_its_start(native_models, native_fmus, capsys,

@@ -34,9 +34,9 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.optimize import brentq, least_squares
 
+# scipy (least_squares, brentq, solve_ivp) is imported where it is used: the FMU interface
+# declaration reads this module's default parameter values, and that needs no scipy
 from ..errors import ParameterError
 
 START_MODES = ("dol", "voltage_ramp", "frequency_ramp")
@@ -369,6 +369,8 @@ class InductionMotor:
         X = 3.0 * U * U / (2.0 * self.synchronous_speed * Tb)
         x0 = np.log([self.breakdown_slip * X, X / (2.0 * w),
                      U / (self.rated_current * math.sqrt(max(1.0 - self.power_factor**2, 1e-6))) / w])
+        from scipy.optimize import least_squares
+
         sol = least_squares(residual, x0, xtol=1e-15, ftol=1e-15, gtol=1e-15)
         if not sol.success or np.max(np.abs(sol.fun)) > 1e-9:
             raise ParameterError(
@@ -599,6 +601,8 @@ class RunupResult:
         j = int(k[0])
         if j == 0:
             return float(self.t[0])
+        from scipy.optimize import brentq
+
         return brentq(lambda tt: self.sol(tt)[1] - psi_dot, self.t[j - 1], self.t[j], xtol=1e-12, rtol=1e-14)
 
 
@@ -640,6 +644,8 @@ def simulate_runup(drive: CrankDrive, t_end: float, load_torque: float | Callabl
 
     z0 = np.concatenate([y_start, np.zeros(n_q)])
     t_eval = np.linspace(0.0, t_end, n_out)
+    from scipy.integrate import solve_ivp
+
     res = solve_ivp(f, (0.0, t_end), z0, method=method, rtol=rtol, atol=atol, max_step=max_step,
                     t_eval=t_eval, dense_output=True)
     t, z = res.t, res.y
