@@ -210,7 +210,7 @@ def report(data: dict, quick: bool) -> str:
          f"running every measurement of "
          + (f"the current code and of the code before the start-up work (commit {data['baseline']}, "
             f"extracted with `git archive`), interleaved" if old else "the current code (no baseline: git or "
-            f"the baseline commit unavailable)")
+            "the baseline commit unavailable)")
          + f"; load average at the end {', '.join(f'{x:.1f}' for x in data['load']) if data['load'] else 'n/a'} "
          f"(a shared machine: the ratios, measured side by side, are the robust part). Each code has its "
          f"own build folder, built by its first run.\n"]
