@@ -42,7 +42,8 @@ def copy_scenario(tmp_path, name, stop, edit=()):
 
 
 def run(build_dir, scenario, out, *sets):
-    args = ["run", str(scenario), "--out", str(out), "--build-dir", str(build_dir), "--quiet"]
+    """`ballmill run` in process, not quiet: the banner is read from its stderr."""
+    args = ["run", str(scenario), "--out", str(out), "--build-dir", str(build_dir)]
     for s in sets:
         args += ["--set", s]
     return cli.main(args)
