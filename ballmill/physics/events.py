@@ -1,0 +1,221 @@
+"""Event-driven integration: one driver for every model whose motion switches between modes.
+
+A *system* integrated here has a finite set of modes (integers). In each mode it has a
+right-hand side, an `Integrator`, and guard functions g(t, y); a guard *fires* when it
+crosses from g > 0 to g <= 0 (a guard is armed once it has been seen positive, so a guard
+that starts at or below zero, as the gap of a flight that has just left the wall, does
+not fire at once). At the event the system's exact map (`jump`) gives the new mode and
+state, and the integration restarts there. Without events this is a plain integration
+over the user's grid: the integrator's steps land on every grid point, as
+`Integrator.advance` from one grid point to the next does, so a scene that never switches
+gives the same floats as a loop of `advance` calls (`model.simulate`'s Python path).
+
+Locating an event (docs/design.md section 14):
+
+1. detection, on the dense output: after each accepted step the guards are evaluated at
+   ``scan`` interior points of the step's cubic Hermite interpolant (`Step.hermite`) and
+   at the step's end; the first sub-interval where an armed guard changes sign brackets
+   the event (a guard that dips below zero and comes back within one step is seen if the
+   dip spans a scan point);
+2. location, on the method's own continuous extension: y(t) for t in the step is one step
+   of the method from the step's start (`Integrator.single_step`), as accurate as the
+   integrator's accepted steps (the Hermite cubic is only third order); the guard along it
+   is solved by the Illinois variant of regula falsi until the bracket is shorter than
+   ``xtol`` (1e-11 s by default). The event is put at the bracket's end where g <= 0, so
+   the state handed to `jump` has crossed (a gap <= 0, N <= 0, ...).
+
+Zeno guard: a run that makes more than ``burst`` events within ``burst / max_rate`` seconds
+(an accumulation of events the system's own rules, e.g. a rest speed, did not resolve)
+stops with ``success = False`` and a message naming the time, never a hang.
+
+The system's interface (duck-typed):
+
+- ``integrator(mode) -> Integrator``
+- ``rhs(mode) -> f(t, y)``
+- ``guards(mode) -> sequence of (kind, g)``, g(t, y) a float
+- ``jump(mode, kind, t, y) -> (mode, y, details)``: the exact map at an event (details: a
+  dict for the event log)
+- ``sample(mode, t, y) -> tuple``: one row of outputs on the grid
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import StepFailure
+from .integrators import StepStats
+
+
+@dataclass
+class Event:
+    """One switch: time [s], what fired (the guard's kind), the modes before and after, and
+    the system's details of the map (impact speed, energy lost, ...)."""
+
+    t: float
+    kind: str
+    mode_before: int
+    mode_after: int
+    details: dict = field(default_factory=dict)
+
+
+@dataclass
+class EventRun:
+    """What `integrate` returns: the grid times reached, one `sample` row per time, the
+    events in order, and whether the run reached the end (``message`` says why not)."""
+
+    t: np.ndarray
+    rows: list
+    events: list
+    success: bool = True
+    message: str = "completed"
+    stats: StepStats = field(default_factory=StepStats)
+    mode: int = 0
+    y: np.ndarray | None = None
+
+
+def illinois(phi, a: float, fa: float, b: float, fb: float, xtol: float, max_iter: int = 200):
+    """Root of phi on [a, b] with phi(a) > 0 >= phi(b): the Illinois variant of regula falsi
+    (superlinear, never slower than bisection by more than a constant: every third
+    iteration bisects). Returns (b, phi(b)) once b - a <= xtol: the end where phi <= 0."""
+    side = 0
+    for it in range(max_iter):
+        if b - a <= xtol or fb == 0.0:
+            break
+        if it % 3 == 2 or fa == fb:
+            c = 0.5 * (a + b)
+        else:
+            c = (a * fb - b * fa) / (fb - fa)
+            if not (a < c < b):
+                c = 0.5 * (a + b)
+        fc = phi(c)
+        if fc > 0.0:
+            a, fa = c, fc
+            if side == 1:
+                fb *= 0.5
+            side = 1
+        else:
+            b, fb = c, fc
+            if side == -1:
+                fa *= 0.5
+            side = -1
+    return b, fb
+
+
+def _locate(integ, f, step, g, ta, tb, xtol):
+    """(t_event, y_event, bracket width) of guard g in [ta, tb] within the step, on the
+    method's continuous extension (module docstring); None if g does not change sign
+    there on it (the Hermite scan saw a crossing the method's own solution does not have)."""
+    t0, y0, f0 = step.t0, step.y0, step.f0
+    cache = {}
+
+    def state(t):
+        if t == t0:
+            return y0
+        y = cache.get(t)
+        if y is None:
+            y = cache[t] = integ.single_step(f, t0, y0, t - t0, f0)
+        return y
+
+    def phi(t):
+        return g(t, state(t))
+
+    fa, fb = phi(ta), phi(tb)
+    if not fa > 0.0:
+        ta, fa = t0, g(t0, y0)
+    if not fb <= 0.0:
+        tb, fb = step.t1, g(step.t1, step.y1)
+    if not (fa > 0.0 and fb <= 0.0):
+        return None
+    t, _ = illinois(phi, ta, fa, tb, fb, xtol)
+    return t, (step.y1 if t == step.t1 else state(t)), 0.0
+
+
+def _detect(step, f, guards, armed, scan):
+    """Earliest bracket (index, ta, tb) of an armed guard changing sign within the step on
+    its dense output, updating ``armed``; None when no guard fires."""
+    h = step.t1 - step.t0
+    f1 = step.f1
+    if f1 is None:
+        f1 = f(step.t1, step.y1)
+    pts = [(step.t0 + h * k / (scan + 1), None) for k in range(1, scan + 1)] + [(step.t1, step.y1)]
+    states = []
+    best = None
+    for j, (kind, g) in enumerate(guards):
+        prev = step.t0
+        for k, (tk, yk) in enumerate(pts):
+            if best is not None and tk > best[2]:
+                break
+            if k >= len(states):
+                states.append(yk if yk is not None else step.hermite(tk, f1))
+            v = g(tk, states[k])
+            if v > 0.0:
+                armed[j] = True
+                prev = tk
+            elif armed[j]:
+                if best is None or tk < best[2] or (tk == best[2] and prev < best[1]):
+                    best = (j, prev, tk)
+                break
+    return best
+
+
+def integrate(system, mode: int, t: float, y, times, *, scan: int = 3, xtol: float = 1e-11,
+              burst: int = 100, max_rate: float = 1e4) -> EventRun:
+    """Integrate ``system`` from (t, mode, y) over the grid ``times`` (times[0] == t is
+    sampled as it is), handling every event on the way (module docstring). Returns an
+    `EventRun`; a step failure or a Zeno sequence ends it early with success False."""
+    times = np.asarray(times, dtype=float)
+    y = np.array(y, dtype=float)
+    stats = StepStats()
+    events: list[Event] = []
+    rows = []
+    h = None
+    success, message = True, "completed"
+    last = 0
+    if len(times) and times[0] == t:
+        rows.append(system.sample(mode, t, y))
+    start = 1 if len(times) and times[0] == t else 0
+    for i in range(start, len(times)):
+        t_next = float(times[i])
+        try:
+            while t < t_next:
+                guards = system.guards(mode)
+                f = system.rhs(mode)
+                integ = system.integrator(mode)
+                armed = [g(t, y) > 0.0 for _, g in guards]
+                hit = None
+                for step in integ.steps(f, t, y, t_next, h, stats):
+                    b = _detect(step, f, guards, armed, scan) if guards else None
+                    if b is not None:
+                        j, ta, tb = b
+                        loc = _locate(integ, f, step, guards[j][1], ta, tb, xtol)
+                        if loc is not None:
+                            hit = (guards[j][0], loc[0], loc[1], step.t1 - step.t0)
+                            break
+                    t, y, h = step.t1, step.y1, step.h_next
+                if hit is None:
+                    t = t_next
+                    continue
+                kind, t_e, y_e, h_used = hit
+                new_mode, y, details = system.jump(mode, kind, t_e, y_e)
+                events.append(Event(t_e, kind, mode, new_mode, details))
+                mode, t, h = new_mode, t_e, h_used
+                y = np.array(y, dtype=float)
+                if len(events) >= burst and t_e - events[-burst].t < burst / max_rate:
+                    raise _Zeno(f"Zeno sequence: {burst} events within "
+                                f"{t_e - events[-burst].t:.3g} s before t = {t_e:.9g} s "
+                                f"(the last: {kind!r}); more than the allowed rate "
+                                f"{max_rate:g} events/s")
+        except (_Zeno, StepFailure, ArithmeticError) as e:
+            success = False
+            message = f"stopped at t = {t:.9g} s: {e}"
+            break
+        rows.append(system.sample(mode, t, y))
+        last = i
+    reached = times[:last + 1] if rows else times[:0]
+    return EventRun(reached[:len(rows)], rows, events, success, message, stats, mode, y)
+
+
+class _Zeno(Exception):
+    pass
