@@ -32,10 +32,15 @@ The system's interface (duck-typed):
 
 - ``integrator(mode) -> Integrator``
 - ``rhs(mode) -> f(t, y)``
-- ``guards(mode) -> sequence of (kind, g)``, g(t, y) a float
+- ``guards(mode) -> (kinds, G)``: the names of the mode's guards and G(t, y), their
+  values as a tuple (one evaluation serves all guards: they usually share the work)
 - ``jump(mode, kind, t, y) -> (mode, y, details)``: the exact map at an event (details: a
   dict for the event log)
 - ``sample(mode, t, y) -> tuple``: one row of outputs on the grid
+- optional ``armed(mode, t, y) -> sequence of bool``: guards to arm at a mode's start although
+  they are not positive there (a gap of 0 that is opening: the flight after a rebound)
+- optional ``first_step(mode, t, y) -> float | None``: the longest first step after an event
+  (a short hop must not fit inside one step, where no guard value would see it)
 """
 from __future__ import annotations
 
@@ -57,6 +62,7 @@ class Event:
     kind: str
     mode_before: int
     mode_after: int
+    width: float = 0.0  # final bracket of the root finder [s]: the event time's uncertainty
     details: dict = field(default_factory=dict)
 
 
@@ -78,7 +84,8 @@ class EventRun:
 def illinois(phi, a: float, fa: float, b: float, fb: float, xtol: float, max_iter: int = 200):
     """Root of phi on [a, b] with phi(a) > 0 >= phi(b): the Illinois variant of regula falsi
     (superlinear, never slower than bisection by more than a constant: every third
-    iteration bisects). Returns (b, phi(b)) once b - a <= xtol: the end where phi <= 0."""
+    iteration bisects). Returns (b, phi(b), b - a) once b - a <= xtol: the end where
+    phi <= 0, and the final bracket's width."""
     side = 0
     for it in range(max_iter):
         if b - a <= xtol or fb == 0.0:
@@ -100,12 +107,12 @@ def illinois(phi, a: float, fa: float, b: float, fb: float, xtol: float, max_ite
             if side == -1:
                 fa *= 0.5
             side = -1
-    return b, fb
+    return b, fb, b - a
 
 
-def _locate(integ, f, step, g, ta, tb, xtol):
-    """(t_event, y_event, bracket width) of guard g in [ta, tb] within the step, on the
-    method's continuous extension (module docstring); None if g does not change sign
+def _locate(integ, f, step, G, j, ta, tb, xtol):
+    """(t_event, y_event, bracket width) of guard j of G in [ta, tb] within the step, on
+    the method's continuous extension (module docstring); None if it does not change sign
     there on it (the Hermite scan saw a crossing the method's own solution does not have)."""
     t0, y0, f0 = step.t0, step.y0, step.f0
     cache = {}
@@ -113,51 +120,62 @@ def _locate(integ, f, step, g, ta, tb, xtol):
     def state(t):
         if t == t0:
             return y0
+        if t == step.t1:
+            return step.y1
         y = cache.get(t)
         if y is None:
             y = cache[t] = integ.single_step(f, t0, y0, t - t0, f0)
         return y
 
     def phi(t):
-        return g(t, state(t))
+        return G(t, state(t))[j]
 
     fa, fb = phi(ta), phi(tb)
     if not fa > 0.0:
-        ta, fa = t0, g(t0, y0)
+        ta, fa = t0, phi(t0)
+    if not fa > 0.0 and fb <= 0.0:
+        # armed at t0 without a positive value (an opening gap): find where it is positive
+        for k in range(1, 80):
+            tm = t0 + (tb - t0) * 0.5 ** k
+            if tm - t0 <= xtol:
+                break
+            fm = phi(tm)
+            if fm > 0.0:
+                ta, fa = tm, fm
+                break
     if not fb <= 0.0:
-        tb, fb = step.t1, g(step.t1, step.y1)
+        tb, fb = step.t1, phi(step.t1)
     if not (fa > 0.0 and fb <= 0.0):
         return None
-    t, _ = illinois(phi, ta, fa, tb, fb, xtol)
-    return t, (step.y1 if t == step.t1 else state(t)), 0.0
+    t, _, width = illinois(phi, ta, fa, tb, fb, xtol)
+    return t, state(t), width
 
 
-def _detect(step, f, guards, armed, scan):
-    """Earliest bracket (index, ta, tb) of an armed guard changing sign within the step on
-    its dense output, updating ``armed``; None when no guard fires."""
+def _detect(step, f, G, armed, scan):
+    """Brackets [(j, ta, tb), ...] of the armed guards that change sign first within the
+    step on its dense output (all those changing sign in the same sub-interval), updating
+    ``armed``; [] when no guard fires."""
     h = step.t1 - step.t0
     f1 = step.f1
     if f1 is None:
         f1 = f(step.t1, step.y1)
-    pts = [(step.t0 + h * k / (scan + 1), None) for k in range(1, scan + 1)] + [(step.t1, step.y1)]
-    states = []
-    best = None
-    for j, (kind, g) in enumerate(guards):
-        prev = step.t0
-        for k, (tk, yk) in enumerate(pts):
-            if best is not None and tk > best[2]:
-                break
-            if k >= len(states):
-                states.append(yk if yk is not None else step.hermite(tk, f1))
-            v = g(tk, states[k])
+    prev = [step.t0] * len(armed)
+    for k in range(1, scan + 2):
+        if k <= scan:
+            tk = step.t0 + h * k / (scan + 1)
+            yk = step.hermite(tk, f1)
+        else:
+            tk, yk = step.t1, step.y1
+        hits = []
+        for j, v in enumerate(G(tk, yk)):
             if v > 0.0:
                 armed[j] = True
-                prev = tk
+                prev[j] = tk
             elif armed[j]:
-                if best is None or tk < best[2] or (tk == best[2] and prev < best[1]):
-                    best = (j, prev, tk)
-                break
-    return best
+                hits.append((j, prev[j], tk))
+        if hits:
+            return hits
+    return []
 
 
 def integrate(system, mode: int, t: float, y, times, *, scan: int = 3, xtol: float = 1e-11,
@@ -167,54 +185,57 @@ def integrate(system, mode: int, t: float, y, times, *, scan: int = 3, xtol: flo
     `EventRun`; a step failure or a Zeno sequence ends it early with success False."""
     times = np.asarray(times, dtype=float)
     y = np.array(y, dtype=float)
+    t = float(t)
     stats = StepStats()
     events: list[Event] = []
     rows = []
     h = None
     success, message = True, "completed"
-    last = 0
-    if len(times) and times[0] == t:
-        rows.append(system.sample(mode, t, y))
     start = 1 if len(times) and times[0] == t else 0
+    if start:
+        rows.append(system.sample(mode, t, y))
     for i in range(start, len(times)):
         t_next = float(times[i])
         try:
             while t < t_next:
-                guards = system.guards(mode)
+                kinds, G = system.guards(mode)
                 f = system.rhs(mode)
                 integ = system.integrator(mode)
-                armed = [g(t, y) > 0.0 for _, g in guards]
+                armed = [v > 0.0 for v in G(t, y)] if kinds else []
+                if kinds and hasattr(system, "armed"):
+                    armed = [a or b for a, b in zip(armed, system.armed(mode, t, y))]
                 hit = None
                 for step in integ.steps(f, t, y, t_next, h, stats):
-                    b = _detect(step, f, guards, armed, scan) if guards else None
-                    if b is not None:
-                        j, ta, tb = b
-                        loc = _locate(integ, f, step, guards[j][1], ta, tb, xtol)
-                        if loc is not None:
-                            hit = (guards[j][0], loc[0], loc[1], step.t1 - step.t0)
-                            break
+                    for j, ta, tb in (_detect(step, f, G, armed, scan) if kinds else ()):
+                        loc = _locate(integ, f, step, G, j, ta, tb, xtol)
+                        if loc is not None and (hit is None or loc[0] < hit[1]):
+                            hit = (kinds[j], loc[0], loc[1], loc[2], step.t1 - step.t0)
+                    if hit is not None:
+                        break
                     t, y, h = step.t1, step.y1, step.h_next
                 if hit is None:
                     t = t_next
                     continue
-                kind, t_e, y_e, h_used = hit
+                kind, t_e, y_e, width, h_used = hit
+                t_e = float(t_e)
                 new_mode, y, details = system.jump(mode, kind, t_e, y_e)
-                events.append(Event(t_e, kind, mode, new_mode, details))
+                events.append(Event(t_e, kind, mode, new_mode, width, details))
                 mode, t, h = new_mode, t_e, h_used
                 y = np.array(y, dtype=float)
+                bound = system.first_step(mode, t, y) if hasattr(system, "first_step") else None
+                if bound is not None:
+                    h = min(h, bound)
                 if len(events) >= burst and t_e - events[-burst].t < burst / max_rate:
                     raise _Zeno(f"Zeno sequence: {burst} events within "
                                 f"{t_e - events[-burst].t:.3g} s before t = {t_e:.9g} s "
-                                f"(the last: {kind!r}); more than the allowed rate "
+                                f"(the last: {kind!r}), more than the allowed rate "
                                 f"{max_rate:g} events/s")
         except (_Zeno, StepFailure, ArithmeticError) as e:
             success = False
             message = f"stopped at t = {t:.9g} s: {e}"
             break
         rows.append(system.sample(mode, t, y))
-        last = i
-    reached = times[:last + 1] if rows else times[:0]
-    return EventRun(reached[:len(rows)], rows, events, success, message, stats, mode, y)
+    return EventRun(times[:len(rows)], rows, events, success, message, stats, mode, y)
 
 
 class _Zeno(Exception):

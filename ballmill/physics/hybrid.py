@@ -48,6 +48,9 @@ from .model import BallModel
 from .params import Ball
 
 FLIGHT, ROLLING, SLIDING = 0, 1, 2
+# A rebound whose hop would rise less than this many ulps of the chamber's size above the wall
+# counts as rest: the gap d - |C - A| cannot resolve it (the driver would not see it open).
+HOP_MIN_ULPS = 1e4
 MODE_NAMES = {FLIGHT: "flight", ROLLING: "rolling", SLIDING: "sliding"}
 
 
@@ -165,6 +168,7 @@ class HybridBall:
     # -- right-hand sides -------------------------------------------------
     def _rhs_roll_q(self, t, y):
         b = self.ball
+        y = y.tolist()
         (x, yy, vx, vy, ax, ay) = self.motion.state(t)
         d = self.rolling.form.derivative((y[0], y[1], y[2], y[3], y[4], y[5]), ax, ay)
         # contact force on the ball m (a_O + d n'' - g_vec), n'' = lambda (n' x w + n x w')
@@ -177,11 +181,14 @@ class HybridBall:
         return d + (Fx * vx + Fy * vy, 0.0)
 
     def _rhs_flight(self, t, y):
+        y = y.tolist()
         return (y[3], y[4], y[5], 0.0, 0.0, -self.ball.g, 0.0, 0.0, 0.0, 0.0, 0.0)
 
     def _slide_forces(self, t, y, seed=None):
-        """(N, friction force on the ball F_t, slip u_t, n, v_A) of a sliding state."""
+        """(N, friction force on the ball F_t, slip speed |u_t|, n, v_A) of a sliding state."""
         b = self.ball
+        if type(y) is not list:
+            y = y.tolist()  # Python floats: faster than numpy scalars here
         A, vA, aA, _ = self.chamber(t)
         rho = (y[0] - A[0], y[1] - A[1], y[2] - A[2])
         dist = math.sqrt(_dot(rho, rho))
@@ -202,6 +209,7 @@ class HybridBall:
 
     def _rhs_slide(self, t, y):
         b = self.ball
+        y = y.tolist()
         N, Ft, s, n, vA = self._slide_forces(t, y)
         F = (Ft[0] - N * n[0], Ft[1] - N * n[1], Ft[2] - N * n[2])
         tq = _cross(n, Ft)
@@ -212,29 +220,56 @@ class HybridBall:
     # -- guards ---------------------------------------------------------
     def guards(self, mode):
         if mode == ROLLING:
-            return (("slip", self._g_slip), ("leave", self._g_N_roll))
+            return ("slip", "leave"), self._g_rolling
         if mode == SLIDING:
-            return (("stick", self._g_stick), ("leave", self._g_N_slide))
-        return (("impact", self._g_gap),)
+            return ("stick", "leave"), self._g_sliding
+        return ("impact",), self._g_flight
 
     def _roll_out(self, t, y):
         _, _, _, _, ax, ay = self.motion.state(t)
         return _out.evaluate(self.ball, (y[0], y[1], y[2]), (y[3], y[4], y[5]), ax, ay)
 
-    def _g_slip(self, t, y):
+    def _g_rolling(self, t, y):
+        """(mu N - |F_t|, N) of the rolling model."""
         o = self._roll_out(t, y)
-        return self.mu * o.N - o.Ft
+        return self.mu * o.N - o.Ft, o.N
 
-    def _g_N_roll(self, t, y):
-        return self._roll_out(t, y).N
+    def _g_sliding(self, t, y):
+        """(|u| - slip_eps, N) of the sliding ball."""
+        N, _, s, _, _ = self._slide_forces(t, y)
+        return s - self.slip_eps, N
 
-    def _g_stick(self, t, y):
-        return self._slide_forces(t, y)[2] - self.slip_eps
+    def _g_flight(self, t, y):
+        return (self._gap(t, y),)
 
-    def _g_N_slide(self, t, y):
-        return self._slide_forces(t, y)[0]
+    def _normal_motion(self, t, y):
+        """(v_n, a_n) of a free state: the normal velocity relative to the wall (> 0 towards
+        it) and the free flight's normal acceleration relative to the wall."""
+        A, vA, aA, _ = self.chamber(t)
+        rho = (y[0] - A[0], y[1] - A[1], y[2] - A[2])
+        dist = math.sqrt(_dot(rho, rho))
+        n = (rho[0] / dist, rho[1] / dist, rho[2] / dist)
+        vn = (y[3] - vA[0]) * n[0] + (y[4] - vA[1]) * n[1] + (y[5] - vA[2]) * n[2]
+        return vn, -self.ball.g * n[2] - _dot(aA, n)
 
-    def _g_gap(self, t, y):
+    def armed(self, mode, t, y):
+        """The flight's gap guard is armed at once when the ball moves away from the wall
+        (a rebound: the gap is 0 at the start and opening)."""
+        if mode == FLIGHT:
+            return (self._normal_motion(t, y)[0] < 0.0,)
+        return (False, False)
+
+    def first_step(self, mode, t, y):
+        """After a rebound, a quarter of the hop's duration in free flight (so the opening gap
+        is seen positive before it closes again)."""
+        if mode != FLIGHT:
+            return None
+        vn, an = self._normal_motion(t, y)
+        if vn < 0.0 and an > 0.0:
+            return max(0.5 * -vn / an, 1e-12)
+        return None
+
+    def _gap(self, t, y):
         A = self.chamber(t)[0]
         return self.ball.d - math.sqrt((y[0] - A[0]) ** 2 + (y[1] - A[1]) ** 2 + (y[2] - A[2]) ** 2)
 
@@ -387,6 +422,9 @@ class HybridBall:
             raise ValueError(f"unknown event kind {kind!r}")
         if new == FLIGHT and math.isnan(self.book["t_first_flight"]):
             self.book["t_first_flight"] = t
+        A = self.chamber(t)[0]
+        rho = z[:3] - np.array(A)
+        details["n"] = tuple((rho / math.sqrt(rho @ rho)).tolist())  # where it happened
         return new, y2, details
 
     def _impact(self, t, z):
@@ -412,7 +450,9 @@ class HybridBall:
         bk["n_impacts"] += 1
         bk["v_impact_max"] = max(bk["v_impact_max"], vn)
         details = {"v_n": vn, "slip": s, "stick": stick, "E_loss": loss}
-        if self.e_n * vn < self.v_rest:
+        _, an = self._normal_motion(t, z)
+        hop = (self.e_n * vn) ** 2 / (2.0 * an) if an > 0.0 else math.inf
+        if self.e_n * vn < self.v_rest or hop < HOP_MIN_ULPS * 2.2e-16 * (b.R + math.sqrt(A[0] ** 2 + A[1] ** 2 + A[2] ** 2)):
             vn2 = (z[3] - vA[0]) * n[0] + (z[4] - vA[1]) * n[1] + (z[5] - vA[2]) * n[2]
             loss += self._impulse(t, z, (-b.m * vn2 * n[0], -b.m * vn2 * n[1], -b.m * vn2 * n[2]), n)
             bk["E_impact"] += loss
@@ -425,12 +465,12 @@ class HybridBall:
         return FLIGHT, z, details
 
     # -- outputs ----------------------------------------------------------
-    COLUMNS = ("mode", "xC", "yC", "zC", "vCx", "vCy", "vCz", "wx", "wy", "wz", "N", "Ft",
+    COLUMNS = ("mode", "nx", "ny", "nz", "xC", "yC", "zC", "vCx", "vCy", "vCz", "wx", "wy", "wz", "N", "Ft",
                "slip_speed", "gap", "E", "W_chamber", "E_friction", "E_impact", "n_impacts",
                "v_impact_max", "t_first_slip", "t_first_flight")
 
     def sample(self, mode, t, y):
-        """One row of COLUMNS: C relative to the platform point O (chamber axes, as
+        """One row of COLUMNS: n = (C - A)/|C - A|, C relative to the platform point O (chamber axes, as
         `outputs.evaluate`), v_C and omega in fixed axes, N and |F_t| of the contact [N],
         the slip speed [m/s] and gap d - |C - A| [m], the ball's mechanical energy E in fixed
         axes and the bookkeeping [J]."""
@@ -441,6 +481,7 @@ class HybridBall:
         dist = math.sqrt(rho @ rho)
         n = tuple(rho / dist)
         if mode == ROLLING:
+            n = (y[0], y[1], y[2])  # the state itself: the rolling model's numbers, unrounded
             o = self._roll_out(t, y)
             N, Ft, slip = o.N, o.Ft, 0.0
         elif mode == SLIDING:
@@ -453,7 +494,7 @@ class HybridBall:
         E = (0.5 * b.m * float(z[3:6] @ z[3:6]) + 0.5 * b.I * float(z[6:9] @ z[6:9])
              + b.m * b.g * z[2])
         bk = self.book
-        return (mode, z[0] - O[0], z[1] - O[1], z[2], z[3], z[4], z[5], z[6], z[7], z[8], N, Ft,
+        return (mode, n[0], n[1], n[2], z[0] - O[0], z[1] - O[1], z[2], z[3], z[4], z[5], z[6], z[7], z[8], N, Ft,
                 slip, b.d - dist, E, z[9], z[10], bk["E_impact"], bk["n_impacts"],
                 bk["v_impact_max"], bk["t_first_slip"], bk["t_first_flight"])
 
