@@ -32,8 +32,10 @@ The system's interface (duck-typed):
 
 - ``integrator(mode) -> Integrator``
 - ``rhs(mode) -> f(t, y)``
-- ``guards(mode) -> (kinds, G)``: the names of the mode's guards and G(t, y), their
-  values as a tuple (one evaluation serves all guards: they usually share the work)
+- ``guards(mode) -> (kinds, G, levels)``: the names of the mode's guards, G(t, y) their
+  values as a tuple (one evaluation serves all guards: they usually share the work), and
+  the level each must exceed to be armed (0, or a guard's noise floor: a gap that has just
+  opened from 0 must rise above its round-off before its return to 0 means anything)
 - ``jump(mode, kind, t, y) -> (mode, y, details)``: the exact map at an event (details: a
   dict for the event log)
 - ``sample(mode, t, y) -> tuple``: one row of outputs on the grid
@@ -151,7 +153,7 @@ def _locate(integ, f, step, G, j, ta, tb, xtol):
     return t, state(t), width
 
 
-def _detect(step, f, G, armed, scan):
+def _detect(step, f, G, levels, armed, scan):
     """Brackets [(j, ta, tb), ...] of the armed guards that change sign first within the
     step on its dense output (all those changing sign in the same sub-interval), updating
     ``armed``; [] when no guard fires."""
@@ -169,7 +171,8 @@ def _detect(step, f, G, armed, scan):
         hits = []
         for j, v in enumerate(G(tk, yk)):
             if v > 0.0:
-                armed[j] = True
+                if v > levels[j]:
+                    armed[j] = True
                 prev[j] = tk
             elif armed[j]:
                 hits.append((j, prev[j], tk))
@@ -198,15 +201,15 @@ def integrate(system, mode: int, t: float, y, times, *, scan: int = 3, xtol: flo
         t_next = float(times[i])
         try:
             while t < t_next:
-                kinds, G = system.guards(mode)
+                kinds, G, levels = system.guards(mode)
                 f = system.rhs(mode)
                 integ = system.integrator(mode)
-                armed = [v > 0.0 for v in G(t, y)] if kinds else []
+                armed = [v > lv for v, lv in zip(G(t, y), levels)] if kinds else []
                 if kinds and hasattr(system, "armed"):
                     armed = [a or b for a, b in zip(armed, system.armed(mode, t, y))]
                 hit = None
                 for step in integ.steps(f, t, y, t_next, h, stats):
-                    for j, ta, tb in (_detect(step, f, G, armed, scan) if kinds else ()):
+                    for j, ta, tb in (_detect(step, f, G, levels, armed, scan) if kinds else ()):
                         loc = _locate(integ, f, step, G, j, ta, tb, xtol)
                         if loc is not None and (hit is None or loc[0] < hit[1]):
                             hit = (kinds[j], loc[0], loc[1], loc[2], step.t1 - step.t0)

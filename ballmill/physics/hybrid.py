@@ -140,6 +140,10 @@ class HybridBall:
         self.book = dict(E_impact=0.0, n_impacts=0, v_impact_max=0.0, t_first_slip=math.nan,
                          t_first_flight=math.nan, Q=(0.0, 0.0))
         self._seed = (0.0, 0.0, 0.0)
+        self._rebound = False  # the last map was a rebound (the flight's gap is opening)
+        A0 = self.chamber(0.0)[0]
+        # the gap's resolution [m]: HOP_MIN_ULPS ulps of the coordinates it is computed from
+        self._gap_res = HOP_MIN_ULPS * 2.2e-16 * (ball.R + math.sqrt(_dot(A0, A0)))
 
     # -- chamber ----------------------------------------------------------
     def chamber(self, t):
@@ -220,10 +224,10 @@ class HybridBall:
     # -- guards ---------------------------------------------------------
     def guards(self, mode):
         if mode == ROLLING:
-            return ("slip", "leave"), self._g_rolling
+            return ("slip", "leave"), self._g_rolling, (0.0, 0.0)
         if mode == SLIDING:
-            return ("stick", "leave"), self._g_sliding
-        return ("impact",), self._g_flight
+            return ("stick", "leave"), self._g_sliding, (0.0, 0.0)
+        return ("impact",), self._g_flight, (self._gap_res,)
 
     def _roll_out(self, t, y):
         _, _, _, _, ax, ay = self.motion.state(t)
@@ -253,16 +257,17 @@ class HybridBall:
         return vn, -self.ball.g * n[2] - _dot(aA, n)
 
     def armed(self, mode, t, y):
-        """The flight's gap guard is armed at once when the ball moves away from the wall
-        (a rebound: the gap is 0 at the start and opening)."""
+        """The flight's gap guard is armed at once after a rebound (the gap is 0 there and
+        opening); a flight that starts by leaving the wall (N = 0, no normal speed) arms it
+        when the gap is first seen positive."""
         if mode == FLIGHT:
-            return (self._normal_motion(t, y)[0] < 0.0,)
+            return (self._rebound,)
         return (False, False)
 
     def first_step(self, mode, t, y):
         """After a rebound, a quarter of the hop's duration in free flight (so the opening gap
         is seen positive before it closes again)."""
-        if mode != FLIGHT:
+        if mode != FLIGHT or not self._rebound:
             return None
         vn, an = self._normal_motion(t, y)
         if vn < 0.0 and an > 0.0:
@@ -293,6 +298,21 @@ class HybridBall:
             return np.array(core + list(Q))
         self.book["Q"] = (math.nan, Q[1])  # W is not followed while rolling
         return np.array(core)
+
+    def _onto_wall(self, t, z):
+        """z with C put on the sphere |C - A| = d and the normal velocity relative to the wall
+        removed: a sliding state's drift off the constraint (integration error, ~tol) taken out
+        where the ball leaves the wall, so the flight starts exactly tangent (otherwise a drift
+        towards the wall reads as an impact an instant later)."""
+        b = self.ball
+        A, vA, _, _ = self.chamber(t)
+        z = np.array(z, dtype=float)
+        rho = z[:3] - np.array(A)
+        n = rho / math.sqrt(rho @ rho)
+        z[:3] = np.array(A) + b.d * n
+        vn = float((z[3:6] - np.array(vA)) @ n)
+        z[3:6] -= vn * n
+        return z
 
     def _impulse(self, t, z, J, n):
         """Apply the impulse J (on the ball, at P = C + r n) to the free state z in place;
@@ -407,11 +427,12 @@ class HybridBall:
 
     # -- the map at an event ----------------------------------------------
     def jump(self, mode, kind, t, y):
+        self._rebound = False
         z = self.free_state(mode, t, y)
         if kind == "impact":
             new, y2, details = self._impact(t, z)
         elif kind == "leave":
-            new, y2, details = FLIGHT, z, {}
+            new, y2, details = FLIGHT, self._onto_wall(t, z), {}
         elif kind == "slip":
             A = self.chamber(t)[0]
             n = tuple((z[:3] - np.array(A)) / self.ball.d)
@@ -435,6 +456,9 @@ class HybridBall:
         n = tuple(rho / math.sqrt(rho @ rho))
         z[:3] = np.array(A) + b.d * np.array(n)
         vn = (z[3] - vA[0]) * n[0] + (z[4] - vA[1]) * n[1] + (z[5] - vA[2]) * n[2]
+        if vn <= 0.0:
+            # touching without approaching (a gap closing at round-off level): no impulse
+            return FLIGHT, z, {"v_n": vn, "grazing": True}
         Jn = (1.0 + self.e_n) * b.m * vn
         ut = self._slip(t, z, n)
         s = math.sqrt(_dot(ut, ut))
@@ -452,7 +476,7 @@ class HybridBall:
         details = {"v_n": vn, "slip": s, "stick": stick, "E_loss": loss}
         _, an = self._normal_motion(t, z)
         hop = (self.e_n * vn) ** 2 / (2.0 * an) if an > 0.0 else math.inf
-        if self.e_n * vn < self.v_rest or hop < HOP_MIN_ULPS * 2.2e-16 * (b.R + math.sqrt(A[0] ** 2 + A[1] ** 2 + A[2] ** 2)):
+        if self.e_n * vn < self.v_rest or hop < self._gap_res:
             vn2 = (z[3] - vA[0]) * n[0] + (z[4] - vA[1]) * n[1] + (z[5] - vA[2]) * n[2]
             loss += self._impulse(t, z, (-b.m * vn2 * n[0], -b.m * vn2 * n[1], -b.m * vn2 * n[2]), n)
             bk["E_impact"] += loss
@@ -462,6 +486,7 @@ class HybridBall:
             details.update(more)
             return mode, y, details
         bk["E_impact"] += loss
+        self._rebound = True
         return FLIGHT, z, details
 
     # -- outputs ----------------------------------------------------------
