@@ -412,6 +412,7 @@ class HybridBall:
             raise ParameterError(f"the ball centre C = {tuple(C)!r} m lies outside the chamber: "
                                  f"|C - A| = {dist:.12g} m, expected <= R - r = {b.d:.12g} m")
         if b.d - dist > 1e-9 * b.r:
+            self.book["t_first_flight"] = t
             return FLIGHT, z
         n = rho / dist
         vn = float((z[3:6] - np.array(vA)) @ n)
