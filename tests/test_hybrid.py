@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from ballmill.physics import Ball, BallModel, CrankStartup, Fixed, ParameterError, simulate
+from ballmill.physics import Ball, BallModel, CrankStartup, Fixed, Harmonic, ParameterError, simulate
 from ballmill.physics.hybrid import FLIGHT, ROLLING, SLIDING, Contact, simulate_hybrid
 
 G = 9.81
@@ -251,3 +251,87 @@ def test_rolling_scene_gives_the_rolling_model_numbers():
         assert np.abs(full[k] - ref.y[:, j]).max() < 1e-9
     assert np.abs(full["N"] - ref["N"]).max() < 1e-9 * ref["N"].max()
     _balance_ok(full, Ball())
+
+
+@pytest.mark.parametrize("mu", [0.1, 1.0])
+def test_impact_with_slip_slides_or_sticks(mu):
+    """A ball dropped from h0 with horizontal speed u0 and no spin strikes a flat bottom
+    (R = 1e6 m) at v_n = sqrt(2 g h0)
+    with slip u0. Stopping the slip takes the tangential impulse (2/7) m u0; within
+    mu (1 + e) m v_n the ball sticks (leaves at 5/7 u0), else friction takes
+    mu (1 + e) m v_n off its speed. The impact's loss is the kinetic energy lost. The wall's
+    normal there is tilted by x/R = 2e-7 (the ball has travelled 0.2 m), which gives the
+    normal impulse a horizontal share of 3e-7 m/s: hence 1e-6 m/s. (A larger R makes the
+    fixed-axes height R + ... round at ulp(R) m, 1.5e-8 m for 1e8 m.)"""
+    e, h0, u0 = 0.5, 0.05, 2.0
+    b = Ball(R=1e6, mu=mu)
+    tr = simulate_hybrid(b, Fixed(), 0.15, 0.01, Contact(e_n=e), initial=((0, 0, b.r + h0), (u0, 0, 0), (0, 0, 0)))
+    ev = tr.of_kind("impact")[0]
+    v1 = math.sqrt(2 * G * h0)
+    sticks = 2 / 7 * u0 <= mu * (1 + e) * v1
+    assert ev.details["stick"] == sticks == (mu == 1.0)
+    after = np.searchsorted(tr.t, ev.t)
+    vx = 5 / 7 * u0 if sticks else u0 - mu * (1 + e) * v1
+    wy = vx / b.r if sticks else 5 / 2 * mu * (1 + e) * v1 / b.r  # I dw = r J_t
+    assert abs(tr["vCx"][after] - vx) < 1e-6 and abs(tr["wy"][after] - wy) < 1e-6 / b.r
+    assert abs(tr["vCz"][after] - (e * v1 - G * (tr.t[after] - ev.t))) < 1e-6
+    lost = 0.5 * b.m * (u0 ** 2 + v1 ** 2) - 0.5 * b.m * (vx ** 2 + (e * v1) ** 2) - 0.5 * b.I * wy ** 2
+    assert abs(ev.details["E_loss"] - lost) < 1e-6
+    _balance_ok(tr, b)
+
+
+def test_impacts_on_a_moving_chamber_book_its_work():
+    """Dropped into a chamber shaken horizontally: the impacts' friction impulses do work
+    J.v_A with the moving wall; the energy balance closes only with it booked."""
+    b = Ball()
+    tr = simulate_hybrid(b, Harmonic(x_amp=0.05, x_omega=3.0), 0.6, 0.01, Contact(e_n=0.5),
+                         initial=((0, 0, b.r + 0.05), (0, 0, 0), (0, 0, 0)))
+    assert tr.success and len(tr.of_kind("impact")) >= 5 and tr.of_kind("impact")[-1].details["rest"]
+    assert abs(tr["W_chamber"][-1]) > 1e-3
+    _balance_ok(tr, b)
+
+
+# ------------------------------------------------------------------ the driver
+class _Projectile:
+    """A point thrown upwards (z, v): one mode, a guard that is negative only for a short
+    stretch around the apex, so the whole dip fits inside one of the integrator's steps
+    (a quadratic: DOP853 is exact on it and its steps grow tenfold each time)."""
+
+    def __init__(self, level):
+        from ballmill.physics import Integrator
+        self.level = level
+        self.integ = Integrator("DOP853", tol=1e-9, scale=[1.0, 1.0])
+
+    def integrator(self, mode):
+        return self.integ
+
+    def rhs(self, mode):
+        return lambda t, y: (y[1], -G)
+
+    def guards(self, mode):
+        return ("apex",), lambda t, y: (self.level - y[0],), (0.0,)
+
+    def jump(self, mode, kind, t, y):
+        return 1, y, {}
+
+    def sample(self, mode, t, y):
+        return (mode, y[0])
+
+
+def test_driver_sees_a_dip_inside_one_step_on_the_dense_output():
+    """Thrown at v0 = g/2, the point's apex is g/8 at t = 0.5 s; the guard level - z with
+    level = g/8 - delta is negative for |t - 0.5| < sqrt(2 delta / g) = 0.1 s, all inside
+    the integrator's third step (0.348 s to 1 s), positive at both its ends. The scan of the
+    step's dense output finds the dip and the event lands at t = 0.4 s to 1e-10 s; with the
+    ends only (scan = 0) it would pass unseen."""
+    from ballmill.physics.events import integrate
+
+    delta = 0.1 ** 2 * G / 2
+    sys_ = _Projectile(G / 8 - delta)
+    steps = list(sys_.integ.steps(sys_.rhs(0), 0.0, [0.0, G / 2], 1.0))
+    assert len(steps) == 3 and steps[2].t0 < 0.4 and steps[2].t1 == 1.0
+    run = integrate(sys_, 0, 0.0, [0.0, G / 2], [0.0, 1.0])
+    (ev,) = run.events
+    assert ev.kind == "apex" and abs(ev.t - 0.4) < 1e-10 and ev.width <= 1e-10
+    assert run.mode == 1 and run.rows[-1][0] == 1
+    assert not integrate(_Projectile(G / 8 - delta), 0, 0.0, [0.0, G / 2], [0.0, 1.0], scan=0).events
