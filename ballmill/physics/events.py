@@ -86,8 +86,8 @@ class EventRun:
 def illinois(phi, a: float, fa: float, b: float, fb: float, xtol: float, max_iter: int = 200):
     """Root of phi on [a, b] with phi(a) > 0 >= phi(b): the Illinois variant of regula falsi
     (superlinear, never slower than bisection by more than a constant: every third
-    iteration bisects). Returns (b, phi(b), b - a) once b - a <= xtol: the end where
-    phi <= 0, and the final bracket's width."""
+    iteration bisects). Returns (b, phi(b), width) once b - a <= xtol or phi(b) == 0: the
+    end where phi <= 0, and the final bracket's width (0 on an exact root)."""
     side = 0
     for it in range(max_iter):
         if b - a <= xtol or fb == 0.0:
@@ -109,7 +109,7 @@ def illinois(phi, a: float, fa: float, b: float, fb: float, xtol: float, max_ite
             if side == -1:
                 fa *= 0.5
             side = -1
-    return b, fb, b - a
+    return b, fb, (0.0 if fb == 0.0 else b - a)
 
 
 def _locate(integ, f, step, G, j, ta, tb, xtol):
