@@ -335,3 +335,131 @@ def test_driver_sees_a_dip_inside_one_step_on_the_dense_output():
     assert ev.kind == "apex" and abs(ev.t - 0.4) < 1e-10 and ev.width <= 1e-10
     assert run.mode == 1 and run.rows[-1][0] == 1
     assert not integrate(_Projectile(G / 8 - delta), 0, 0.0, [0.0, G / 2], [0.0, 1.0], scan=0).events
+
+
+# ------------------------------------------------------------------ a turning chamber
+def test_ball_on_a_turntable_circles_at_two_sevenths_of_its_speed():
+    """A ball set down at rest on a turntable (the bottom of a chamber of R = 1e8 m spinning
+    at Omega about the vertical through its centre) slides until it rolls, then its centre
+    circles at (2/7) Omega at constant speed (I/(I + m r^2) Omega for any ball). The
+    curvature of the bottom shifts the rate by 1e-7 relative (measured: 1e-5 at R = 1e6 m,
+    scaling as 1/R), hence 1e-6."""
+    from ballmill.physics import Spin
+
+    Om, R = 3.0, 1e8
+    b = Ball(R=R, mu=0.3)
+    tr = simulate_hybrid(b, Spin(Omega=(0, 0, Om), A=(0, 0, R)), 3.0, 0.01,
+                         initial=((0.1, 0, b.r), (0, 0, 0), (0, 0, 0)))
+    assert tr.success and tr["mode"][0] == SLIDING
+    (ev,) = tr.events
+    assert ev.kind == "stick" and ev.mode_after == ROLLING and ev.width <= 1e-10
+    rolling = tr.t > ev.t
+    vx, vy = tr["vCx"][rolling], tr["vCy"][rolling]
+    rate = np.polyfit(tr.t[rolling], np.unwrap(np.arctan2(vy, vx)), 1)[0]
+    assert abs(rate / (2 / 7 * Om) - 1) < 1e-6
+    assert np.ptp(np.hypot(vx, vy)) < 1e-9
+    _balance_ok(tr, b)
+
+
+def test_rolling_in_a_spinning_bowl_gives_the_general_model_numbers():
+    """Started from the general rolling model's own state, a scene that stays rolling gives
+    `simulate_general`'s numbers bit for bit (with and without the work quadrature on this
+    grid: every step is clipped at a grid point)."""
+    from ballmill.physics import ChamberModel, Spin, simulate_general
+
+    motion = Spin(Omega=(0, 0, 3.0), A=(0, 0, 0.25))
+    model = ChamberModel(Ball())
+    start = model.initial(motion, xC0=0.05)
+    ref = simulate_general(model, motion, 2.0, 0.01, state=start)
+    assert ref.valid
+    for energy in (False, True):
+        tr = simulate_hybrid(Ball(), motion, 2.0, 0.01, initial=start, energy=energy)
+        assert not tr.events
+        for j, k in enumerate(("nx", "ny", "nz", "wx", "wy", "wz")):
+            assert np.array_equal(tr[k], ref.y[:, j]), k
+        assert np.array_equal(tr["N"], ref["N"]) and np.array_equal(tr["Ft"], ref["Ft"])
+    _balance_ok(tr, Ball())
+
+
+def test_drop_into_a_spinning_bowl_books_the_wall_work():
+    """Dropped off-axis into a spinning bowl: the wall under the ball moves (Omega x R n),
+    the impacts' friction impulses do work J.(v_A + Omega x R n), the ball ends rolling; the
+    energy balance closes only with that work in W."""
+    from ballmill.physics import Spin
+
+    b = Ball()
+    tr = simulate_hybrid(b, Spin(Omega=(0, 0, 3.0), A=(0, 0, 0.25)), 0.6, 0.01, Contact(e_n=0.5),
+                         initial=((0.05, 0, 0.08), (0, 0, 0), (0, 0, 0)))
+    impacts = tr.of_kind("impact")
+    assert tr.success and len(impacts) >= 5 and impacts[-1].details["rest"]
+    assert tr["mode"][-1] == ROLLING and abs(tr["W_chamber"][-1]) > 1e-3
+    _balance_ok(tr, b)
+
+
+def test_fig1_machine_slips_leaves_and_strikes():
+    """The machine of Fig. 1 (the frame turning at 0.5 rad/s, the paper's fast crank start):
+    the rolling model stops holding at 2.508 s; the hybrid ball slips there (located, not
+    interpolated between samples: within the rolling model's sampled estimate's error),
+    leaves the wall, strikes it, and the energy balance closes over the 3 s."""
+    from ballmill.physics import ChamberModel, Fig1Machine, simulate_general
+
+    motion = Fig1Machine()
+    ref = simulate_general(ChamberModel(Ball()), motion, 3.0, 0.01)
+    tr = simulate_hybrid(Ball(), motion, 3.0, 0.01)
+    assert tr.success and tr.t[-1] == 3.0
+    kinds = [e.kind for e in tr.events]
+    assert kinds[:3] == ["slip", "leave", "impact"]
+    assert abs(tr.t_first_slip - ref.t_first_slip) < 1e-4
+    assert tr["n_impacts"][-1] >= 1 and tr["v_impact_max"][-1] > 0.0
+    _balance_ok(tr, Ball())
+
+
+def test_impact_on_a_turntable_loses_energy_in_the_wall_frame():
+    """Dropped at rest (fixed axes) from h0 onto a turntable (the bottom of a chamber of
+    R = 1e6 m spinning at Omega about the vertical through its centre) at rho0 from the axis:
+    the wall under the ball moves at Omega rho0, so the ball arrives with that slip; with
+    mu = 1 the impact sticks. In the frame of the wall's material point the loss is
+    (1/2) m v_n^2 (1 - e^2) for the normal part and (1/7) m |u|^2 for stopping the slip
+    (2/7 of (1/2) m |u|^2). The sphere's geometry (the fall height to it, its normal tilted by
+    rho0 / R) is taken exactly."""
+    from ballmill.physics import Spin
+
+    Om, rho0, h0, e = 3.0, 0.1, 0.02, 0.5
+    b = Ball(R=1e6, mu=1.0)
+    tr = simulate_hybrid(b, Spin(Omega=(0, 0, Om), A=(0, 0, b.R)), 0.1, 0.01, Contact(e_n=e),
+                         initial=((rho0, 0, b.r + h0), (0, 0, 0), (0, 0, 0)))
+    ev = tr.of_kind("impact")[0]
+    d = b.d
+    depth = math.sqrt(d * d - rho0 * rho0)
+    v = math.sqrt(2 * G * ((b.r + h0) - (b.R - depth)))
+    n = np.array([rho0, 0.0, -depth]) / d
+    rel = np.array([0.0, 0.0, -v]) - np.array([0.0, Om * b.R * n[0], 0.0])  # v_C - Omega x R n
+    vn = rel @ n
+    u = rel - vn * n
+    assert ev.details["stick"] and abs(ev.details["v_n"] - vn) < 1e-9
+    lost = 0.5 * b.m * vn ** 2 * (1 - e ** 2) + b.m * (u @ u) / 7
+    assert abs(ev.details["E_loss"] - lost) < 1e-9
+    _balance_ok(tr, b)
+
+
+def test_slip_from_rolling_starts_against_the_rolling_friction_force():
+    """Where rolling ends by slip, sliding starts with friction along the rolling model's
+    friction force F_t (it opposes the friction-free relative acceleration of P): checked in
+    the Fig. 1 machine, whose turning frame enters that acceleration through
+    Omega' x R n + Omega x R n', against the general rolling model advanced to the located
+    time (the same integrator: 1e-9)."""
+    from ballmill.physics import ChamberModel, Fig1Machine
+    from ballmill.physics.turning.model import evaluate
+
+    motion = Fig1Machine()
+    tr = simulate_hybrid(Ball(), motion, 2.6, 0.1)
+    slip = tr.of_kind("slip")[0]
+    model = ChamberModel(Ball())
+    state = model.advance(model.initial(motion), slip.t, motion)
+    o = evaluate(Ball(), state.y.tolist(), motion.state(slip.t))
+    n = state.y[:3]
+    Ft = -np.array([o.Fx, o.Fy, o.Fz]) + o.N * n  # the contact force's tangential part
+    assert abs(o.Ft - Ball().mu * o.N) < 1e-6 * o.N  # the slip threshold, located
+    # the sliding friction is -mu_k N seed
+    seed = np.array(slip.details["seed"])
+    assert np.abs(-seed - Ft / np.linalg.norm(Ft)).max() < 1e-6

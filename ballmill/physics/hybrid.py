@@ -1,17 +1,20 @@
-"""The ball that rolls, slides, flies and strikes the shell, in a translating chamber
-(docs/design.md section 14), on the event-driven driver (`events.integrate`).
+"""The ball that rolls, slides, flies and strikes the shell (docs/design.md section 14), on
+the event-driven driver (`events.integrate`), in a translating or a turning chamber.
 
-Modes: FLIGHT (0), ROLLING (1), SLIDING (2). Fixed axes, z up, g_vec = (0, 0, -g); the
-chamber's centre A(t) = O(t) + (0, 0, R), O moved by a platform motion
-(``motion.state(t) -> (x, y, vx, vy, ax, ay)``: CrankStartup, Fixed, Harmonic, Circle),
-Omega = 0. d = R - r, n = (C - A)/|C - A|, P = A + R n, k_t = 1 + m r^2 / I (7/2 for a
-solid ball: the tangential impulse J changes the slip by k_t J / m).
+Modes: FLIGHT (0), ROLLING (1), SLIDING (2). Fixed axes, z up, g_vec = (0, 0, -g). The
+chamber: a platform motion (``motion.state(t) -> (x, y, vx, vy, ax, ay)``: CrankStartup,
+Fixed, Harmonic, Circle) translates it, A(t) = O(t) + (0, 0, R), Omega = 0; a
+`turning.motions.ChamberMotion` (Spin, Fig1Machine, Translation) moves and turns it (A, v_A,
+a_A, Omega, Omega', Q from its state). d = R - r, n = (C - A)/|C - A|, P = A + R n, the wall's
+material point at P moves at v_W = v_A + Omega x R n, k_t = 1 + m r^2 / I (7/2 for a solid
+ball: the tangential impulse J changes the slip by k_t J / m).
 
-* ROLLING: today's rolling model (`equations.VectorFormulation`, state n, omega), its N and
-  F_t from `outputs.evaluate`. Leaves for SLIDING when |F_t| > mu N (guard mu N - |F_t|),
+* ROLLING: today's rolling models (state n, omega): `equations.VectorFormulation` for a
+  translation, `turning.model` for a ChamberMotion; N and F_t from their outputs
+  (`outputs.evaluate`, `turning.model.evaluate_c`). Leaves for SLIDING when |F_t| > mu N (guard mu N - |F_t|),
   for FLIGHT when N reaches 0 (guard N; with F_t != 0 slip comes first, then the sliding
   ball's N reaches 0).
-* SLIDING: state (C, v_C, omega) in fixed axes; u = v_C + omega x r n - v_A the slip (its
+* SLIDING: state (C, v_C, omega) in fixed axes; u = v_C + omega x r n - v_W the slip (its
   tangential part), F = -N n - mu_k N e, e = u/|u| (from zero slip: the direction of the
   friction-free relative tangential acceleration of P, kept until |u| > 1e-3 slip_eps),
   N = m (n.(g_vec - a_A) + |v_C - v_A|^2 / |C - A|); m a_C = m g_vec + F,
@@ -23,13 +26,13 @@ solid ball: the tangential impulse J changes the slip by k_t J / m).
 * Impact (gap reaches 0 with approaching normal speed v_n): normal impulse (1 + e_n) m v_n;
   the tangential impulse that stops the slip, -m u_-/k_t, if within mu times the normal one
   (sticks), else mu_k times the normal one against u_-. The kinetic energy lost in the frame
-  of the chamber's material point at P is booked as impact loss. If e_n v_n < v_rest the
+  of the chamber's material point at P (velocity v_W) is booked as impact loss. If e_n v_n < v_rest the
   remaining normal velocity is removed by a further normal impulse (its energy booked as
   impact loss) and the ball stays on the wall: ROLLING if the slip is gone and the stick test
   holds, else SLIDING (FLIGHT if the wall does not press, N <= 0).
 
 Work and losses ride along as quadratures in every mode's state: W, the work of the chamber
-on the ball (the contact force times v_A, plus J.v_A for every impulse), and E_friction;
+on the ball (the contact force times v_W, plus J.v_W for every impulse), and E_friction;
 E_impact is summed at the impacts. E + E_friction + E_impact - W is then constant, E the
 ball's mechanical energy in fixed axes (`HybridTrajectory.energy_residual`).
 """
@@ -44,8 +47,10 @@ from . import outputs as _out
 from .errors import ParameterError
 from .events import Event, integrate
 from .integrators import Integrator, StepStats
-from .model import BallModel
+from .model import BallModel, BallState
 from .params import Ball
+from .turning import model as _turning
+from .turning.motions import ChamberMotion
 
 FLIGHT, ROLLING, SLIDING = 0, 1, 2
 # A rebound whose hop would rise less than this many ulps of the chamber's size above the wall
@@ -110,7 +115,7 @@ def _dot(a, b):
 
 class HybridBall:
     """The system `events.integrate` runs (its interface in events.py): the ball in a
-    translating chamber with its three modes. Holds the run's bookkeeping (impacts, impact
+    translating or turning chamber with its three modes. Holds the run's bookkeeping (impacts, impact
     loss, first slip and flight), so one instance serves one run."""
 
     def __init__(self, ball: Ball, motion, contact: Contact = Contact(), method: str = "DOP853",
@@ -125,16 +130,25 @@ class HybridBall:
         self.e_n, self.v_rest, self.slip_eps = contact.e_n, contact.v_rest, contact.slip_eps
         self.kt = 1.0 + 1.0 / ball.inertia_factor
         self.energy = energy
-        # rolling: today's model, its integrator and right-hand side
-        self.rolling = BallModel(ball, "vector", method, tol=tol, h_max=h_max)
-        self._f_roll = self.rolling.rhs(motion.accel)
-        form = self.rolling.form
+        # rolling: today's models, their integrators and right-hand sides: a platform motion
+        # (drives.crank) on the translation-only model, a ChamberMotion (turning.motions,
+        # the chamber turning) on the general one
+        self.turning = isinstance(motion, ChamberMotion)
+        if self.turning:
+            self.rolling = _turning.ChamberModel(ball, method, tol=tol, h_max=h_max)
+            self._f_roll = self.rolling.rhs(motion)
+            self._c_roll, self._oc_roll = _turning.constants(ball), _turning.out_constants(ball)
+            project, check = _turning._project, (lambda y: None)
+        else:
+            self.rolling = BallModel(ball, "vector", method, tol=tol, h_max=h_max)
+            self._f_roll = self.rolling.rhs(motion.accel)
+            project, check = self.rolling.form.project, self.rolling.form.check
         v_ref = math.sqrt(ball.g * ball.r)
         e_ref = ball.m * ball.g * ball.r
         q = [e_ref, e_ref]  # W, E_friction
         roll_scale = list(self.rolling.integrator.scale) + q
         self._int_roll_q = Integrator(method, tol=tol, scale=roll_scale, h_max=h_max,
-                                      project=form.project, check=form.check)
+                                      project=project, check=check)
         free = [ball.r] * 3 + [v_ref] * 3 + [v_ref / ball.r] * 3 + q
         self._int_free = Integrator(method, tol=tol, scale=free, h_max=h_max)
         self.book = dict(E_impact=0.0, n_impacts=0, v_impact_max=0.0, t_first_slip=math.nan,
@@ -147,9 +161,19 @@ class HybridBall:
 
     # -- chamber ----------------------------------------------------------
     def chamber(self, t):
-        """(A, v_A, a_A, O) at time t, fixed axes."""
-        x, y, vx, vy, ax, ay = self.motion.state(t)
-        return (x, y, self.ball.R), (vx, vy, 0.0), (ax, ay, 0.0), (x, y)
+        """(A, v_A, a_A, Omega, Omega') at time t, fixed axes."""
+        s = self.motion.state(t)
+        if self.turning:
+            return s[0:3], s[3:6], s[6:9], s[9:12], s[12:15]
+        x, y, vx, vy, ax, ay = s
+        return (x, y, self.ball.R), (vx, vy, 0.0), (ax, ay, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+
+    def wall_velocity(self, t, n):
+        """Velocity of the chamber's material point at P = A + R n, v_A + Omega x R n."""
+        _, vA, _, Om, _ = self.chamber(t)
+        c = _cross(Om, n)
+        R = self.ball.R
+        return (vA[0] + R * c[0], vA[1] + R * c[1], vA[2] + R * c[2])
 
     # -- modes: state layout ----------------------------------------------
     # ROLLING: (n, omega) [+ (W, E_friction) when energy]; FLIGHT, SLIDING:
@@ -173,6 +197,10 @@ class HybridBall:
     def _rhs_roll_q(self, t, y):
         b = self.ball
         y = y.tolist()
+        if self.turning:
+            y6 = y[:6]
+            o = _turning.evaluate_c(self._oc_roll, y6, self.motion.state(t))
+            return _turning.derivative(self._c_roll, y6, self.motion.accel(t)) + (o.P_ball, 0.0)
         (x, yy, vx, vy, ax, ay) = self.motion.state(t)
         d = self.rolling.form.derivative((y[0], y[1], y[2], y[3], y[4], y[5]), ax, ay)
         # contact force on the ball m (a_O + d n'' - g_vec), n'' = lambda (n' x w + n x w')
@@ -189,18 +217,22 @@ class HybridBall:
         return (y[3], y[4], y[5], 0.0, 0.0, -self.ball.g, 0.0, 0.0, 0.0, 0.0, 0.0)
 
     def _slide_forces(self, t, y, seed=None):
-        """(N, friction force on the ball F_t, slip speed |u_t|, n, v_A) of a sliding state."""
+        """(N, friction force on the ball F_t, slip speed |u_t|, n, the wall's velocity at P)
+        of a sliding state."""
         b = self.ball
         if type(y) is not list:
             y = y.tolist()  # Python floats: faster than numpy scalars here
-        A, vA, aA, _ = self.chamber(t)
+        A, vA, aA, Om, _ = self.chamber(t)
         rho = (y[0] - A[0], y[1] - A[1], y[2] - A[2])
         dist = math.sqrt(_dot(rho, rho))
         n = (rho[0] / dist, rho[1] / dist, rho[2] / dist)
         vrel = (y[3] - vA[0], y[4] - vA[1], y[5] - vA[2])
         N = b.m * (-b.g * n[2] - _dot(n, aA) + _dot(vrel, vrel) / dist)
         wr = _cross((y[6], y[7], y[8]), n)
-        u = (vrel[0] + b.r * wr[0], vrel[1] + b.r * wr[1], vrel[2] + b.r * wr[2])
+        on = _cross(Om, n)
+        R = b.R
+        u = (vrel[0] + b.r * wr[0] - R * on[0], vrel[1] + b.r * wr[1] - R * on[1],
+             vrel[2] + b.r * wr[2] - R * on[2])
         un = _dot(u, n)
         ut = (u[0] - un * n[0], u[1] - un * n[1], u[2] - un * n[2])
         s = math.sqrt(_dot(ut, ut))
@@ -209,17 +241,18 @@ class HybridBall:
         else:
             e = self._seed if seed is None else seed
         f = -self.mu_k * N
-        return N, (f * e[0], f * e[1], f * e[2]), s, n, vA
+        vW = (vA[0] + R * on[0], vA[1] + R * on[1], vA[2] + R * on[2])
+        return N, (f * e[0], f * e[1], f * e[2]), s, n, vW
 
     def _rhs_slide(self, t, y):
         b = self.ball
         y = y.tolist()
-        N, Ft, s, n, vA = self._slide_forces(t, y)
+        N, Ft, s, n, vW = self._slide_forces(t, y)
         F = (Ft[0] - N * n[0], Ft[1] - N * n[1], Ft[2] - N * n[2])
         tq = _cross(n, Ft)
         c = b.r / b.I
         return (y[3], y[4], y[5], F[0] / b.m, F[1] / b.m, F[2] / b.m - b.g,
-                c * tq[0], c * tq[1], c * tq[2], _dot(F, vA), self.mu_k * N * s)
+                c * tq[0], c * tq[1], c * tq[2], _dot(F, vW), self.mu_k * N * s)
 
     # -- guards ---------------------------------------------------------
     def guards(self, mode):
@@ -230,6 +263,10 @@ class HybridBall:
         return ("impact",), self._g_flight, (self._gap_res,)
 
     def _roll_out(self, t, y):
+        """The rolling model's outputs (N, Ft, ...) of the rolling state y = (n, omega, ...)."""
+        if self.turning:
+            return _turning.evaluate_c(self._oc_roll, [y[0], y[1], y[2], y[3], y[4], y[5]],
+                                       self.motion.state(t))
         _, _, _, _, ax, ay = self.motion.state(t)
         return _out.evaluate(self.ball, (y[0], y[1], y[2]), (y[3], y[4], y[5]), ax, ay)
 
@@ -249,7 +286,7 @@ class HybridBall:
     def _normal_motion(self, t, y):
         """(v_n, a_n) of a free state: the normal velocity relative to the wall (> 0 towards
         it) and the free flight's normal acceleration relative to the wall."""
-        A, vA, aA, _ = self.chamber(t)
+        A, vA, aA, _, _ = self.chamber(t)
         rho = (y[0] - A[0], y[1] - A[1], y[2] - A[2])
         dist = math.sqrt(_dot(rho, rho))
         n = (rho[0] / dist, rho[1] / dist, rho[2] / dist)
@@ -284,12 +321,13 @@ class HybridBall:
         if mode != ROLLING:
             return np.array(y, dtype=float)
         b = self.ball
-        A, vA, _, _ = self.chamber(t)
+        A = self.chamber(t)[0]
         n, w = (y[0], y[1], y[2]), (y[3], y[4], y[5])
         nw = _cross(n, w)
+        vW = self.wall_velocity(t, n)  # v_C = v_A + R Omega x n + r n x omega: no slip
         W, Ef = self._quad(mode, y)
         return np.array([A[0] + b.d * n[0], A[1] + b.d * n[1], A[2] + b.d * n[2],
-                         vA[0] + b.r * nw[0], vA[1] + b.r * nw[1], vA[2] + b.r * nw[2],
+                         vW[0] + b.r * nw[0], vW[1] + b.r * nw[1], vW[2] + b.r * nw[2],
                          w[0], w[1], w[2], W, Ef])
 
     def _rolling_state(self, n, w, Q):
@@ -305,7 +343,7 @@ class HybridBall:
         where the ball leaves the wall, so the flight starts exactly tangent (otherwise a drift
         towards the wall reads as an impact an instant later)."""
         b = self.ball
-        A, vA, _, _ = self.chamber(t)
+        A, vA, _, _, _ = self.chamber(t)
         z = np.array(z, dtype=float)
         rho = z[:3] - np.array(A)
         n = rho / math.sqrt(rho @ rho)
@@ -316,9 +354,10 @@ class HybridBall:
 
     def _impulse(self, t, z, J, n):
         """Apply the impulse J (on the ball, at P = C + r n) to the free state z in place;
-        returns the kinetic energy lost in the frame moving with v_A, and adds J.v_A to W."""
+        returns the kinetic energy lost in the frame moving with the wall's material point at P,
+        v_W = v_A + Omega x R n, and adds J.v_W to W."""
         b = self.ball
-        _, vA, _, _ = self.chamber(t)
+        vA = self.wall_velocity(t, n)
 
         def ke(z):
             v = (z[3] - vA[0], z[4] - vA[1], z[5] - vA[2])
@@ -334,7 +373,7 @@ class HybridBall:
     def _slip(self, t, z, n):
         """Tangential slip u_t of a free state at the wall point C + r n."""
         b = self.ball
-        _, vA, _, _ = self.chamber(t)
+        vA = self.wall_velocity(t, n)
         wr = _cross((z[6], z[7], z[8]), n)
         u = (z[3] - vA[0] + b.r * wr[0], z[4] - vA[1] + b.r * wr[1], z[5] - vA[2] + b.r * wr[2])
         un = _dot(u, n)
@@ -344,14 +383,17 @@ class HybridBall:
         """Tangential acceleration of P relative to the wall without friction (the direction
         friction opposes when sliding starts from zero slip)."""
         b = self.ball
-        A, vA, aA, _ = self.chamber(t)
+        A, vA, aA, Om, Omd = self.chamber(t)
         vrel = (z[3] - vA[0], z[4] - vA[1], z[5] - vA[2])
         N = b.m * (-b.g * n[2] - _dot(n, aA) + _dot(vrel, vrel) / b.d)
         aC = (-N * n[0] / b.m, -N * n[1] / b.m, -b.g - N * n[2] / b.m)
         vn = _dot(vrel, n)
         nd = ((vrel[0] - vn * n[0]) / b.d, (vrel[1] - vn * n[1]) / b.d, (vrel[2] - vn * n[2]) / b.d)
         wnd = _cross((z[6], z[7], z[8]), nd)
-        a = (aC[0] - aA[0] + b.r * wnd[0], aC[1] - aA[1] + b.r * wnd[1], aC[2] - aA[2] + b.r * wnd[2])
+        # the wall point's acceleration: a_A + R (Omega' x n + Omega x n')
+        c1, c2 = _cross(Omd, n), _cross(Om, nd)
+        aW = tuple(aA[i] + b.R * (c1[i] + c2[i]) for i in range(3))
+        a = (aC[0] - aW[0] + b.r * wnd[0], aC[1] - aW[1] + b.r * wnd[1], aC[2] - aW[2] + b.r * wnd[2])
         an = _dot(a, n)
         return (a[0] - an * n[0], a[1] - an * n[1], a[2] - an * n[2])
 
@@ -360,7 +402,7 @@ class HybridBall:
         state z): its slip removed if below slip_eps (booked as friction), then the stick
         test. Returns (mode, y, details)."""
         b = self.ball
-        A, vA, _, _ = self.chamber(t)
+        A = self.chamber(t)[0]
         z = np.array(z, dtype=float)
         rho = z[:3] - np.array(A)
         n = tuple(rho / math.sqrt(rho @ rho))
@@ -374,7 +416,7 @@ class HybridBall:
             z[10] += loss
             details["slip_removed"] = s
             w = (z[6], z[7], z[8])
-            o = _out.evaluate(b, n, w, *self.chamber(t)[2][:2])
+            o = self._roll_out(t, n + w)
             if o.N <= 0.0:
                 return FLIGHT, z, details
             if o.Ft <= self.mu * o.N:
@@ -396,12 +438,26 @@ class HybridBall:
         details["seed"] = self._seed
         return SLIDING, z, details
 
+    def start_rolling(self, t, y):
+        """(mode, y) from the rolling model's state (n, omega): rolling if it holds there (the
+        state kept as it is), else what the wall decides (`on_wall`)."""
+        y = np.array(y, dtype=float)
+        if y.shape != (6,):
+            raise ParameterError(f"a rolling state holds the 6 numbers (n, omega) of the vector "
+                                 f"formulation, got shape {y.shape}")
+        o = self._roll_out(t, y)
+        if o.N > 0.0 and o.Ft <= self.mu * o.N:
+            return ROLLING, self._rolling_state(tuple(y[:3]), tuple(y[3:]), (0.0, 0.0))
+        mode, z, _ = self.on_wall(t, self.free_state(ROLLING, t, self._rolling_state(
+            tuple(y[:3]), tuple(y[3:]), (0.0, 0.0))))
+        return mode, z
+
     def start(self, t, C, v, w):
         """(mode, y) of a ball with centre C, velocity v, angular velocity w (fixed axes) at
         time t: in flight if it clears the wall, on the wall (stick test) if it touches it
         with no normal relative velocity, struck at once if it moves into it."""
         b = self.ball
-        A, vA, _, _ = self.chamber(t)
+        A, vA, _, _, _ = self.chamber(t)
         z = np.array(list(C) + list(v) + list(w) + [0.0, 0.0], dtype=float)
         for name, val in zip(("C", "v", "w"), (C, v, w)):
             if len(val) != 3 or not all(math.isfinite(x) for x in val):
@@ -451,7 +507,7 @@ class HybridBall:
 
     def _impact(self, t, z):
         b = self.ball
-        A, vA, _, _ = self.chamber(t)
+        A, vA, _, _, _ = self.chamber(t)
         z = np.array(z, dtype=float)
         rho = z[:3] - np.array(A)
         n = tuple(rho / math.sqrt(rho @ rho))
@@ -496,13 +552,14 @@ class HybridBall:
                "v_impact_max", "t_first_slip", "t_first_flight")
 
     def sample(self, mode, t, y):
-        """One row of COLUMNS: n = (C - A)/|C - A|, C relative to the platform point O (chamber axes, as
-        `outputs.evaluate`), v_C and omega in fixed axes, N and |F_t| of the contact [N],
-        the slip speed [m/s] and gap d - |C - A| [m], the ball's mechanical energy E in fixed
-        axes and the bookkeeping [J]."""
+        """One row of COLUMNS: n = (C - A)/|C - A| (fixed axes); C in the chamber's axes with
+        the origin at its lowest point, Q^T (C - A) + (0, 0, R) (translating: C relative to the
+        platform point O, as `outputs.evaluate`); v_C and omega in fixed axes; N and |F_t| of
+        the contact [N]; the slip speed [m/s] and gap d - |C - A| [m]; the ball's mechanical
+        energy E in fixed axes and the bookkeeping [J]."""
         b = self.ball
         z = self.free_state(mode, t, y)
-        A, vA, aA, O = self.chamber(t)
+        A = self.chamber(t)[0]
         rho = z[:3] - np.array(A)
         dist = math.sqrt(rho @ rho)
         n = tuple(rho / dist)
@@ -520,7 +577,13 @@ class HybridBall:
         E = (0.5 * b.m * float(z[3:6] @ z[3:6]) + 0.5 * b.I * float(z[6:9] @ z[6:9])
              + b.m * b.g * z[2])
         bk = self.book
-        return (mode, n[0], n[1], n[2], z[0] - O[0], z[1] - O[1], z[2], z[3], z[4], z[5], z[6], z[7], z[8], N, Ft,
+        c = (z[0] - A[0], z[1] - A[1], z[2])  # O = A - (0, 0, R) at height 0
+        if self.turning:  # into the chamber's axes: Q^T (C - A) + (0, 0, R)
+            Q = self.motion.state(t)[15:24]
+            r = (c[0], c[1], z[2] - A[2])
+            c = tuple(Q[i] * r[0] + Q[3 + i] * r[1] + Q[6 + i] * r[2] for i in range(3))
+            c = (c[0], c[1], c[2] + b.R)
+        return (mode, n[0], n[1], n[2], c[0], c[1], c[2], z[3], z[4], z[5], z[6], z[7], z[8], N, Ft,
                 slip, b.d - dist, E, z[9], z[10], bk["E_impact"], bk["n_impacts"],
                 bk["v_impact_max"], bk["t_first_slip"], bk["t_first_flight"])
 
@@ -560,11 +623,14 @@ def simulate_hybrid(ball: Ball, motion, t_end: float, dt: float, contact: Contac
                     initial=None, t0: float = 0.0, method: str = "DOP853", tol: float = 1e-9,
                     h_max: float | None = None, energy: bool = True, burst: int = 100,
                     max_rate: float = 1e4) -> HybridTrajectory:
-    """The ball in a translating chamber (platform motion ``motion``) with rolling, sliding,
-    flight and impacts, sampled every dt [s] from t0 to t_end.
+    """The ball in a chamber moved by ``motion`` (a platform motion: translation; a
+    `turning.motions.ChamberMotion`: any rigid motion) with rolling, sliding, flight and
+    impacts, sampled every dt [s] from t0 to t_end.
 
     initial: None (the ball at rest relative to the chamber at its lowest point, as
-        `simulate`), or (C, v_C, omega) in fixed axes at t0 [m, m/s, rad/s].
+        `simulate`), (C, v_C, omega) in fixed axes at t0 [m, m/s, rad/s], or a rolling model's
+        `BallState` (n, omega; its own time replaces t0), e.g. ``BallModel.initial(...)`` or
+        ``ChamberModel.initial(...)``: the same start as `simulate`/`simulate_general`.
     energy: carry the chamber's work W_chamber in the rolling mode too (the energy balance in
         every mode); False integrates rolling exactly as `simulate` does (the same floats
         while the ball rolls) and leaves W_chamber NaN after rolling.
@@ -575,10 +641,17 @@ def simulate_hybrid(ball: Ball, motion, t_end: float, dt: float, contact: Contac
     if not (math.isfinite(t_end) and t_end >= t0):
         raise ValueError(f"t_end must be finite and >= t0 = {t0!r} s, got t_end = {t_end!r} s")
     system = HybridBall(ball, motion, contact, method, tol, h_max, energy)
-    if initial is None:
-        A, vA, _, _ = system.chamber(t0)
-        initial = ((A[0], A[1], A[2] - ball.d), vA, (0.0, 0.0, 0.0))
-    mode, y = system.start(t0, *initial)
+    if initial is None:  # at rest relative to the chamber (co-rotating) at its lowest point
+        A, vA, _, Om, _ = system.chamber(t0)
+        Q = motion.state(t0)[15:24] if system.turning else (1, 0, 0, 0, 1, 0, 0, 0, 1)
+        rho = (-ball.d * Q[2], -ball.d * Q[5], -ball.d * Q[8])
+        spin = _cross(Om, rho)
+        initial = (tuple(A[i] + rho[i] for i in range(3)), tuple(vA[i] + spin[i] for i in range(3)), Om)
+    if isinstance(initial, BallState):  # the rolling model's state, taken as it is
+        t0 = initial.t
+        mode, y = system.start_rolling(t0, initial.y)
+    else:
+        mode, y = system.start(t0, *initial)
     n_steps = int(round((t_end - t0) / dt))
     times = t0 + dt * np.arange(n_steps + 1)
     run = integrate(system, mode, t0, y, times, burst=burst, max_rate=max_rate)
