@@ -11,6 +11,11 @@ Methods:
   * ``RK4``: the classic fourth-order method with a fixed step, as in the
     paper's MathCAD program.
 
+`Integrator.steps` yields the same accepted steps one at a time (`Step`, with its
+cubic Hermite dense output), and `Integrator.single_step` makes one step of any size
+from a step's start (the method's own continuous extension): the event-driven driver
+(events.py) detects switches on the first and locates them on the second.
+
 After every accepted step the formulation's ``project`` (renormalise n) and
 ``check`` (refuse a singular coordinate region) hooks run. A step whose
 values are not finite is retried smaller and finally raises `StepFailure`;
