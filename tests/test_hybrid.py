@@ -265,7 +265,8 @@ def test_impact_with_slip_slides_or_sticks(mu):
     fixed-axes height R + ... round at ulp(R) m, 1.5e-8 m for 1e8 m.)"""
     e, h0, u0 = 0.5, 0.05, 2.0
     b = Ball(R=1e6, mu=mu)
-    tr = simulate_hybrid(b, Fixed(), 0.15, 0.01, Contact(e_n=e), initial=((0, 0, b.r + h0), (u0, 0, 0), (0, 0, 0)))
+    tr = simulate_hybrid(b, Fixed(), 0.15, 0.01, Contact(e_n=e),
+                         initial=((0, 0, b.r + h0), (u0, 0, 0), (0, 0, 0)))
     ev = tr.of_kind("impact")[0]
     v1 = math.sqrt(2 * G * h0)
     sticks = 2 / 7 * u0 <= mu * (1 + e) * v1

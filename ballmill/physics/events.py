@@ -46,7 +46,6 @@ The system's interface (duck-typed):
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np

@@ -39,13 +39,13 @@ ball's mechanical energy in fixed axes (`HybridTrajectory.energy_residual`).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from . import outputs as _out
 from .errors import ParameterError
-from .events import Event, integrate
+from .events import integrate
 from .integrators import Integrator, StepStats
 from .model import BallModel, BallState
 from .params import Ball
