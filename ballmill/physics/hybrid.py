@@ -652,6 +652,8 @@ def simulate_hybrid(ball: Ball, motion, t_end: float, dt: float, contact: Contac
         mode, y = system.start_rolling(t0, initial.y)
     else:
         mode, y = system.start(t0, *initial)
+    if mode == FLIGHT and math.isnan(system.book["t_first_flight"]):
+        system.book["t_first_flight"] = t0
     n_steps = int(round((t_end - t0) / dt))
     times = t0 + dt * np.arange(n_steps + 1)
     run = integrate(system, mode, t0, y, times, burst=burst, max_rate=max_rate)
