@@ -59,7 +59,7 @@ def test_ball_sliding_then_rolling_on_a_plane():
     having lost 1/2 m v0^2 (2/7) to friction. The plane is the bottom of a chamber of
     R = 1e8 m: the curvature shifts the times by 2.5e-10 s (measured: the shift scales as
     1/R, 2.5e-6 s at R = 1e4 m), hence 1e-9 s. Sliding ends where the slip falls to slip_eps,
-    (v0 - slip_eps) / (7/2 mu_k g), slip_eps / (7/2 mu_k g) = 5e-8 s before the ideal onset."""
+    (v0 - slip_eps) / (7/2 mu_k g), slip_eps / (7/2 mu_k g) = 1.5e-7 s before the ideal onset."""
     r, v0, mu_k = 0.025, 1.0, 0.2
     b = Ball(r=r, R=1e8, mu=0.3)
     c = Contact(mu_k=mu_k)
