@@ -28,6 +28,14 @@ of platform.py, the quasi-static calculator steady.py, errors.py) and its numeri
     traj = simulate_chamber(Ball(), Fig1Machine(), t_end=10.0, dt=0.01)
     traj["Pch_x"], traj["N"], traj["M1"], traj["M2"]
 
+Beyond rolling (docs/design.md section 14): ``hybrid.simulate_hybrid`` runs the ball that
+rolls, slides, flies and strikes a translating chamber, on the event-driven driver of
+``events`` (``Contact`` holds mu_k, e_n, v_rest).
+
+    from ballmill.physics import Ball, Contact, CrankStartup, simulate_hybrid
+    traj = simulate_hybrid(Ball(), CrankStartup(t0=0.5), t_end=1.0, dt=0.01, contact=Contact(e_n=0.5))
+    traj["mode"], traj["slip_speed"], traj.events
+
 The absorber's structure and the structure + ball model are in ``ballmill.absorber``.
 
 Monolithic runs, and `BallModel.advance` driven by InputReconstruction's cubic
@@ -40,6 +48,7 @@ from .drives.crank import Circle, CrankStartup, Fixed, Harmonic
 from .equations import PaperFormulation, VectorFormulation, make_formulation, omega_dot_cramer
 from .errors import FormulationLimitError, InputError, ParameterError, StepFailure
 from .fast import KernelUnavailable
+from .hybrid import Contact, HybridTrajectory, simulate_hybrid
 from .integrators import METHODS, Integrator
 from .model import BallModel, BallState, Trajectory, simulate
 from .outputs import Outputs, energy, evaluate, spin
@@ -49,7 +58,7 @@ from .turning.model import ChamberModel, ChamberOutputs, simulate_chamber, simul
 from .turning.motions import ChamberState, ConstantSpeed, Fig1Machine, Spin, Translation
 
 __all__ = [
-    "Ball", "BallModel", "BallState", "ChamberModel", "ChamberOutputs", "ChamberState", "Circle",
+    "Ball", "BallModel", "BallState", "ChamberModel", "Contact", "HybridTrajectory", "simulate_hybrid", "ChamberOutputs", "ChamberState", "Circle",
     "ConstantSpeed", "Fig1Machine", "Spin", "Translation", "simulate_chamber", "simulate_general", "CrankStartup", "Fixed", "FormulationLimitError",
     "Harmonic", "INPUT_MODES", "InputError", "InputReconstruction", "Integrator", "KERNEL_AVAILABLE",
     "KERNEL_REASON", "KernelUnavailable", "METHODS",

@@ -11,6 +11,11 @@ Methods:
   * ``RK4``: the classic fourth-order method with a fixed step, as in the
     paper's MathCAD program.
 
+`Integrator.steps` yields the same accepted steps one at a time (`Step`, with its
+cubic Hermite dense output), and `Integrator.single_step` makes one step of any size
+from a step's start (the method's own continuous extension): the event-driven driver
+(events.py) detects switches on the first and locates them on the second.
+
 After every accepted step the formulation's ``project`` (renormalise n) and
 ``check`` (refuse a singular coordinate region) hooks run. A step whose
 values are not finite is retried smaller and finally raises `StepFailure`;
@@ -20,6 +25,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -112,6 +118,33 @@ class StepStats:
     steps: int = 0
     rejected: int = 0
     nfev: int = 0
+
+
+class Step(NamedTuple):
+    """One accepted step of `Integrator.steps`: from (t0, y0) with slope f0 to (t1, y1)
+    (projected), f1 the slope at the end (None for RK4, which does not compute it),
+    h_next the step the controller proposes next."""
+
+    t0: float
+    y0: np.ndarray
+    f0: tuple
+    t1: float
+    y1: np.ndarray
+    f1: tuple | None
+    h_next: float
+
+    def hermite(self, t: float, f1=None) -> np.ndarray:
+        """The cubic Hermite interpolant through (y0, f0) and (y1, f1) at time t: the
+        dense output between the ends, third order (an event is detected on it, and then
+        located on the method's own step, `Integrator.single_step`). ``f1`` replaces a
+        missing end slope."""
+        f1 = self.f1 if f1 is None else f1
+        h = self.t1 - self.t0
+        s = (t - self.t0) / h
+        s2, s3 = s * s, s * s * s
+        h00, h10, h01, h11 = 2 * s3 - 3 * s2 + 1, s3 - 2 * s2 + s, -2 * s3 + 3 * s2, s3 - s2
+        return (h00 * self.y0 + h01 * self.y1
+                + (h * h10) * np.asarray(self.f0, dtype=float) + (h * h11) * np.asarray(f1, dtype=float))
 
 
 def _identity(y):
@@ -330,21 +363,52 @@ class Integrator:
             return y_new.tolist(), tuple(k.tolist()), err, finite and math.isfinite(err)
         return step
 
-    def _advance(self, f, t, y, t_end, h, stats):
-        """The step-size driver of `advance`. Each step is one call of a step
-        function: a generated scalar kernel for small systems (numpy's per-call
-        overhead outweighs the arithmetic there), numpy above SMALL_SYSTEM."""
-        n = y.size
-        c = getattr(self, "_small", None)  # kernel and scale tuples, rebuilt if tol or scale change
+    def _step_function(self, n):
+        """(step, tol, scale, tols) for n states: the generated scalar kernel for small
+        systems (numpy's per-call overhead outweighs the arithmetic there), numpy above
+        SMALL_SYSTEM; cached, rebuilt if tol or scale change."""
+        c = getattr(self, "_small", None)
         if c is None or c[0] != n or c[1] != self.tol or c[2] is not self.scale:
             scaled = self.scale is not None
-            generated = n <= SMALL_SYSTEM and (not scaled or self.scale.shape == y.shape)
+            generated = n <= SMALL_SYSTEM and (not scaled or self.scale.shape == (n,))
             scaled = scaled and generated
             c = self._small = (n, self.tol, self.scale,
                                _kernel(self.method, n, scaled) if generated else self._numpy_step(),
                                tuple(self.scale.tolist()) if scaled else None,
                                tuple((self.tol * self.scale).tolist()) if scaled else None)
-        _, tol, _, step, scale, tols = c
+        return c[3], c[1], c[4], c[5]
+
+    def _advance(self, f, t, y, t_end, h, stats):
+        """The step-size driver of `advance`: the last of `steps`."""
+        for step in self._steps(f, t, y, t_end, h, stats):
+            pass
+        return step.y1, step.h_next, stats
+
+    def steps(self, f, t: float, y, t_end: float, h: float | None = None, stats=None):
+        """The accepted steps from t to t_end, one `Step` at a time (a generator), the
+        same steps and the same floats as `advance` makes (which is the last of them):
+        an event-driven driver inspects each step's dense output and may stop anywhere.
+        ``stats`` (a StepStats) is updated as it goes. Nothing is yielded for an empty
+        interval."""
+        y = np.array(y, dtype=float)
+        if t_end - t <= 0.0:
+            return
+        if y.ndim != 1:
+            raise ValueError(f"the state must be a 1-D sequence of floats, got shape {y.shape}")
+        yield from self._steps(f, t, y, t_end, h, StepStats() if stats is None else stats)
+
+    def single_step(self, f, t: float, y, h: float, f0):
+        """One step of the method from (t, y) of size h, f0 = f(t, y), without error
+        control, projected: the method's own continuous extension, y(t + h) for any
+        0 < h <= the accepted step (an event is located on it). Returns an array."""
+        y = np.asarray(y, dtype=float)
+        step, tol, scale, tols = self._step_function(y.size)
+        out = step(f, t, y.tolist(), h, tuple(f0), tol, scale, tols, np.array)
+        return self.project(np.array(out[0]))
+
+    def _steps(self, f, t, y, t_end, h, stats):
+        n = y.size
+        step, tol, scale, tols = self._step_function(n)
         arr = np.array
         span = t_end - t
         yl = y.tolist()
@@ -372,11 +436,13 @@ class Integrator:
                 if not finite:
                     raise StepFailure(f"RK4 step at t = {ti:.9g} s produced non-finite values "
                                       f"(step {hh:.3g} s); reduce the step")
+                y0 = y
                 y = self.project(arr(y_new))
                 self.check(y)
                 yl = y.tolist()
                 stats.steps += 1
-            return y, self.h_fixed, stats
+                yield Step(ti, y0, f0, t_end if i == count - 1 else ti + hh, y, None, self.h_fixed)
+            return
 
         if h is None or not (h > 0.0 and math.isfinite(h)):
             h = self.initial_step(f, t, y, np.asarray(f0, dtype=float), span)
@@ -404,6 +470,7 @@ class Integrator:
                 continue
             if err <= 1.0:
                 factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / order))
+                t0, y0, fa = t, y, f0
                 t = t_end if last else t + hh
                 y = self.project(arr(y_new))
                 self.check(y)
@@ -412,10 +479,10 @@ class Integrator:
                 stats.steps += 1
                 # keep the controller's step, not the clipped one, for the next interval
                 h = max(h, hh * factor) if last else hh * factor
+                yield Step(t0, y0, fa, t, y, f_new, h)
             else:
                 stats.rejected += 1
                 h = hh * max(0.2, 0.9 * err ** (-1.0 / order))
                 if not h >= h_min_abs:
                     raise StepFailure(f"{self.method}: step size underflow at t = {t:.9g} s "
                                       f"(tolerance {self.tol:g} not met with step {hh:.3g} s)")
-        return y, h, stats

@@ -1,0 +1,665 @@
+"""The ball that rolls, slides, flies and strikes the shell (docs/design.md section 14), on
+the event-driven driver (`events.integrate`), in a translating or a turning chamber.
+
+Modes: FLIGHT (0), ROLLING (1), SLIDING (2). Fixed axes, z up, g_vec = (0, 0, -g). The
+chamber: a platform motion (``motion.state(t) -> (x, y, vx, vy, ax, ay)``: CrankStartup,
+Fixed, Harmonic, Circle) translates it, A(t) = O(t) + (0, 0, R), Omega = 0; a
+`turning.motions.ChamberMotion` (Spin, Fig1Machine, Translation) moves and turns it (A, v_A,
+a_A, Omega, Omega', Q from its state). d = R - r, n = (C - A)/|C - A|, P = A + R n, the wall's
+material point at P moves at v_W = v_A + Omega x R n, k_t = 1 + m r^2 / I (7/2 for a solid
+ball: the tangential impulse J changes the slip by k_t J / m).
+
+* ROLLING: today's rolling models (state n, omega): `equations.VectorFormulation` for a
+  translation, `turning.model` for a ChamberMotion; N and F_t from their outputs
+  (`outputs.evaluate`, `turning.model.evaluate_c`). Leaves for SLIDING when |F_t| > mu N (guard mu N - |F_t|),
+  for FLIGHT when N reaches 0 (guard N; with F_t != 0 slip comes first, then the sliding
+  ball's N reaches 0).
+* SLIDING: state (C, v_C, omega) in fixed axes; u = v_C + omega x r n - v_W the slip (its
+  tangential part), F = -N n - mu_k N e, e = u/|u| (from zero slip: the direction of the
+  friction-free relative tangential acceleration of P, kept until |u| > 1e-3 slip_eps),
+  N = m (n.(g_vec - a_A) + |v_C - v_A|^2 / |C - A|); m a_C = m g_vec + F,
+  I omega' = r n x F. Ends when |u| falls to ``slip_eps`` (guard |u| - slip_eps): the rest
+  of the slip is removed by a tangential impulse (its energy booked as friction), then the
+  stick test (rolling's |F_t| <= mu N: ROLLING, else SLIDING again, seeded as above); or
+  when N reaches 0: FLIGHT.
+* FLIGHT: (C, v_C, omega), a_C = g_vec, omega' = 0; guard the gap d - |C - A|.
+* Impact (gap reaches 0 with approaching normal speed v_n): normal impulse (1 + e_n) m v_n;
+  the tangential impulse that stops the slip, -m u_-/k_t, if within mu times the normal one
+  (sticks), else mu_k times the normal one against u_-. The kinetic energy lost in the frame
+  of the chamber's material point at P (velocity v_W) is booked as impact loss. If e_n v_n < v_rest the
+  remaining normal velocity is removed by a further normal impulse (its energy booked as
+  impact loss) and the ball stays on the wall: ROLLING if the slip is gone and the stick test
+  holds, else SLIDING (FLIGHT if the wall does not press, N <= 0).
+
+Work and losses ride along as quadratures in every mode's state: W, the work of the chamber
+on the ball (the contact force times v_W, plus J.v_W for every impulse), and E_friction;
+E_impact is summed at the impacts. E + E_friction + E_impact - W is then constant, E the
+ball's mechanical energy in fixed axes (`HybridTrajectory.energy_residual`).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import outputs as _out
+from .errors import ParameterError
+from .events import integrate
+from .integrators import Integrator, StepStats
+from .model import BallModel, BallState
+from .params import Ball
+from .turning import model as _turning
+from .turning.motions import ChamberMotion
+
+FLIGHT, ROLLING, SLIDING = 0, 1, 2
+# A rebound whose hop would rise less than this many ulps of the chamber's size above the wall
+# counts as rest: the gap d - |C - A| cannot resolve it (the driver would not see it open).
+HOP_MIN_ULPS = 1e4
+MODE_NAMES = {FLIGHT: "flight", ROLLING: "rolling", SLIDING: "sliding"}
+
+
+def _unit_interval(name, value, unit="1"):
+    v = float(value)
+    if not (math.isfinite(v) and 0.0 <= v <= 1.0):
+        raise ParameterError(f"{name} must lie in [0, 1], got {name} = {value!r} {unit}")
+    return v
+
+
+@dataclass(frozen=True)
+class Contact:
+    """The contact's parameters beyond the ball's static friction coefficient ``Ball.mu``.
+
+    mu_k: kinetic friction coefficient [1], 0 <= mu_k <= mu (None: mu).
+    e_n: normal restitution [1], in [0, 1].
+    v_rest [m/s]: a rebound slower than this ends the bounce sequence (the ball stays on
+        the wall), > 0.
+    slip_eps [m/s]: sliding ends when the slip speed falls to it, > 0; above the
+        integrator's error in the slip (about tol times the velocity scale, 1e-9 m/s at the
+        defaults), else sticking would chatter; small enough that the rolling onset it
+        advances, slip_eps / |du/dt|, is negligible (1e-7 s for mu_k g = 3 m/s2)."""
+
+    mu_k: float | None = None
+    e_n: float = 0.5
+    v_rest: float = 0.01
+    slip_eps: float = 1e-6
+
+    def __post_init__(self):
+        if self.mu_k is not None:
+            v = float(self.mu_k)
+            if not (math.isfinite(v) and v >= 0.0):
+                raise ParameterError(f"mu_k must be non-negative and finite, got mu_k = {self.mu_k!r}")
+        _unit_interval("e_n", self.e_n)
+        for name in ("v_rest", "slip_eps"):
+            v = float(getattr(self, name))
+            if not (math.isfinite(v) and v > 0.0):
+                raise ParameterError(f"{name} must be positive and finite, got {name} = "
+                                     f"{getattr(self, name)!r} m/s")
+
+    def kinetic(self, ball: Ball) -> float:
+        """mu_k for this ball, checked against its static mu."""
+        mu_k = ball.mu if self.mu_k is None else float(self.mu_k)
+        if mu_k > ball.mu:
+            raise ParameterError(f"mu_k must not exceed the static friction coefficient mu = "
+                                 f"{ball.mu!r}, got mu_k = {self.mu_k!r}")
+        return mu_k
+
+
+def _cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def _dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+class HybridBall:
+    """The system `events.integrate` runs (its interface in events.py): the ball in a
+    translating or turning chamber with its three modes. Holds the run's bookkeeping (impacts, impact
+    loss, first slip and flight), so one instance serves one run."""
+
+    def __init__(self, ball: Ball, motion, contact: Contact = Contact(), method: str = "DOP853",
+                 tol: float = 1e-9, h_max: float | None = None, energy: bool = True):
+        if ball.rolling_resistance or ball.drag:
+            raise ParameterError(
+                f"the hybrid model has no rolling resistance or drag in sliding and flight; got "
+                f"rolling_resistance = {ball.rolling_resistance!r} m, drag = {ball.drag!r} N s/m "
+                f"(expected 0)")
+        self.ball, self.motion, self.contact = ball, motion, contact
+        self.mu, self.mu_k = ball.mu, contact.kinetic(ball)
+        self.e_n, self.v_rest, self.slip_eps = contact.e_n, contact.v_rest, contact.slip_eps
+        self.kt = 1.0 + 1.0 / ball.inertia_factor
+        self.energy = energy
+        # rolling: today's models, their integrators and right-hand sides: a platform motion
+        # (drives.crank) on the translation-only model, a ChamberMotion (turning.motions,
+        # the chamber turning) on the general one
+        self.turning = isinstance(motion, ChamberMotion)
+        if self.turning:
+            self.rolling = _turning.ChamberModel(ball, method, tol=tol, h_max=h_max)
+            self._f_roll = self.rolling.rhs(motion)
+            self._c_roll, self._oc_roll = _turning.constants(ball), _turning.out_constants(ball)
+            project, check = _turning._project, (lambda y: None)
+        else:
+            self.rolling = BallModel(ball, "vector", method, tol=tol, h_max=h_max)
+            self._f_roll = self.rolling.rhs(motion.accel)
+            project, check = self.rolling.form.project, self.rolling.form.check
+        v_ref = math.sqrt(ball.g * ball.r)
+        e_ref = ball.m * ball.g * ball.r
+        q = [e_ref, e_ref]  # W, E_friction
+        roll_scale = list(self.rolling.integrator.scale) + q
+        self._int_roll_q = Integrator(method, tol=tol, scale=roll_scale, h_max=h_max,
+                                      project=project, check=check)
+        free = [ball.r] * 3 + [v_ref] * 3 + [v_ref / ball.r] * 3 + q
+        self._int_free = Integrator(method, tol=tol, scale=free, h_max=h_max)
+        self.book = dict(E_impact=0.0, n_impacts=0, v_impact_max=0.0, t_first_slip=math.nan,
+                         t_first_flight=math.nan, Q=(0.0, 0.0))
+        self._seed = (0.0, 0.0, 0.0)
+        self._rebound = False  # the last map was a rebound (the flight's gap is opening)
+        A0 = self.chamber(0.0)[0]
+        # the gap's resolution [m]: HOP_MIN_ULPS ulps of the coordinates it is computed from
+        self._gap_res = HOP_MIN_ULPS * 2.2e-16 * (ball.R + math.sqrt(_dot(A0, A0)))
+
+    # -- chamber ----------------------------------------------------------
+    def chamber(self, t):
+        """(A, v_A, a_A, Omega, Omega') at time t, fixed axes."""
+        s = self.motion.state(t)
+        if self.turning:
+            return s[0:3], s[3:6], s[6:9], s[9:12], s[12:15]
+        x, y, vx, vy, ax, ay = s
+        return (x, y, self.ball.R), (vx, vy, 0.0), (ax, ay, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+
+    def wall_velocity(self, t, n):
+        """Velocity of the chamber's material point at P = A + R n, v_A + Omega x R n."""
+        _, vA, _, Om, _ = self.chamber(t)
+        c = _cross(Om, n)
+        R = self.ball.R
+        return (vA[0] + R * c[0], vA[1] + R * c[1], vA[2] + R * c[2])
+
+    # -- modes: state layout ----------------------------------------------
+    # ROLLING: (n, omega) [+ (W, E_friction) when energy]; FLIGHT, SLIDING:
+    # (C, v_C, omega, W, E_friction).
+    def integrator(self, mode):
+        if mode == ROLLING:
+            return self._int_roll_q if self.energy else self.rolling.integrator
+        return self._int_free
+
+    def rhs(self, mode):
+        if mode == ROLLING:
+            return self._rhs_roll_q if self.energy else self._f_roll
+        return self._rhs_slide if mode == SLIDING else self._rhs_flight
+
+    def _quad(self, mode, y):
+        if mode == ROLLING and not self.energy:
+            return self.book["Q"]
+        return float(y[-2]), float(y[-1])
+
+    # -- right-hand sides -------------------------------------------------
+    def _rhs_roll_q(self, t, y):
+        b = self.ball
+        y = y.tolist()
+        if self.turning:
+            y6 = y[:6]
+            o = _turning.evaluate_c(self._oc_roll, y6, self.motion.state(t))
+            return _turning.derivative(self._c_roll, y6, self.motion.accel(t)) + (o.P_ball, 0.0)
+        (x, yy, vx, vy, ax, ay) = self.motion.state(t)
+        d = self.rolling.form.derivative((y[0], y[1], y[2], y[3], y[4], y[5]), ax, ay)
+        # contact force on the ball m (a_O + d n'' - g_vec), n'' = lambda (n' x w + n x w')
+        lam = b.lam
+        nd, wd = d[:3], d[3:]
+        n, w = (y[0], y[1], y[2]), (y[3], y[4], y[5])
+        c1, c2 = _cross(nd, w), _cross(n, wd)
+        Fx = b.m * (ax + b.d * lam * (c1[0] + c2[0]))
+        Fy = b.m * (ay + b.d * lam * (c1[1] + c2[1]))
+        return d + (Fx * vx + Fy * vy, 0.0)
+
+    def _rhs_flight(self, t, y):
+        y = y.tolist()
+        return (y[3], y[4], y[5], 0.0, 0.0, -self.ball.g, 0.0, 0.0, 0.0, 0.0, 0.0)
+
+    def _slide_forces(self, t, y, seed=None):
+        """(N, friction force on the ball F_t, slip speed |u_t|, n, the wall's velocity at P)
+        of a sliding state."""
+        b = self.ball
+        if type(y) is not list:
+            y = y.tolist()  # Python floats: faster than numpy scalars here
+        A, vA, aA, Om, _ = self.chamber(t)
+        rho = (y[0] - A[0], y[1] - A[1], y[2] - A[2])
+        dist = math.sqrt(_dot(rho, rho))
+        n = (rho[0] / dist, rho[1] / dist, rho[2] / dist)
+        vrel = (y[3] - vA[0], y[4] - vA[1], y[5] - vA[2])
+        N = b.m * (-b.g * n[2] - _dot(n, aA) + _dot(vrel, vrel) / dist)
+        wr = _cross((y[6], y[7], y[8]), n)
+        on = _cross(Om, n)
+        R = b.R
+        u = (vrel[0] + b.r * wr[0] - R * on[0], vrel[1] + b.r * wr[1] - R * on[1],
+             vrel[2] + b.r * wr[2] - R * on[2])
+        un = _dot(u, n)
+        ut = (u[0] - un * n[0], u[1] - un * n[1], u[2] - un * n[2])
+        s = math.sqrt(_dot(ut, ut))
+        if s > 1e-3 * self.slip_eps:
+            e = (ut[0] / s, ut[1] / s, ut[2] / s)
+        else:
+            e = self._seed if seed is None else seed
+        f = -self.mu_k * N
+        vW = (vA[0] + R * on[0], vA[1] + R * on[1], vA[2] + R * on[2])
+        return N, (f * e[0], f * e[1], f * e[2]), s, n, vW
+
+    def _rhs_slide(self, t, y):
+        b = self.ball
+        y = y.tolist()
+        N, Ft, s, n, vW = self._slide_forces(t, y)
+        F = (Ft[0] - N * n[0], Ft[1] - N * n[1], Ft[2] - N * n[2])
+        tq = _cross(n, Ft)
+        c = b.r / b.I
+        return (y[3], y[4], y[5], F[0] / b.m, F[1] / b.m, F[2] / b.m - b.g,
+                c * tq[0], c * tq[1], c * tq[2], _dot(F, vW), self.mu_k * N * s)
+
+    # -- guards ---------------------------------------------------------
+    def guards(self, mode):
+        if mode == ROLLING:
+            return ("slip", "leave"), self._g_rolling, (0.0, 0.0)
+        if mode == SLIDING:
+            return ("stick", "leave"), self._g_sliding, (0.0, 0.0)
+        return ("impact",), self._g_flight, (self._gap_res,)
+
+    def _roll_out(self, t, y):
+        """The rolling model's outputs (N, Ft, ...) of the rolling state y = (n, omega, ...)."""
+        if self.turning:
+            return _turning.evaluate_c(self._oc_roll, [y[0], y[1], y[2], y[3], y[4], y[5]],
+                                       self.motion.state(t))
+        _, _, _, _, ax, ay = self.motion.state(t)
+        return _out.evaluate(self.ball, (y[0], y[1], y[2]), (y[3], y[4], y[5]), ax, ay)
+
+    def _g_rolling(self, t, y):
+        """(mu N - |F_t|, N) of the rolling model."""
+        o = self._roll_out(t, y)
+        return self.mu * o.N - o.Ft, o.N
+
+    def _g_sliding(self, t, y):
+        """(|u| - slip_eps, N) of the sliding ball."""
+        N, _, s, _, _ = self._slide_forces(t, y)
+        return s - self.slip_eps, N
+
+    def _g_flight(self, t, y):
+        return (self._gap(t, y),)
+
+    def _normal_motion(self, t, y):
+        """(v_n, a_n) of a free state: the normal velocity relative to the wall (> 0 towards
+        it) and the free flight's normal acceleration relative to the wall."""
+        A, vA, aA, _, _ = self.chamber(t)
+        rho = (y[0] - A[0], y[1] - A[1], y[2] - A[2])
+        dist = math.sqrt(_dot(rho, rho))
+        n = (rho[0] / dist, rho[1] / dist, rho[2] / dist)
+        vn = (y[3] - vA[0]) * n[0] + (y[4] - vA[1]) * n[1] + (y[5] - vA[2]) * n[2]
+        return vn, -self.ball.g * n[2] - _dot(aA, n)
+
+    def armed(self, mode, t, y):
+        """The flight's gap guard is armed at once after a rebound (the gap is 0 there and
+        opening); a flight that starts by leaving the wall (N = 0, no normal speed) arms it
+        when the gap is first seen positive."""
+        if mode == FLIGHT:
+            return (self._rebound,)
+        return (False, False)
+
+    def first_step(self, mode, t, y):
+        """After a rebound, a quarter of the hop's duration in free flight (so the opening gap
+        is seen positive before it closes again)."""
+        if mode != FLIGHT or not self._rebound:
+            return None
+        vn, an = self._normal_motion(t, y)
+        if vn < 0.0 and an > 0.0:
+            return max(0.5 * -vn / an, 1e-12)
+        return None
+
+    def _gap(self, t, y):
+        A = self.chamber(t)[0]
+        return self.ball.d - math.sqrt((y[0] - A[0]) ** 2 + (y[1] - A[1]) ** 2 + (y[2] - A[2]) ** 2)
+
+    # -- conversions ----------------------------------------------------
+    def free_state(self, mode, t, y):
+        """(C, v_C, omega, W, E_friction) of any mode's state, fixed axes."""
+        if mode != ROLLING:
+            return np.array(y, dtype=float)
+        b = self.ball
+        A = self.chamber(t)[0]
+        n, w = (y[0], y[1], y[2]), (y[3], y[4], y[5])
+        nw = _cross(n, w)
+        vW = self.wall_velocity(t, n)  # v_C = v_A + R Omega x n + r n x omega: no slip
+        W, Ef = self._quad(mode, y)
+        return np.array([A[0] + b.d * n[0], A[1] + b.d * n[1], A[2] + b.d * n[2],
+                         vW[0] + b.r * nw[0], vW[1] + b.r * nw[1], vW[2] + b.r * nw[2],
+                         w[0], w[1], w[2], W, Ef])
+
+    def _rolling_state(self, n, w, Q):
+        core = [n[0], n[1], n[2], w[0], w[1], w[2]]
+        if self.energy:
+            return np.array(core + list(Q))
+        self.book["Q"] = (math.nan, Q[1])  # W is not followed while rolling
+        return np.array(core)
+
+    def _onto_wall(self, t, z):
+        """z with C put on the sphere |C - A| = d and the normal velocity relative to the wall
+        removed: a sliding state's drift off the constraint (integration error, ~tol) taken out
+        where the ball leaves the wall, so the flight starts exactly tangent (otherwise a drift
+        towards the wall reads as an impact an instant later)."""
+        b = self.ball
+        A, vA, _, _, _ = self.chamber(t)
+        z = np.array(z, dtype=float)
+        rho = z[:3] - np.array(A)
+        n = rho / math.sqrt(rho @ rho)
+        z[:3] = np.array(A) + b.d * n
+        vn = float((z[3:6] - np.array(vA)) @ n)
+        z[3:6] -= vn * n
+        return z
+
+    def _impulse(self, t, z, J, n):
+        """Apply the impulse J (on the ball, at P = C + r n) to the free state z in place;
+        returns the kinetic energy lost in the frame moving with the wall's material point at P,
+        v_W = v_A + Omega x R n, and adds J.v_W to W."""
+        b = self.ball
+        vA = self.wall_velocity(t, n)
+
+        def ke(z):
+            v = (z[3] - vA[0], z[4] - vA[1], z[5] - vA[2])
+            return 0.5 * b.m * _dot(v, v) + 0.5 * b.I * (z[6] ** 2 + z[7] ** 2 + z[8] ** 2)
+        before = ke(z)
+        tq = _cross(n, J)
+        for i in range(3):
+            z[3 + i] += J[i] / b.m
+            z[6 + i] += b.r * tq[i] / b.I
+        z[9] += _dot(J, vA)
+        return before - ke(z)
+
+    def _slip(self, t, z, n):
+        """Tangential slip u_t of a free state at the wall point C + r n."""
+        b = self.ball
+        vA = self.wall_velocity(t, n)
+        wr = _cross((z[6], z[7], z[8]), n)
+        u = (z[3] - vA[0] + b.r * wr[0], z[4] - vA[1] + b.r * wr[1], z[5] - vA[2] + b.r * wr[2])
+        un = _dot(u, n)
+        return (u[0] - un * n[0], u[1] - un * n[1], u[2] - un * n[2])
+
+    def _friction_free_slip_accel(self, t, z, n):
+        """Tangential acceleration of P relative to the wall without friction (the direction
+        friction opposes when sliding starts from zero slip)."""
+        b = self.ball
+        A, vA, aA, Om, Omd = self.chamber(t)
+        vrel = (z[3] - vA[0], z[4] - vA[1], z[5] - vA[2])
+        N = b.m * (-b.g * n[2] - _dot(n, aA) + _dot(vrel, vrel) / b.d)
+        aC = (-N * n[0] / b.m, -N * n[1] / b.m, -b.g - N * n[2] / b.m)
+        vn = _dot(vrel, n)
+        nd = ((vrel[0] - vn * n[0]) / b.d, (vrel[1] - vn * n[1]) / b.d, (vrel[2] - vn * n[2]) / b.d)
+        wnd = _cross((z[6], z[7], z[8]), nd)
+        # the wall point's acceleration: a_A + R (Omega' x n + Omega x n')
+        c1, c2 = _cross(Omd, n), _cross(Om, nd)
+        aW = tuple(aA[i] + b.R * (c1[i] + c2[i]) for i in range(3))
+        a = (aC[0] - aW[0] + b.r * wnd[0], aC[1] - aW[1] + b.r * wnd[1], aC[2] - aW[2] + b.r * wnd[2])
+        an = _dot(a, n)
+        return (a[0] - an * n[0], a[1] - an * n[1], a[2] - an * n[2])
+
+    def on_wall(self, t, z):
+        """Mode and state of a ball on the wall with no normal relative velocity (free
+        state z): its slip removed if below slip_eps (booked as friction), then the stick
+        test. Returns (mode, y, details)."""
+        b = self.ball
+        A = self.chamber(t)[0]
+        z = np.array(z, dtype=float)
+        rho = z[:3] - np.array(A)
+        n = tuple(rho / math.sqrt(rho @ rho))
+        z[:3] = np.array(A) + b.d * np.array(n)
+        details = {}
+        ut = self._slip(t, z, n)
+        s = math.sqrt(_dot(ut, ut))
+        if s <= self.slip_eps:
+            J = (-b.m * ut[0] / self.kt, -b.m * ut[1] / self.kt, -b.m * ut[2] / self.kt)
+            loss = self._impulse(t, z, J, n)
+            z[10] += loss
+            details["slip_removed"] = s
+            w = (z[6], z[7], z[8])
+            o = self._roll_out(t, n + w)
+            if o.N <= 0.0:
+                return FLIGHT, z, details
+            if o.Ft <= self.mu * o.N:
+                return ROLLING, self._rolling_state(n, w, (z[9], z[10])), details
+            return self._start_sliding(t, z, n, details)
+        N = self._slide_forces(t, z, seed=(0.0, 0.0, 0.0))[0]
+        if N <= 0.0:
+            return FLIGHT, z, details
+        if math.isnan(self.book["t_first_slip"]):
+            self.book["t_first_slip"] = t
+        return SLIDING, z, details
+
+    def _start_sliding(self, t, z, n, details):
+        a = self._friction_free_slip_accel(t, z, n)
+        s = math.sqrt(_dot(a, a))
+        self._seed = (a[0] / s, a[1] / s, a[2] / s) if s > 0.0 else (0.0, 0.0, 0.0)
+        if math.isnan(self.book["t_first_slip"]):
+            self.book["t_first_slip"] = t
+        details["seed"] = self._seed
+        return SLIDING, z, details
+
+    def start_rolling(self, t, y):
+        """(mode, y) from the rolling model's state (n, omega): rolling if it holds there (the
+        state kept as it is), else what the wall decides (`on_wall`)."""
+        y = np.array(y, dtype=float)
+        if y.shape != (6,):
+            raise ParameterError(f"a rolling state holds the 6 numbers (n, omega) of the vector "
+                                 f"formulation, got shape {y.shape}")
+        o = self._roll_out(t, y)
+        if o.N > 0.0 and o.Ft <= self.mu * o.N:
+            return ROLLING, self._rolling_state(tuple(y[:3]), tuple(y[3:]), (0.0, 0.0))
+        mode, z, _ = self.on_wall(t, self.free_state(ROLLING, t, self._rolling_state(
+            tuple(y[:3]), tuple(y[3:]), (0.0, 0.0))))
+        return mode, z
+
+    def start(self, t, C, v, w):
+        """(mode, y) of a ball with centre C, velocity v, angular velocity w (fixed axes) at
+        time t: in flight if it clears the wall, on the wall (stick test) if it touches it
+        with no normal relative velocity, struck at once if it moves into it."""
+        b = self.ball
+        A, vA, _, _, _ = self.chamber(t)
+        z = np.array(list(C) + list(v) + list(w) + [0.0, 0.0], dtype=float)
+        for name, val in zip(("C", "v", "w"), (C, v, w)):
+            if len(val) != 3 or not all(math.isfinite(x) for x in val):
+                raise ParameterError(f"{name} must be three finite numbers, got {name} = {val!r}")
+        rho = z[:3] - np.array(A)
+        dist = math.sqrt(rho @ rho)
+        if dist > b.d * (1.0 + 1e-9):
+            raise ParameterError(f"the ball centre C = {tuple(C)!r} m lies outside the chamber: "
+                                 f"|C - A| = {dist:.12g} m, expected <= R - r = {b.d:.12g} m")
+        if b.d - dist > 1e-9 * b.r:
+            self.book["t_first_flight"] = t
+            return FLIGHT, z
+        n = rho / dist
+        vn = float((z[3:6] - np.array(vA)) @ n)
+        if vn > 1e-12:
+            mode, y, _ = self._impact(t, z)
+            return mode, y
+        if vn < -1e-12:
+            return FLIGHT, z
+        mode, y, details = self.on_wall(t, z)
+        if mode == FLIGHT and math.isnan(self.book["t_first_flight"]):
+            self.book["t_first_flight"] = t
+        return mode, y
+
+    # -- the map at an event ----------------------------------------------
+    def jump(self, mode, kind, t, y):
+        self._rebound = False
+        z = self.free_state(mode, t, y)
+        if kind == "impact":
+            new, y2, details = self._impact(t, z)
+        elif kind == "leave":
+            new, y2, details = FLIGHT, self._onto_wall(t, z), {}
+        elif kind == "slip":
+            A = self.chamber(t)[0]
+            n = tuple((z[:3] - np.array(A)) / self.ball.d)
+            new, y2, details = self._start_sliding(t, z, n, {})
+        elif kind == "stick":
+            new, y2, details = self.on_wall(t, z)
+        else:  # pragma: no cover - the guards name only these
+            raise ValueError(f"unknown event kind {kind!r}")
+        if new == FLIGHT and math.isnan(self.book["t_first_flight"]):
+            self.book["t_first_flight"] = t
+        A = self.chamber(t)[0]
+        rho = z[:3] - np.array(A)
+        details["n"] = tuple((rho / math.sqrt(rho @ rho)).tolist())  # where it happened
+        return new, y2, details
+
+    def _impact(self, t, z):
+        b = self.ball
+        A, vA, _, _, _ = self.chamber(t)
+        z = np.array(z, dtype=float)
+        rho = z[:3] - np.array(A)
+        n = tuple(rho / math.sqrt(rho @ rho))
+        z[:3] = np.array(A) + b.d * np.array(n)
+        vn = (z[3] - vA[0]) * n[0] + (z[4] - vA[1]) * n[1] + (z[5] - vA[2]) * n[2]
+        if vn <= 0.0:
+            # touching without approaching (a gap closing at round-off level): no impulse
+            return FLIGHT, z, {"v_n": vn, "grazing": True}
+        Jn = (1.0 + self.e_n) * b.m * vn
+        ut = self._slip(t, z, n)
+        s = math.sqrt(_dot(ut, ut))
+        stick = s / self.kt <= self.mu * (1.0 + self.e_n) * vn
+        if stick:
+            Jt = (-b.m * ut[0] / self.kt, -b.m * ut[1] / self.kt, -b.m * ut[2] / self.kt)
+        else:
+            c = -self.mu_k * Jn / s
+            Jt = (c * ut[0], c * ut[1], c * ut[2])
+        J = (Jt[0] - Jn * n[0], Jt[1] - Jn * n[1], Jt[2] - Jn * n[2])
+        loss = self._impulse(t, z, J, n)
+        bk = self.book
+        bk["n_impacts"] += 1
+        bk["v_impact_max"] = max(bk["v_impact_max"], vn)
+        details = {"v_n": vn, "slip": s, "stick": stick, "E_loss": loss}
+        _, an = self._normal_motion(t, z)
+        hop = (self.e_n * vn) ** 2 / (2.0 * an) if an > 0.0 else math.inf
+        if self.e_n * vn < self.v_rest or hop < self._gap_res:
+            vn2 = (z[3] - vA[0]) * n[0] + (z[4] - vA[1]) * n[1] + (z[5] - vA[2]) * n[2]
+            loss += self._impulse(t, z, (-b.m * vn2 * n[0], -b.m * vn2 * n[1], -b.m * vn2 * n[2]), n)
+            bk["E_impact"] += loss
+            details["E_loss"] = loss
+            details["rest"] = True
+            mode, y, more = self.on_wall(t, z)
+            details.update(more)
+            return mode, y, details
+        bk["E_impact"] += loss
+        self._rebound = True
+        return FLIGHT, z, details
+
+    # -- outputs ----------------------------------------------------------
+    COLUMNS = ("mode", "nx", "ny", "nz", "xC", "yC", "zC", "vCx", "vCy", "vCz", "wx", "wy", "wz", "N", "Ft",
+               "slip_speed", "gap", "E", "W_chamber", "E_friction", "E_impact", "n_impacts",
+               "v_impact_max", "t_first_slip", "t_first_flight")
+
+    def sample(self, mode, t, y):
+        """One row of COLUMNS: n = (C - A)/|C - A| (fixed axes); C in the chamber's axes with
+        the origin at its lowest point, Q^T (C - A) + (0, 0, R) (translating: C relative to the
+        platform point O, as `outputs.evaluate`); v_C and omega in fixed axes; N and |F_t| of
+        the contact [N]; the slip speed [m/s] and gap d - |C - A| [m]; the ball's mechanical
+        energy E in fixed axes and the bookkeeping [J]."""
+        b = self.ball
+        z = self.free_state(mode, t, y)
+        A = self.chamber(t)[0]
+        rho = z[:3] - np.array(A)
+        dist = math.sqrt(rho @ rho)
+        n = tuple(rho / dist)
+        if mode == ROLLING:
+            n = (y[0], y[1], y[2])  # the state itself: the rolling model's numbers, unrounded
+            o = self._roll_out(t, y)
+            N, Ft, slip = o.N, o.Ft, 0.0
+        elif mode == SLIDING:
+            N, Ftv, slip, _, _ = self._slide_forces(t, z)
+            Ft = math.sqrt(_dot(Ftv, Ftv))
+        else:
+            N, Ft = 0.0, 0.0
+            ut = self._slip(t, z, n)
+            slip = math.sqrt(_dot(ut, ut))
+        E = (0.5 * b.m * float(z[3:6] @ z[3:6]) + 0.5 * b.I * float(z[6:9] @ z[6:9])
+             + b.m * b.g * z[2])
+        bk = self.book
+        c = (z[0] - A[0], z[1] - A[1], z[2])  # O = A - (0, 0, R) at height 0
+        if self.turning:  # into the chamber's axes: Q^T (C - A) + (0, 0, R)
+            Q = self.motion.state(t)[15:24]
+            r = (c[0], c[1], z[2] - A[2])
+            c = tuple(Q[i] * r[0] + Q[3 + i] * r[1] + Q[6 + i] * r[2] for i in range(3))
+            c = (c[0], c[1], c[2] + b.R)
+        return (mode, n[0], n[1], n[2], c[0], c[1], c[2], z[3], z[4], z[5], z[6], z[7], z[8], N, Ft,
+                slip, b.d - dist, E, z[9], z[10], bk["E_impact"], bk["n_impacts"],
+                bk["v_impact_max"], bk["t_first_slip"], bk["t_first_flight"])
+
+
+@dataclass
+class HybridTrajectory:
+    """Result of `simulate_hybrid`: outputs on the time grid (``out``, the columns of
+    `HybridBall.COLUMNS`, also by ``traj["name"]``), the events in order (`events.Event`:
+    time, kind 'slip' | 'leave' | 'stick' | 'impact', modes before and after, details),
+    ``success`` (False: the run stopped early, ``message`` says where and why) and the
+    integrator's work."""
+
+    t: np.ndarray
+    out: dict
+    events: list
+    success: bool = True
+    message: str = "completed"
+    info: StepStats | None = None
+    t_first_slip: float | None = None
+    t_first_flight: float | None = None
+
+    def __getitem__(self, name):
+        return self.out[name]
+
+    @property
+    def energy_residual(self) -> np.ndarray:
+        """E + E_friction + E_impact - W_chamber - (its initial value) [J]: zero up to the
+        integrator's error."""
+        r = self.out["E"] + self.out["E_friction"] + self.out["E_impact"] - self.out["W_chamber"]
+        return r - r[0]
+
+    def of_kind(self, kind: str) -> list:
+        return [e for e in self.events if e.kind == kind]
+
+
+def simulate_hybrid(ball: Ball, motion, t_end: float, dt: float, contact: Contact = Contact(), *,
+                    initial=None, t0: float = 0.0, method: str = "DOP853", tol: float = 1e-9,
+                    h_max: float | None = None, energy: bool = True, burst: int = 100,
+                    max_rate: float = 1e4) -> HybridTrajectory:
+    """The ball in a chamber moved by ``motion`` (a platform motion: translation; a
+    `turning.motions.ChamberMotion`: any rigid motion) with rolling, sliding, flight and
+    impacts, sampled every dt [s] from t0 to t_end.
+
+    initial: None (the ball at rest relative to the chamber at its lowest point, as
+        `simulate`), (C, v_C, omega) in fixed axes at t0 [m, m/s, rad/s], or a rolling model's
+        `BallState` (n, omega; its own time replaces t0), e.g. ``BallModel.initial(...)`` or
+        ``ChamberModel.initial(...)``: the same start as `simulate`/`simulate_general`.
+    energy: carry the chamber's work W_chamber in the rolling mode too (the energy balance in
+        every mode); False integrates rolling exactly as `simulate` does (the same floats
+        while the ball rolls) and leaves W_chamber NaN after rolling.
+    burst, max_rate: the Zeno guard of `events.integrate`.
+    """
+    if not (dt > 0 and math.isfinite(dt)):
+        raise ValueError(f"dt must be positive and finite, got dt = {dt!r} s")
+    if not (math.isfinite(t_end) and t_end >= t0):
+        raise ValueError(f"t_end must be finite and >= t0 = {t0!r} s, got t_end = {t_end!r} s")
+    system = HybridBall(ball, motion, contact, method, tol, h_max, energy)
+    if initial is None:  # at rest relative to the chamber (co-rotating) at its lowest point
+        A, vA, _, Om, _ = system.chamber(t0)
+        Q = motion.state(t0)[15:24] if system.turning else (1, 0, 0, 0, 1, 0, 0, 0, 1)
+        rho = (-ball.d * Q[2], -ball.d * Q[5], -ball.d * Q[8])
+        spin = _cross(Om, rho)
+        initial = (tuple(A[i] + rho[i] for i in range(3)), tuple(vA[i] + spin[i] for i in range(3)), Om)
+    if isinstance(initial, BallState):  # the rolling model's state, taken as it is
+        t0 = initial.t
+        mode, y = system.start_rolling(t0, initial.y)
+    else:
+        mode, y = system.start(t0, *initial)
+    if mode == FLIGHT and math.isnan(system.book["t_first_flight"]):
+        system.book["t_first_flight"] = t0
+    n_steps = int(round((t_end - t0) / dt))
+    times = t0 + dt * np.arange(n_steps + 1)
+    run = integrate(system, mode, t0, y, times, burst=burst, max_rate=max_rate)
+    arr = np.array(run.rows, dtype=float).reshape(len(run.rows), len(HybridBall.COLUMNS))
+    out = {name: arr[:, j] for j, name in enumerate(HybridBall.COLUMNS)}
+    bk = system.book
+    nan_none = lambda v: None if math.isnan(v) else v  # noqa: E731
+    return HybridTrajectory(run.t, out, run.events, run.success, run.message, run.stats,
+                            nan_none(bk["t_first_slip"]), nan_none(bk["t_first_flight"]))
