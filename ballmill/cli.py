@@ -209,8 +209,9 @@ def main(argv=None) -> int:
                    help="RK4's error estimate: the run at 2h in the same kernel pass, up to where the model "
                         "stops holding (one-pass, default), or a second full run (richardson)")
     w.add_argument("--scheduler", metavar="ADDRESS",
-                   help="a running Dask scheduler (tcp://host:8786); default: a local cluster")
-    w.add_argument("--workers", type=int, help="worker processes of the local cluster (default: one per core)")
+                   help="a running Dask scheduler (tcp://host:8786), or local (a Dask LocalCluster); default: "
+                        "worker processes forked from this one (a LocalCluster where the platform cannot fork)")
+    w.add_argument("--workers", type=int, help="local worker processes (default: one per core)")
     w.add_argument("--in-process", action="store_true", help="no Dask: compute the batches in this process")
     w.add_argument("--batch", type=int, help="points per task (default: about 8 tasks per worker, <= 250)")
     w.add_argument("--retry-failed", action="store_true", help="recompute points that failed before")

@@ -188,14 +188,17 @@ def test_resume_skips_finished_points_and_a_bad_point_is_a_failed_row(tmp_path):
 
 
 @needs_kernel
-def test_dask_and_in_process_give_identical_results(tmp_path):
+def test_dask_forked_and_in_process_give_identical_results(tmp_path):
     st = build("fast_start", grid={"drive.t0": [1.0, 2.5, 4.0], "drive.n0": [50, 70]},
                indicators=[{"name": "xP_amp", "variable": "ball.xP", "stat": "amplitude", "window": ["after", 8]}])
     here = run_study(st, tmp_path / "a", scheduler="in-process", progress=False, plots=False)
-    dask = run_study(st, tmp_path / "b", workers=2, batch=2, progress=False, plots=False)
+    dask = run_study(st, tmp_path / "b", scheduler="local", workers=2, batch=2, progress=False, plots=False)
     assert "dask LocalCluster" in dask.executor and dask.computed == 6
+    forked = run_study(st, tmp_path / "f", workers=2, batch=2, progress=False, plots=False)
+    assert forked.executor == "local worker processes (forked), 2" and forked.computed == 6
     assert read_rows(tmp_path / "a" / "results.parquet") == read_rows(tmp_path / "b" / "results.parquet")
-    assert here.rows == dask.rows
+    assert read_rows(tmp_path / "a" / "results.parquet") == read_rows(tmp_path / "f" / "results.parquet")
+    assert here.rows == dask.rows == forked.rows
 
 
 @needs_kernel

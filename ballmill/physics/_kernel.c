@@ -666,19 +666,52 @@ BM_EXPORT long long bm_simulate(const bm_problem *P, const double *times, long l
  * Returns the last point recorded; below n - 1 without a stop, the run (or the coarse one,
  * then err[2] = 1) could not do the next interval: the caller redoes the point on the
  * ordinary path, which reports that failure as Python does. */
+/* The platform motion at the last few times asked, for bm_simulate_study: RK4 asks for the
+ * same time twice in a step (stages 2 and 3), and the outputs and the next step ask again for
+ * the time a step ends; a time met before (the same double) gets the state computed then,
+ * which is what computing it again would give. */
+#define BM_MCACHE 4
+typedef struct {
+    double t[BM_MCACHE], m[BM_MCACHE][6];
+    int n, next;
+} bm_mcache;
+
+static void bm_motion_cached(const bm_problem *P, bm_mcache *c, double t, double m[6])
+{
+    for (int k = 0; k < c->n; k++)
+        if (c->t[k] == t) {
+            memcpy(m, c->m[k], sizeof c->m[k]);
+            return;
+        }
+    bm_motion_state(P, t, m);
+    c->t[c->next] = t;
+    memcpy(c->m[c->next], m, sizeof c->m[c->next]);
+    c->next = (c->next + 1) % BM_MCACHE;
+    if (c->n < BM_MCACHE) c->n++;
+}
+
+/* bm_rhs with the motion from the cache ctx */
+static void bm_ball_rhs_cached(const bm_problem *P, const void *ctx, double t, const double *y, double *f)
+{
+    double m[6];
+    bm_motion_cached(P, (bm_mcache *)ctx, t, m);
+    bm_derivative(P, y, m[4], m[5], f);
+}
+
 BM_EXPORT long long bm_simulate_study(const bm_problem *P, const bm_problem *Pc, const double *times, long long n,
                                       long long start, int record_start, double *y, double *h, double *yc,
                                       int stop, double mu, double *ys, double *outs, double *err,
                                       bm_stats *total)
 {
     double m[6], oc[BM_NOUT], hc = Pc ? Pc->h_fixed : 0.0;
+    bm_mcache cache = {{0}, {{0}}, 0, 0}, cache_c = {{0}, {{0}}, 0, 0}; /* the fine and the coarse run's */
     bm_tab T, Tc;
     bm_tab_make(P, &T);
     if (Pc) bm_tab_make(Pc, &Tc);
     for (long long i = start; i < n; i++) {
         if (i > start) {
             bm_stats st = {0, 0, 0};
-            if (!bm_advance(P, &T, bm_ball_rhs, NULL, times[i - 1], y, times[i], h, &st)) return i - 1;
+            if (!bm_advance(P, &T, bm_ball_rhs_cached, &cache, times[i - 1], y, times[i], h, &st)) return i - 1;
             total->steps += st.steps;
             total->rejected += st.rejected;
             total->nfev += st.nfev;
@@ -687,12 +720,12 @@ BM_EXPORT long long bm_simulate_study(const bm_problem *P, const bm_problem *Pc,
         }
         double *o = outs + BM_NOUT * i;
         memcpy(ys + BM_NY * i, y, BM_NY * sizeof(double));
-        bm_motion_state(P, times[i], m);
+        bm_motion_cached(P, &cache, times[i], m);
         bm_outputs(P, y, m[4], m[5], m[0], m[1], o);
         if (Pc && (i - start) % 2 == 0) {
             if (i > start) {
                 bm_stats sc = {0, 0, 0};
-                if (!bm_advance(Pc, &Tc, bm_ball_rhs, NULL, times[i - 2], yc, times[i], &hc, &sc)) {
+                if (!bm_advance(Pc, &Tc, bm_ball_rhs_cached, &cache_c, times[i - 2], yc, times[i], &hc, &sc)) {
                     err[2] = 1.0;
                     return i - 1;
                 }

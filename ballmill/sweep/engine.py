@@ -16,7 +16,11 @@
   refused rather than mixed.
 * Execution: a batch of points is one task (``batch`` points; default: about
   eight tasks per worker, at most 250 points each, so the task overhead of a
-  few ms is spread over many points). ``scheduler``: None or "local" starts a
+  few ms is spread over many points). ``scheduler``: None runs the tasks on
+  worker processes forked from this one (one per core, or ``workers``; where
+  the platform cannot fork, a Dask LocalCluster): they inherit the imported
+  modules and the prepared evaluator, so they start in milliseconds where a
+  LocalCluster's spawned workers take seconds to import; "local" starts a
   Dask LocalCluster (one single-threaded worker process per core, or
   ``workers``); an address ("tcp://host:8786") uses an existing cluster whose
   workers have ballmill installed; "in-process" runs the batches here, one
@@ -195,6 +199,61 @@ def _chains(todo: list, key) -> list[list]:
     return [[it for _, it in sorted(g, key=lambda x: x[0])] for g in groups.values()]
 
 
+_FORKED = None  # (prepared, custom indicators) of the study whose forked workers are running
+
+
+def _forked_batch(task):
+    """run_batch in a worker forked by run_study (which set _FORKED before forking)."""
+    prepared, custom = _FORKED
+    return run_batch(prepared, custom, task)
+
+
+def _preload(plots: bool):
+    """Import what writing the results (and drawing their plots) needs, while forked workers
+    compute: this process only waits for them meanwhile."""
+    import pyarrow.parquet  # noqa: F401
+
+    if plots:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot  # noqa: F401
+
+
+def _forked_plots(k: int):
+    """The k-th share of a study's plots, in a process forked by _write_plots."""
+    from . import plots as _plots
+
+    study, rows, out_dir, n = _FORKED
+    return _plots.write(study, rows, out_dir, part=(k, n))
+
+
+def _write_plots(study, rows, out_dir, n: int) -> list:
+    """plots.write, shared among n processes forked from this one (which has matplotlib
+    imported already when the study ran on forked workers), or here when n = 1."""
+    from . import plots as _plots
+
+    ctx = _fork_context()
+    if n <= 1 or ctx is None:
+        return _plots.write(study, rows, out_dir)
+    global _FORKED
+    from concurrent.futures import ProcessPoolExecutor
+
+    _FORKED = (study, rows, out_dir, n)
+    try:
+        with ProcessPoolExecutor(max_workers=n, mp_context=ctx) as pool:
+            shares = list(pool.map(_forked_plots, range(n)))
+    finally:
+        _FORKED = None
+    return [p for share in shares for p in share]
+
+
+def _fork_context():
+    import multiprocessing
+
+    return multiprocessing.get_context("fork") if "fork" in multiprocessing.get_all_start_methods() else None
+
+
 def _default_batch(n: int, workers: int) -> int:
     return max(1, min(250, math.ceil(n / (8 * max(1, workers)))))
 
@@ -306,8 +365,9 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
     sequential = bool(getattr(prepared, "sequential", False))
     chain_key = getattr(prepared, "chain_key", None)
     next_points = getattr(prepared, "next_points", None)
-    client = cluster = None
+    client = cluster = pool = None
     nworkers = 1
+    global _FORKED
     cluster_start = 0.0
 
     def tasks_of(todo_round):
@@ -328,6 +388,26 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
                     r0 = time.perf_counter()
                     for task in tasks:
                         take(*run_batch(prepared, study.indicators, task))
+                    run_s += time.perf_counter() - r0
+                elif scheduler is None and (pool is not None or _fork_context() is not None):
+                    if pool is None:
+                        from concurrent.futures import ProcessPoolExecutor
+
+                        k0 = time.perf_counter()
+                        nworkers = max(1, workers or os.cpu_count() or 1)
+                        _FORKED = (prepared, study.indicators)
+                        pool = ProcessPoolExecutor(max_workers=nworkers, mp_context=_fork_context())
+                        executor = f"local worker processes (forked), {nworkers}"
+                        cluster_start = time.perf_counter() - k0
+                        tasks = tasks_of(todo)  # batch size for the workers
+                        nb = max(len(t) for t in tasks)
+                    from concurrent.futures import as_completed as _done
+
+                    r0 = time.perf_counter()
+                    futs = [pool.submit(_forked_batch, task) for task in tasks]
+                    _preload(plots and getattr(prepared, "generic_plots", True))  # while the workers compute
+                    for fut in _done(futs):
+                        take(*fut.result())
                     run_s += time.perf_counter() - r0
                 else:
                     if client is None:
@@ -376,6 +456,12 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
             bar.total += len(todo)
             skipped += len(extra) - len(todo)
     finally:
+        if pool is not None:
+            k1 = time.perf_counter()
+            pool.shutdown(cancel_futures=True)
+            _FORKED = None
+            split_total["cluster_start"] = cluster_start
+            split_total["cluster_close"] = time.perf_counter() - k1
         if client is not None:
             k1 = time.perf_counter()
             client.close()
@@ -397,19 +483,20 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
         parts.rmdir()
     write_s += time.perf_counter() - w0
     plot_files = []
+    p0 = time.perf_counter()
     if plots and getattr(prepared, "generic_plots", True):
-        from . import plots as _plots
         try:
-            plot_files = _plots.write(study, rows, out_dir)
+            plot_files = _write_plots(study, rows, out_dir, nworkers if pool is not None else 1)
         except Exception as e:  # noqa: BLE001 - the results stand without their plots
             log(f"plots not written: {type(e).__name__}: {e}")
+    plots_s = time.perf_counter() - p0
     write_outputs = getattr(prepared, "write_outputs", None)
     if write_outputs is not None:  # an evaluator's own result files (and plots) beside the parquet
         plot_files += write_outputs(study, rows, out_dir, plots=plots, log=log)
     failed = sum(1 for r in new_rows if r.get("status") != "ok")
     # how the time went (not part of the results, which do not depend on who computed them)
     timing = {"prepare": setup_s, "cluster_start": split_total.pop("cluster_start", 0.0), "run": run_s,
-              "cluster_close": split_total.pop("cluster_close", 0.0), "write": write_s,
+              "cluster_close": split_total.pop("cluster_close", 0.0), "write": write_s, "plots": plots_s,
               "points_computed": len(new_rows), "executor": executor, "batch": nb,
               "sustained_points_per_s": len(new_rows) / run_s if run_s > 0 else None, "workers": split_total}
     (out_dir / "timing.json").write_text(json.dumps(timing, indent=2))

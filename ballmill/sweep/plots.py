@@ -30,7 +30,9 @@ def _label(name):
     return f"{name} [{unit}]" if unit else name
 
 
-def write(study, rows: list[dict], out_dir: Path) -> list[Path]:
+def write(study, rows: list[dict], out_dir: Path, part: tuple = (0, 1)) -> list[Path]:
+    """The study's PNGs; part = (k, n): only the k-th of every n heat maps (and the single
+    figure of the other layouts for k = 0), so that n processes can share the drawing."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -49,6 +51,8 @@ def write(study, rows: list[dict], out_dir: Path) -> list[Path]:
     if not numeric:
         return []
     if study.sample is None and len(swept) == 1:
+        if part[0] != 0:
+            return []
         p = swept[0]
         x = np.array([_num(r[p]) for r in rows])
         order = np.argsort(x)
@@ -79,7 +83,7 @@ def write(study, rows: list[dict], out_dir: Path) -> list[Path]:
         px, py = swept
         xs, ys = study.grid[px], study.grid[py]
         index = {(repr(r[px]), repr(r[py])): r for r in rows}
-        for m in main:
+        for m in main[part[0]::part[1]]:
             Z = np.full((len(ys), len(xs)), np.nan)
             bad = np.zeros_like(Z, dtype=bool)
             for i, yv in enumerate(ys):
@@ -93,11 +97,14 @@ def write(study, rows: list[dict], out_dir: Path) -> list[Path]:
             xe, ye = _edges(np.array(xs, float)), _edges(np.array(ys, float))
             mesh = ax.pcolormesh(xe, ye, np.ma.masked_invalid(Z), shading="flat", cmap="viridis")
             fig.colorbar(mesh, ax=ax, label=_label(m))
-            for i in range(len(ys)):
-                for j in range(len(xs)):
-                    if bad[i, j]:
-                        ax.add_patch(plt.Rectangle((xe[j], ye[i]), xe[j + 1] - xe[j], ye[i + 1] - ye[i],
-                                                   fill=False, hatch="xx", edgecolor="red", lw=0.0))
+            if bad.any():  # the invalid cells, hatched, as one collection of rectangles
+                from matplotlib.collections import PolyCollection
+
+                i, j = np.nonzero(bad)
+                cells = np.stack([np.stack([xe[j], ye[i]], 1), np.stack([xe[j + 1], ye[i]], 1),
+                                  np.stack([xe[j + 1], ye[i + 1]], 1), np.stack([xe[j], ye[i + 1]], 1)], 1)
+                ax.add_collection(PolyCollection(cells, facecolors="none", edgecolors="red", hatch="xx",
+                                                 linewidths=0.0))
             ax.set_xlabel(px)
             ax.set_ylabel(py)
             ax.set_title(f"{m}" + (" (hatched: model not valid)" if bad.any() else ""), fontsize=10)
@@ -109,6 +116,8 @@ def write(study, rows: list[dict], out_dir: Path) -> list[Path]:
             files.append(path)
         return files
     # a sample, or more than two parameters: scatter
+    if part[0] != 0:
+        return []
     n, k = len(main), len(swept)
     fig, axes = plt.subplots(n, k, figsize=(3.6 * k, 2.4 * n), squeeze=False)
     for a, m in enumerate(main):
