@@ -445,17 +445,30 @@ class StudyRun:
                  "stop_mu")
 
 
-def study_run(model, motion, times: np.ndarray, state, coarse: bool, stop_mu: float | None) -> StudyRun:
+def study_problem(model) -> _Problem | None:
+    """The model's part of the kernel's problem (no motion), for `study_run` to reuse over
+    many points with the same model, or None when the kernel cannot run the model."""
+    return None if _model_reason(model) else _problem(model, None)
+
+
+def study_run(model, motion, times: np.ndarray, state, coarse: bool, stop_mu: float | None,
+              template: _Problem | None = None) -> StudyRun:
     """`simulate`'s kernel loop over ``times`` for one point of a design study, in one kernel
     call (bm_simulate_study): the same samples as `simulate` (outputs included), and
     ``coarse``: the same run at twice the step (RK4's h_fixed) in lockstep over every other
     sample, compared there (the largest contact-point and N differences); ``stop_mu``: end
     at the first sample where N > 0 and friction_ratio <= stop_mu stop holding (None: run to
     the end). Call only when `applicable` says ''. No Python fallback: a run the kernel cannot
-    finish comes back with ``failed`` set, for the caller to redo with `simulate`."""
-    from .model import BallModel
-
-    P = _problem(model, motion)
+    finish comes back with ``failed`` set, for the caller to redo with `simulate`. ``template``:
+    `study_problem(model)`, made once for many runs (the motion is filled in here)."""
+    if template is None:
+        P = _problem(model, motion)
+    else:  # `study_problem(model)` with the motion's part filled in, as _problem fills it
+        P = _Problem.from_buffer_copy(template)
+        kind, mp = _motion_params(motion)
+        P.motion = kind
+        for i, v in enumerate(mp):
+            P.mp[i] = v
     Pc = None
     if coarse:
         Pc = _Problem.from_buffer_copy(P)

@@ -222,6 +222,10 @@ class CrankPrepared(Prepared):
     target: float = 1e-5
     error: str = ERROR_METHODS[0]
     timing: dict = field(default_factory=lambda: {"integration": 0.0})
+    _models: dict = field(default_factory=dict, repr=False, compare=False)  # (Ball, h) -> (model, problem)
+
+    def __getstate__(self):  # a worker builds its own models and kernel problems
+        return {**self.__dict__, "_models": {}}
 
     @property
     def model(self):
@@ -277,11 +281,17 @@ class CrankPrepared(Prepared):
         mu = ball.mu
 
         def run(h, coarse):
-            model = BallModel(ball, method=self.method, tol=self.tol, h_fixed=h)
-            state = model.initial(init[0], init[1], init[2:], t0=t0)
-            if fast.applicable(model, crank, state):
+            key = (ball, h)
+            if key not in self._models:  # the model and its kernel problem, once per ball and step
+                if len(self._models) > 64:
+                    self._models.clear()
+                model = BallModel(ball, method=self.method, tol=self.tol, h_fixed=h)
+                self._models[key] = (model, fast.study_problem(model))
+            model, template = self._models[key]
+            if template is None or fast._motion_params(crank)[0] is None:
                 return None
-            r = fast.study_run(model, crank, times, state, coarse, mu)
+            state = model.initial(init[0], init[1], init[2:], t0=t0)
+            r = fast.study_run(model, crank, times, state, coarse, mu, template)
             return None if r.failed else r
 
         h = self.h
