@@ -47,17 +47,20 @@ def _children_cpu() -> float:
 
 
 def _run(args: list[str], out: Path, env: dict) -> dict:
-    """The whole command once: wall and CPU time (its own and its children's), its summary."""
+    """The whole command once: wall and CPU time (its own and its children's), its summary.
+    It runs in out's parent folder, so that ``python -m`` finds ballmill on env's PYTHONPATH
+    (not in the current folder, which ``-m`` would search first)."""
     shutil.rmtree(out, ignore_errors=True)
     cmd = [sys.executable, "-m", "ballmill.cli", "sweep", *GRID, *args, "--out", str(out), "--quiet"]
     c0, t0 = _children_cpu(), time.perf_counter()
-    res = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    res = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=out.parent)
     wall, cpu = time.perf_counter() - t0, _children_cpu() - c0
     if res.returncode != 0:
         raise RuntimeError(f"{' '.join(cmd)} failed ({res.returncode}): {res.stderr[-2000:]}")
     js = json.loads(res.stdout)
     timing = json.loads((out / "timing.json").read_text())
-    return {"wall": wall, "cpu": cpu, "points": js["points"], "plots": len(js["plots"]), "timing": timing}
+    return {"wall": wall, "cpu": cpu, "points": js["points"], "plots": len(js["plots"]), "timing": timing,
+            "executor": js["executor"]}
 
 
 def _baseline(root: Path, ref: str, work: Path) -> tuple[Path, str]:
@@ -98,6 +101,10 @@ def measure(repeats: int, baseline: str | None = None, root: Path | None = None,
     return data
 
 
+def _walls(runs: list[dict]) -> str:
+    return ", ".join(f"{r['wall']:.1f}" for r in runs)
+
+
 def _median(runs: list[dict], key) -> float:
     return statistics.median(key(r) for r in runs)
 
@@ -113,11 +120,13 @@ def report(data: dict) -> str:
              f"and 8 PNGs), the variants interleaved, medians of {data['repeats']} rounds. CPU: the command's "
              f"and its workers' (user + system).")
     L.append("")
-    L.append("| variant | whole command [s] | points/s (whole command) | CPU [s] | CPU per point [ms] |")
-    L.append("|---|---|---|---|---|")
+    L.append("| variant | executor | whole command [s] | points/s (whole command) | CPU [s] | CPU per point [ms] "
+             "| the rounds' wall [s] |")
+    L.append("|---|---|---|---|---|---|---|")
     for label, rs in runs.items():
         wall, cpu, n = _median(rs, lambda r: r["wall"]), _median(rs, lambda r: r["cpu"]), rs[0]["points"]
-        L.append(f"| {label} | {wall:.2f} | {n / wall:.0f} | {cpu:.2f} | {1e3 * cpu / n:.3f} |")
+        L.append(f"| {label} | {rs[0]['executor']} | {wall:.2f} | {n / wall:.0f} | {cpu:.2f} | {1e3 * cpu / n:.3f} "
+                 f"| {_walls(rs)} |")
     L.append("")
     w0 = _median(runs[first], lambda r: r["wall"])
     c0 = _median(runs[first], lambda r: r["cpu"])
