@@ -135,7 +135,7 @@ def report(data: dict) -> str:
                  f"{_median(rs, lambda r: r['cpu']) / c0:.2f} x its CPU time.")
     t = runs[first]
     L.append("")
-    L.append(f"Where the default's time goes (timing.json, medians): ")
+    L.append("Where the default's time goes (timing.json, medians):")
     L.append("")
     L.append("| part | time [s] |")
     L.append("|---|---|")

@@ -12,7 +12,7 @@ Layers (each module's docstring has the details):
   otherwise); new models register their own;
 * absorber: the built-in absorber case (case = "absorber": structure + ball,
   steady states refined at the peaks or continued up/down sweeps, frf.csv);
-* engine: batches on Dask or in this process, rounds, chains, resume,
+* engine: batches on forked local workers, on Dask or in this process, rounds, chains, resume,
   DIR/results.parquet;
 * plots: curves, heat maps (invalid regions hatched), scatter plots.
 """

@@ -1,4 +1,4 @@
-"""The sweep engine: points in batches, in this process or on Dask, into DIR/results.parquet.
+"""The sweep engine: points in batches (forked local workers, Dask or this process) -> DIR/results.parquet.
 
     run_study(study, out_dir, scheduler=None | "local" | "in-process" | ADDRESS, workers=None,
               batch=None, retry_failed=False, progress=True, build_dir=None) -> Outcome
