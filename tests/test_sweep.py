@@ -211,6 +211,11 @@ def test_plots_hatch_the_invalid_cells(tmp_path):
     one = run_study(build("fast_start", grid={"drive.t0": [1.0, 2.0, 3.0]}), tmp_path / "c",
                     scheduler="in-process", progress=False)
     assert [p.name for p in one.plots] == ["curves.png"]
+    # forked workers share the drawing: the same files, byte for byte
+    forked = run_study(st, tmp_path / "f", workers=2, progress=False)
+    assert forked.executor.startswith("local worker processes (forked)")
+    assert sorted(p.name for p in forked.plots) == sorted(names) and len(forked.plots) == len(res.plots)
+    assert all((tmp_path / "f" / p.name).read_bytes() == p.read_bytes() for p in res.plots)
 
 
 @needs_kernel
