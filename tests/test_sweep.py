@@ -188,14 +188,15 @@ def test_resume_skips_finished_points_and_a_bad_point_is_a_failed_row(tmp_path):
 
 
 @needs_kernel
-def test_dask_forked_and_in_process_give_identical_results(tmp_path):
+def test_dask_processes_localcluster_and_in_process_give_identical_results(tmp_path):
     st = build("fast_start", grid={"drive.t0": [1.0, 2.5, 4.0], "drive.n0": [50, 70]},
                indicators=[{"name": "xP_amp", "variable": "ball.xP", "stat": "amplitude", "window": ["after", 8]}])
     here = run_study(st, tmp_path / "a", scheduler="in-process", progress=False, plots=False)
     dask = run_study(st, tmp_path / "b", scheduler="local", workers=2, batch=2, progress=False, plots=False)
     assert "dask LocalCluster" in dask.executor and dask.computed == 6
-    forked = run_study(st, tmp_path / "f", workers=2, batch=2, progress=False, plots=False)
-    assert forked.executor == "local worker processes (forked), 2" and forked.computed == 6
+    forked = run_study(st, tmp_path / "f", workers=2, batch=2, progress=False, plots=False)  # the default
+    assert forked.executor == "dask processes scheduler, 2 worker process(es) forked from this one"
+    assert forked.computed == 6 and forked.batch == 2
     assert read_rows(tmp_path / "a" / "results.parquet") == read_rows(tmp_path / "b" / "results.parquet")
     assert read_rows(tmp_path / "a" / "results.parquet") == read_rows(tmp_path / "f" / "results.parquet")
     assert here.rows == dask.rows == forked.rows
@@ -211,9 +212,9 @@ def test_plots_hatch_the_invalid_cells(tmp_path):
     one = run_study(build("fast_start", grid={"drive.t0": [1.0, 2.0, 3.0]}), tmp_path / "c",
                     scheduler="in-process", progress=False)
     assert [p.name for p in one.plots] == ["curves.png"]
-    # forked workers share the drawing: the same files, byte for byte
+    # the default executor (Dask's processes scheduler): the same files, byte for byte
     forked = run_study(st, tmp_path / "f", workers=2, progress=False)
-    assert forked.executor.startswith("local worker processes (forked)")
+    assert forked.executor.startswith("dask processes scheduler")
     assert sorted(p.name for p in forked.plots) == sorted(names) and len(forked.plots) == len(res.plots)
     assert all((tmp_path / "f" / p.name).read_bytes() == p.read_bytes() for p in res.plots)
 

@@ -1,4 +1,4 @@
-"""The sweep engine: points in batches (forked local workers, Dask or this process) -> DIR/results.parquet.
+"""The sweep engine: points in batches, on Dask or in this process, into DIR/results.parquet.
 
     run_study(study, out_dir, scheduler=None | "local" | "in-process" | ADDRESS, workers=None,
               batch=None, retry_failed=False, progress=True, build_dir=None) -> Outcome
@@ -16,15 +16,21 @@
   refused rather than mixed.
 * Execution: a batch of points is one task (``batch`` points; default: about
   eight tasks per worker, at most 250 points each, so the task overhead of a
-  few ms is spread over many points). ``scheduler``: None runs the tasks on
-  worker processes forked from this one (one per core, or ``workers``; where
-  the platform cannot fork, a Dask LocalCluster): they inherit the imported
-  modules and the prepared evaluator, so they start in milliseconds where a
-  LocalCluster's spawned workers take seconds to import; "local" starts a
-  Dask LocalCluster (one single-threaded worker process per core, or
-  ``workers``); an address ("tcp://host:8786") uses an existing cluster whose
-  workers have ballmill installed; "in-process" runs the batches here, one
-  after another. An evaluator whose Prepared says ``sequential = True`` (points
+  few ms is spread over many points). ``scheduler``:
+  - None: Dask's local "processes" scheduler (dask.compute with
+    scheduler="processes"), its worker processes (one per core, or
+    ``workers``) forked from this one, so that they inherit the imported
+    modules and start in milliseconds (a LocalCluster's spawned workers
+    import everything again, seconds); each task's rows come back here as
+    the task ends (a Dask callback). Where the platform cannot fork, a
+    LocalCluster as for "local";
+  - "local": a dask.distributed LocalCluster (one single-threaded worker
+    process per core, or ``workers``);
+  - an address ("tcp://host:8786"): an existing cluster whose workers have
+    ballmill installed;
+  - "in-process": the batches here, one after another.
+  This process writes the parts and the results and draws the plots, whatever
+  computed the points. An evaluator whose Prepared says ``sequential = True`` (points
   that continue from the previous one's state) gets all its points, in
   order, in one task; one with ``chain_key(params) -> (chain, order)`` gets
   each chain whole, in order, in one task (chains run in parallel; a chain
@@ -32,12 +38,14 @@
 * Rounds: a Prepared with ``next_points(rows) -> [params, ...]`` is asked,
   after each round, which points to add given every row so far (the
   absorber's FRF refines its grid where the curve peaks); each round is one
-  batch of tasks on the same executor, until it names none. The rounds are a
+  batch of tasks on the same executor (the default forks its workers afresh
+  for each round), until it names none. The rounds are a
   function of the rows, so a resumed study finds the same ones. A Prepared
   with ``write_outputs(study, rows, out_dir, plots, log)`` writes its own
-  files beside results.parquet (the absorber's frf.csv and frf.png). The rows do not depend on which (tests check it): every
-  point is computed by the same function from the same inputs, and the rows
-  are sorted by point index before they are written.
+  files beside results.parquet (the absorber's frf.csv and frf.png).
+* The rows do not depend on the executor (tests check it): every point is
+  computed by the same function from the same inputs, and the rows are sorted
+  by point index before they are written.
 """
 from __future__ import annotations
 
@@ -199,59 +207,33 @@ def _chains(todo: list, key) -> list[list]:
     return [[it for _, it in sorted(g, key=lambda x: x[0])] for g in groups.values()]
 
 
-_FORKED = None  # (prepared, custom indicators) of the study whose forked workers are running
-
-
-def _forked_batch(task):
-    """run_batch in a worker forked by run_study (which set _FORKED before forking)."""
-    prepared, custom = _FORKED
-    return run_batch(prepared, custom, task)
-
-
-def _preload(plots: bool):
-    """Import what writing the results (and drawing their plots) needs, while forked workers
-    compute: this process only waits for them meanwhile."""
-    import pyarrow.parquet  # noqa: F401
-
-    if plots:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot  # noqa: F401
-
-
-def _forked_plots(k: int):
-    """The k-th share of a study's plots, in a process forked by _write_plots."""
-    from . import plots as _plots
-
-    study, rows, out_dir, n = _FORKED
-    return _plots.write(study, rows, out_dir, part=(k, n))
-
-
-def _write_plots(study, rows, out_dir, n: int) -> list:
-    """plots.write, shared among n processes forked from this one (which has matplotlib
-    imported already when the study ran on forked workers), or here when n = 1."""
-    from . import plots as _plots
-
-    ctx = _fork_context()
-    if n <= 1 or ctx is None:
-        return _plots.write(study, rows, out_dir)
-    global _FORKED
-    from concurrent.futures import ProcessPoolExecutor
-
-    _FORKED = (study, rows, out_dir, n)
-    try:
-        with ProcessPoolExecutor(max_workers=n, mp_context=ctx) as pool:
-            shares = list(pool.map(_forked_plots, range(n)))
-    finally:
-        _FORKED = None
-    return [p for share in shares for p in share]
-
-
-def _fork_context():
+def _can_fork() -> bool:
     import multiprocessing
 
-    return multiprocessing.get_context("fork") if "fork" in multiprocessing.get_all_start_methods() else None
+    return "fork" in multiprocessing.get_all_start_methods()
+
+
+def _run_forked(prepared, custom, tasks: list, nworkers: int, take) -> float:
+    """run_batch of each task on Dask's local "processes" scheduler, its nworkers processes forked
+    from this one: they inherit the imported modules (numpy, the kernel, ballmill), so they start
+    in milliseconds where spawned ones import everything again. One task at a time per worker
+    (chunksize 1), so that a worker done early takes the next; take(rows, split) is called here
+    as each task ends (a Dask callback), so that rows are written and counted as they come.
+    Returns the perf_counter time of the last result (then Dask stops the workers)."""
+    import dask
+    from dask.callbacks import Callback
+
+    last = time.perf_counter()
+
+    def posttask(key, result, dsk, state, worker_id):
+        nonlocal last
+        take(*result)
+        last = time.perf_counter()
+
+    calls = [dask.delayed(run_batch, pure=False)(prepared, custom, task) for task in tasks]
+    with dask.config.set({"multiprocessing.context": "fork"}), Callback(posttask=posttask):
+        dask.compute(*calls, scheduler="processes", num_workers=nworkers, chunksize=1)
+    return last
 
 
 def _default_batch(n: int, workers: int) -> int:
@@ -365,9 +347,8 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
     sequential = bool(getattr(prepared, "sequential", False))
     chain_key = getattr(prepared, "chain_key", None)
     next_points = getattr(prepared, "next_points", None)
-    client = cluster = pool = None
+    client = cluster = None
     nworkers = 1
-    global _FORKED
     cluster_start = 0.0
 
     def tasks_of(todo_round):
@@ -389,26 +370,15 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
                     for task in tasks:
                         take(*run_batch(prepared, study.indicators, task))
                     run_s += time.perf_counter() - r0
-                elif scheduler is None and (pool is not None or _fork_context() is not None):
-                    if pool is None:
-                        from concurrent.futures import ProcessPoolExecutor
-
-                        k0 = time.perf_counter()
-                        nworkers = max(1, workers or os.cpu_count() or 1)
-                        _FORKED = (prepared, study.indicators)
-                        pool = ProcessPoolExecutor(max_workers=nworkers, mp_context=_fork_context())
-                        executor = f"local worker processes (forked), {nworkers}"
-                        cluster_start = time.perf_counter() - k0
-                        tasks = tasks_of(todo)  # batch size for the workers
-                        nb = max(len(t) for t in tasks)
-                    from concurrent.futures import as_completed as _done
-
+                elif scheduler is None and _can_fork():
+                    nworkers = max(1, workers or os.cpu_count() or 1)
+                    executor = f"dask processes scheduler, {nworkers} worker process(es) forked from this one"
+                    tasks = tasks_of(todo)  # batch size for the workers
+                    nb = max(nb, max(len(t) for t in tasks))
                     r0 = time.perf_counter()
-                    futs = [pool.submit(_forked_batch, task) for task in tasks]
-                    _preload(plots and getattr(prepared, "generic_plots", True))  # while the workers compute
-                    for fut in _done(futs):
-                        take(*fut.result())
-                    run_s += time.perf_counter() - r0
+                    last = _run_forked(prepared, study.indicators, tasks, nworkers, take)
+                    run_s += last - r0
+                    split_total["cluster_close"] = split_total.get("cluster_close", 0.0) + time.perf_counter() - last
                 else:
                     if client is None:
                         from dask.distributed import Client, LocalCluster
@@ -456,12 +426,6 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
             bar.total += len(todo)
             skipped += len(extra) - len(todo)
     finally:
-        if pool is not None:
-            k1 = time.perf_counter()
-            pool.shutdown(cancel_futures=True)
-            _FORKED = None
-            split_total["cluster_start"] = cluster_start
-            split_total["cluster_close"] = time.perf_counter() - k1
         if client is not None:
             k1 = time.perf_counter()
             client.close()
@@ -486,7 +450,9 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
     p0 = time.perf_counter()
     if plots and getattr(prepared, "generic_plots", True):
         try:
-            plot_files = _write_plots(study, rows, out_dir, nworkers if pool is not None else 1)
+            from . import plots as _plots
+
+            plot_files = _plots.write(study, rows, out_dir)
         except Exception as e:  # noqa: BLE001 - the results stand without their plots
             log(f"plots not written: {type(e).__name__}: {e}")
     plots_s = time.perf_counter() - p0

@@ -30,9 +30,7 @@ def _label(name):
     return f"{name} [{unit}]" if unit else name
 
 
-def write(study, rows: list[dict], out_dir: Path, part: tuple = (0, 1)) -> list[Path]:
-    """The study's PNGs; part = (k, n): only the k-th of every n heat maps (and the single
-    figure of the other layouts for k = 0), so that n processes can share the drawing."""
+def write(study, rows: list[dict], out_dir: Path) -> list[Path]:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -51,8 +49,6 @@ def write(study, rows: list[dict], out_dir: Path, part: tuple = (0, 1)) -> list[
     if not numeric:
         return []
     if study.sample is None and len(swept) == 1:
-        if part[0] != 0:
-            return []
         p = swept[0]
         x = np.array([_num(r[p]) for r in rows])
         order = np.argsort(x)
@@ -83,7 +79,7 @@ def write(study, rows: list[dict], out_dir: Path, part: tuple = (0, 1)) -> list[
         px, py = swept
         xs, ys = study.grid[px], study.grid[py]
         index = {(repr(r[px]), repr(r[py])): r for r in rows}
-        for m in main[part[0]::part[1]]:
+        for m in main:
             Z = np.full((len(ys), len(xs)), np.nan)
             bad = np.zeros_like(Z, dtype=bool)
             for i, yv in enumerate(ys):
@@ -116,8 +112,6 @@ def write(study, rows: list[dict], out_dir: Path, part: tuple = (0, 1)) -> list[
             files.append(path)
         return files
     # a sample, or more than two parameters: scatter
-    if part[0] != 0:
-        return []
     n, k = len(main), len(swept)
     fig, axes = plt.subplots(n, k, figsize=(3.6 * k, 2.4 * n), squeeze=False)
     for a, m in enumerate(main):
