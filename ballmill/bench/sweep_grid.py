@@ -1,7 +1,7 @@
 """Benchmark section "A study at 1000 points/s" of BENCHMARKS.md: the whole `ballmill sweep`
 command on the grid a user would try, plots on.
 
-    ballmill bench --section sweep-grid [--repeats N] [--baseline REF] [--out PATH]
+    ballmill bench --section sweep-grid [--repeats N] [--baseline REF[,REF...]] [--out PATH]
 
 The study: ``ballmill sweep fast_start --grid drive.t0=1:5:40 --grid drive.n0=40:80:100``
 (4000 points, t0 from 1 s, up to 80 1/min, 10 s simulated each), each run a fresh
@@ -10,11 +10,13 @@ start, the imports, the workers' start, the points, results.parquet and the PNGs
 variants run interleaved, one of each per round, and the medians are reported:
 
 * "one-pass" (the default): RK4's run at 2h in the same kernel pass, each point ending
-  where the model stops holding, on worker processes forked from the command;
+  where the model stops holding, on Dask's local processes scheduler, its workers forked
+  from the command;
 * "--error richardson": the two separate full runs per point, the same executor;
 * "--error richardson --scheduler local": and a Dask LocalCluster of spawned workers;
-* with ``--baseline REF``: the code of git revision REF (extracted with ``git archive``
-  and its kernel built beside it), the same command: what the study cost before.
+* with ``--baseline REF`` (several: comma-separated): the code of git revision REF
+  (extracted with ``git archive`` and its kernel built beside it), the same command:
+  what the study cost before. The table names each variant's executor.
 
 Also the CPU time of each command and its children (the workers), so that load from
 other processes, which inflates the wall times, can be told apart, and the split of the
@@ -86,11 +88,14 @@ def measure(repeats: int, baseline: str | None = None, root: Path | None = None,
     variants = [(label, args, env) for label, args in VARIANTS]
     data = {"repeats": repeats, "load_start": machine.load(), "nproc": os.cpu_count(), "runs": {}}
     try:
-        if baseline:
-            progress(f"sweep-grid: extracting and building {baseline}")
-            tree, sha = _baseline(root or here, baseline, work)
-            data["baseline"] = sha
-            variants.append((f"{sha} (before: two runs, Dask LocalCluster)", [], {**env, "PYTHONPATH": str(tree)}))
+        shas = []
+        for ref in (baseline.split(",") if baseline else []):
+            progress(f"sweep-grid: extracting and building {ref}")
+            tree, sha = _baseline(root or here, ref.strip(), work)
+            shas.append(sha)
+            variants.append((f"revision {sha} (its default)", [], {**env, "PYTHONPATH": str(tree)}))
+        if shas:
+            data["baseline"] = ",".join(shas)
         for k in range(repeats):
             for label, args, e in variants:
                 progress(f"sweep-grid: round {k + 1}/{repeats}: {label}")
@@ -140,7 +145,8 @@ def report(data: dict) -> str:
     L.append("| part | time [s] |")
     L.append("|---|---|")
     for key, label in (("prepare", "checking the scenario, listing the points"),
-                       ("cluster_start", "starting the workers"), ("run", "first task to last result"),
+                       ("cluster_start", "starting a LocalCluster (forked workers start within the run)"),
+                       ("run", "first task to last result"),
                        ("cluster_close", "stopping the workers"), ("write", "writing results.parquet"),
                        ("plots", "the PNGs")):
         L.append(f"| {label} | {_median(t, lambda r: r['timing'].get(key, 0.0)):.3f} |")
