@@ -1,5 +1,6 @@
 """Design studies (ballmill.sweep): indicators against hand-computed values, validity,
 resume, failed points, Dask against in-process, the study files and the command line."""
+import json
 import math
 
 import numpy as np
@@ -200,6 +201,15 @@ def test_dask_processes_localcluster_and_in_process_give_identical_results(tmp_p
     assert read_rows(tmp_path / "a" / "results.parquet") == read_rows(tmp_path / "b" / "results.parquet")
     assert read_rows(tmp_path / "a" / "results.parquet") == read_rows(tmp_path / "f" / "results.parquet")
     assert here.rows == dask.rows == forked.rows
+
+
+@needs_kernel
+def test_default_batches_are_cut_for_the_forked_workers(tmp_path):
+    """20 points on 2 workers: about 8 tasks per worker, so batches of 2 (not the 3 of one worker)."""
+    st = build("fast_start", grid={"drive.t0": [1.0, 1.5, 2.0, 2.5, 3.0], "drive.n0": [50, 55, 60, 65]})
+    res = run_study(st, tmp_path, workers=2, progress=False, plots=False)
+    assert res.executor.startswith("dask processes scheduler, 2 ") and res.computed == 20
+    assert res.batch == 2 and json.loads((tmp_path / "timing.json").read_text())["batch"] == 2
 
 
 @needs_kernel
