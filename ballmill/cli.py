@@ -151,7 +151,8 @@ def _sweep(args) -> int:
         elif args.range:
             raise spec.StudyError(["--range needs --sample lhs:N or random:N"])
         model = {k: v for k, v in (("kind", args.model), ("method", args.method), ("h", args.h),
-                                   ("dt", args.dt), ("target_P", args.target)) if v is not None}
+                                   ("dt", args.dt), ("target_P", args.target), ("error", args.error))
+                 if v is not None}
         study = spec.load(args.study, set_=args.set or (), grid=grid or None, sample=sample, model=model,
                           stop=args.stop, mode=args.mode)
         if not study.swept:
@@ -260,9 +261,13 @@ def main(argv=None) -> int:
     w.add_argument("--h", type=float, help="RK4 first step [s] (default 0.01; halved per point to meet the target)")
     w.add_argument("--target", type=float, help="RK4: estimated contact-point error to reach [m] (default 1e-5)")
     w.add_argument("--dt", type=float, help="output sampling for the indicators [s] (default 0.01)")
+    w.add_argument("--error", choices=("one-pass", "richardson"),
+                   help="RK4's error estimate: the run at 2h in the same kernel pass, up to where the model "
+                        "stops holding (one-pass, default), or a second full run (richardson)")
     w.add_argument("--scheduler", metavar="ADDRESS",
-                   help="a running Dask scheduler (tcp://host:8786); default: a local cluster")
-    w.add_argument("--workers", type=int, help="worker processes of the local cluster (default: one per core)")
+                   help="a running Dask scheduler (tcp://host:8786), or local (a Dask LocalCluster); default: "
+                        "worker processes forked from this one (a LocalCluster where the platform cannot fork)")
+    w.add_argument("--workers", type=int, help="local worker processes (default: one per core)")
     w.add_argument("--in-process", action="store_true", help="no Dask: compute the batches in this process")
     w.add_argument("--batch", type=int, help="points per task (default: about 8 tasks per worker, <= 250)")
     w.add_argument("--retry-failed", action="store_true", help="recompute points that failed before")

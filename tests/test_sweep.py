@@ -1,5 +1,6 @@
 """Design studies (ballmill.sweep): indicators against hand-computed values, validity,
 resume, failed points, Dask against in-process, the study files and the command line."""
+import json
 import math
 
 import numpy as np
@@ -190,14 +191,27 @@ def test_resume_skips_finished_points_and_a_bad_point_is_a_failed_row(tmp_path):
 
 
 @needs_kernel
-def test_dask_and_in_process_give_identical_results(tmp_path):
+def test_dask_processes_localcluster_and_in_process_give_identical_results(tmp_path):
     st = build("fast_start", grid={"drive.t0": [1.0, 2.5, 4.0], "drive.n0": [50, 70]},
                indicators=[{"name": "xP_amp", "variable": "ball.xP", "stat": "amplitude", "window": ["after", 8]}])
     here = run_study(st, tmp_path / "a", scheduler="in-process", progress=False, plots=False)
-    dask = run_study(st, tmp_path / "b", workers=2, batch=2, progress=False, plots=False)
+    dask = run_study(st, tmp_path / "b", scheduler="local", workers=2, batch=2, progress=False, plots=False)
     assert "dask LocalCluster" in dask.executor and dask.computed == 6
+    forked = run_study(st, tmp_path / "f", workers=2, batch=2, progress=False, plots=False)  # the default
+    assert forked.executor == "dask processes scheduler, 2 worker process(es) forked from this one"
+    assert forked.computed == 6 and forked.batch == 2
     assert read_rows(tmp_path / "a" / "results.parquet") == read_rows(tmp_path / "b" / "results.parquet")
-    assert here.rows == dask.rows
+    assert read_rows(tmp_path / "a" / "results.parquet") == read_rows(tmp_path / "f" / "results.parquet")
+    assert here.rows == dask.rows == forked.rows
+
+
+@needs_kernel
+def test_default_batches_are_cut_for_the_forked_workers(tmp_path):
+    """20 points on 2 workers: about 8 tasks per worker, so batches of 2 (not the 3 of one worker)."""
+    st = build("fast_start", grid={"drive.t0": [1.0, 1.5, 2.0, 2.5, 3.0], "drive.n0": [50, 55, 60, 65]})
+    res = run_study(st, tmp_path, workers=2, progress=False, plots=False)
+    assert res.executor.startswith("dask processes scheduler, 2 ") and res.computed == 20
+    assert res.batch == 2 and json.loads((tmp_path / "timing.json").read_text())["batch"] == 2
 
 
 @needs_kernel
@@ -210,6 +224,11 @@ def test_plots_hatch_the_invalid_cells(tmp_path):
     one = run_study(build("fast_start", grid={"drive.t0": [1.0, 2.0, 3.0]}), tmp_path / "c",
                     scheduler="in-process", progress=False)
     assert [p.name for p in one.plots] == ["curves.png"]
+    # the default executor (Dask's processes scheduler): the same files, byte for byte
+    forked = run_study(st, tmp_path / "f", workers=2, progress=False)
+    assert forked.executor.startswith("dask processes scheduler")
+    assert sorted(p.name for p in forked.plots) == sorted(names) and len(forked.plots) == len(res.plots)
+    assert all((tmp_path / "f" / p.name).read_bytes() == p.read_bytes() for p in res.plots)
 
 
 @needs_kernel

@@ -73,11 +73,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--cc", default="gcc", help="C compiler for the compiled peer (default gcc)")
     p.add_argument("--no-compiled", action="store_true", help="skip the compiled (C) peer")
     p.add_argument("--debug", action="store_true", help="show the traceback when a benchmark fails")
-    p.add_argument("--section", choices=("all", "studies", "absorber", "startup"), default="all",
+    p.add_argument("--section", choices=("all", "studies", "absorber", "startup", "sweep-grid"), default="all",
                    help="'studies': run only the design-study section (ballmill/bench/studies.py), "
                         "'absorber': only the absorber co-simulation section (ballmill/bench/absorber.py), "
-                        "'startup': only the command start-up section (ballmill/bench/startup.py), and "
+                        "'startup': only the command start-up section (ballmill/bench/startup.py), "
+                        "'sweep-grid': only the 4000-point sweep command A/B (ballmill/bench/sweep_grid.py), and "
                         "splice it into the report (default: all sections)")
+    p.add_argument("--baseline", metavar="REF",
+                   help="sweep-grid: also time the command with the code of git revision REF (git archive of "
+                        "the repository at --root, its kernel built beside it)")
     return p
 
 
@@ -132,6 +136,10 @@ def main(argv=None) -> int:
         if args.section in ("all", "startup"):
             from . import startup  # what a command costs before and around its run, likewise
             startup.run_section(Path(out).resolve(), args.quick, progress)
+        if args.section in ("all", "sweep-grid"):
+            from . import sweep_grid  # the whole sweep command on the 4000-point grid, A/B
+            sweep_grid.run_section(Path(out).resolve(), args.repeats or (3 if args.quick else 5), args.baseline,
+                                   root, progress)
     except KeyboardInterrupt:
         print("ballmill bench: interrupted", file=sys.stderr)
         return 130

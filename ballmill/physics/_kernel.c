@@ -652,6 +652,95 @@ BM_EXPORT long long bm_simulate(const bm_problem *P, const double *times, long l
     return n - 1;
 }
 
+/* One point of a design study (ballmill.sweep's crank-kernel evaluator): bm_simulate's
+ * loop over times[start..n-1] from the state y (point `start` recorded only if record_start),
+ * with two additions that leave every recorded sample as bm_simulate records it:
+ *  - a coarse run in lockstep (Pc != NULL: P's problem with twice its step; its state yc at
+ *    times[start], start even): advanced over every other output point (times[i - 2] ->
+ *    times[i], i even), which is the run bm_simulate makes over times[::2], and compared with
+ *    this run there: err[0] = the largest |contact point - the coarse one's| [m], err[1] = the
+ *    largest |N - the coarse one's| [N] (the outputs' fields 0..2 and 9);
+ *  - stop (stop != 0): after recording the first point where the model stops holding
+ *    (not N > 0, or not friction_ratio <= mu: the rule of sweep.indicators.validity), the
+ *    run ends there.
+ * Returns the last point recorded; below n - 1 without a stop, the run (or the coarse one,
+ * then err[2] = 1) could not do the next interval: the caller redoes the point on the
+ * ordinary path, which reports that failure as Python does. */
+/* The platform motion at the last few times asked, for bm_simulate_study: RK4 asks for the
+ * same time twice in a step (stages 2 and 3), and the outputs and the next step ask again for
+ * the time a step ends; a time met before (the same double) gets the state computed then,
+ * which is what computing it again would give. */
+#define BM_MCACHE 4
+typedef struct {
+    double t[BM_MCACHE], m[BM_MCACHE][6];
+    int n, next;
+} bm_mcache;
+
+static void bm_motion_cached(const bm_problem *P, bm_mcache *c, double t, double m[6])
+{
+    for (int k = 0; k < c->n; k++)
+        if (c->t[k] == t) {
+            memcpy(m, c->m[k], sizeof c->m[k]);
+            return;
+        }
+    bm_motion_state(P, t, m);
+    c->t[c->next] = t;
+    memcpy(c->m[c->next], m, sizeof c->m[c->next]);
+    c->next = (c->next + 1) % BM_MCACHE;
+    if (c->n < BM_MCACHE) c->n++;
+}
+
+/* bm_rhs with the motion from the cache ctx */
+static void bm_ball_rhs_cached(const bm_problem *P, const void *ctx, double t, const double *y, double *f)
+{
+    double m[6];
+    bm_motion_cached(P, (bm_mcache *)ctx, t, m);
+    bm_derivative(P, y, m[4], m[5], f);
+}
+
+BM_EXPORT long long bm_simulate_study(const bm_problem *P, const bm_problem *Pc, const double *times, long long n,
+                                      long long start, int record_start, double *y, double *h, double *yc,
+                                      int stop, double mu, double *ys, double *outs, double *err,
+                                      bm_stats *total)
+{
+    double m[6], oc[BM_NOUT], hc = Pc ? Pc->h_fixed : 0.0;
+    bm_mcache cache = {{0}, {{0}}, 0, 0}, cache_c = {{0}, {{0}}, 0, 0}; /* the fine and the coarse run's */
+    bm_tab T, Tc;
+    bm_tab_make(P, &T);
+    if (Pc) bm_tab_make(Pc, &Tc);
+    for (long long i = start; i < n; i++) {
+        if (i > start) {
+            bm_stats st = {0, 0, 0};
+            if (!bm_advance(P, &T, bm_ball_rhs_cached, &cache, times[i - 1], y, times[i], h, &st)) return i - 1;
+            total->steps += st.steps;
+            total->rejected += st.rejected;
+            total->nfev += st.nfev;
+        } else if (!record_start) {
+            continue;
+        }
+        double *o = outs + BM_NOUT * i;
+        memcpy(ys + BM_NY * i, y, BM_NY * sizeof(double));
+        bm_motion_cached(P, &cache, times[i], m);
+        bm_outputs(P, y, m[4], m[5], m[0], m[1], o);
+        if (Pc && (i - start) % 2 == 0) {
+            if (i > start) {
+                bm_stats sc = {0, 0, 0};
+                if (!bm_advance(Pc, &Tc, bm_ball_rhs_cached, &cache_c, times[i - 2], yc, times[i], &hc, &sc)) {
+                    err[2] = 1.0;
+                    return i - 1;
+                }
+            }
+            bm_outputs(Pc, yc, m[4], m[5], m[0], m[1], oc);
+            double dx = o[0] - oc[0], dy = o[1] - oc[1], dz = o[2] - oc[2];
+            double dP = sqrt(dx * dx + dy * dy + dz * dz), dN = fabs(o[9] - oc[9]);
+            if (!isnan(err[0]) && !(dP <= err[0])) err[0] = dP; /* numpy's max: a NaN stays */
+            if (!isnan(err[1]) && !(dN <= err[1])) err[1] = dN;
+        }
+        if (stop && !(o[9] > 0.0 && o[18] <= mu)) return i;
+    }
+    return n - 1;
+}
+
 /* BallModel.advance: one interval t -> t_end for the motion `motion` with the
  * parameters io[9..17] (instead of P's), as Integrator.advance does it.
  * io: t, t_end, h, y[6], motion parameters[9]. On success (1) io[2] and io[3..8]

@@ -12,8 +12,9 @@ Layers (each module's docstring has the details):
   otherwise); new models register their own;
 * absorber: the built-in absorber case (case = "absorber": structure + ball,
   steady states refined at the peaks or continued up/down sweeps, frf.csv);
-* engine: batches on Dask or in this process, rounds, chains, resume,
-  DIR/results.parquet;
+* engine: batches on Dask (its local processes scheduler, workers forked from the
+  command; a LocalCluster; a running cluster) or in this process, rounds, chains, resume,
+  DIR/results.parquet, the plots (drawn in the command);
 * plots: curves, heat maps (invalid regions hatched), scatter plots.
 """
 from .engine import Outcome, columns, run_study

@@ -1,4 +1,4 @@
-"""The sweep engine: points in batches, in this process or on Dask, into DIR/results.parquet.
+"""The sweep engine: points in batches, on Dask or in this process, into DIR/results.parquet.
 
     run_study(study, out_dir, scheduler=None | "local" | "in-process" | ADDRESS, workers=None,
               batch=None, retry_failed=False, progress=True, build_dir=None) -> Outcome
@@ -16,11 +16,21 @@
   refused rather than mixed.
 * Execution: a batch of points is one task (``batch`` points; default: about
   eight tasks per worker, at most 250 points each, so the task overhead of a
-  few ms is spread over many points). ``scheduler``: None or "local" starts a
-  Dask LocalCluster (one single-threaded worker process per core, or
-  ``workers``); an address ("tcp://host:8786") uses an existing cluster whose
-  workers have ballmill installed; "in-process" runs the batches here, one
-  after another. An evaluator whose Prepared says ``sequential = True`` (points
+  few ms is spread over many points). ``scheduler``:
+  - None: Dask's local "processes" scheduler (dask.compute with
+    dask.multiprocessing.get), its worker processes (one per core, or
+    ``workers``) forked from this one, so that they inherit the imported
+    modules and start in milliseconds (a LocalCluster's spawned workers
+    import everything again, seconds); each task's rows come back here as
+    the task ends (a Dask callback). Where the platform cannot fork, a
+    LocalCluster as for "local";
+  - "local": a dask.distributed LocalCluster (one single-threaded worker
+    process per core, or ``workers``);
+  - an address ("tcp://host:8786"): an existing cluster whose workers have
+    ballmill installed;
+  - "in-process": the batches here, one after another.
+  This process writes the parts and the results and draws the plots, whatever
+  computed the points. An evaluator whose Prepared says ``sequential = True`` (points
   that continue from the previous one's state) gets all its points, in
   order, in one task; one with ``chain_key(params) -> (chain, order)`` gets
   each chain whole, in order, in one task (chains run in parallel; a chain
@@ -28,12 +38,14 @@
 * Rounds: a Prepared with ``next_points(rows) -> [params, ...]`` is asked,
   after each round, which points to add given every row so far (the
   absorber's FRF refines its grid where the curve peaks); each round is one
-  batch of tasks on the same executor, until it names none. The rounds are a
+  batch of tasks on the same executor (the default forks its workers afresh
+  for each round), until it names none. The rounds are a
   function of the rows, so a resumed study finds the same ones. A Prepared
   with ``write_outputs(study, rows, out_dir, plots, log)`` writes its own
-  files beside results.parquet (the absorber's frf.csv and frf.png). The rows do not depend on which (tests check it): every
-  point is computed by the same function from the same inputs, and the rows
-  are sorted by point index before they are written.
+  files beside results.parquet (the absorber's frf.csv and frf.png).
+* The rows do not depend on the executor (tests check it): every point is
+  computed by the same function from the same inputs, and the rows are sorted
+  by point index before they are written.
 """
 from __future__ import annotations
 
@@ -195,6 +207,39 @@ def _chains(todo: list, key) -> list[list]:
     return [[it for _, it in sorted(g, key=lambda x: x[0])] for g in groups.values()]
 
 
+def _can_fork() -> bool:
+    import multiprocessing
+
+    return "fork" in multiprocessing.get_all_start_methods()
+
+
+def _run_forked(prepared, custom, tasks: list, nworkers: int, take) -> float:
+    """run_batch of each task on Dask's local processes scheduler (dask.multiprocessing.get),
+    its nworkers processes forked from this one: they inherit the imported modules (numpy, the
+    kernel, ballmill), so they start in milliseconds where spawned ones import everything again.
+    One task at a time per worker (chunksize 1), so that a worker done early takes the next;
+    take(rows, split) is called here as each task ends (a Dask callback), so that rows are
+    written and counted as they come. Returns the perf_counter time of the last result (then
+    Dask stops the workers). The scheduler is passed as the function, not by its name
+    "processes": dask.compute then does not look for a dask.distributed client, an import of
+    about 0.3 s of CPU."""
+    import dask
+    import dask.multiprocessing
+    from dask.callbacks import Callback
+
+    last = time.perf_counter()
+
+    def posttask(key, result, dsk, state, worker_id):
+        nonlocal last
+        take(*result)
+        last = time.perf_counter()
+
+    calls = [dask.delayed(run_batch, pure=False)(prepared, custom, task) for task in tasks]
+    with dask.config.set({"multiprocessing.context": "fork"}), Callback(posttask=posttask):
+        dask.compute(*calls, scheduler=dask.multiprocessing.get, num_workers=nworkers, chunksize=1)
+    return last
+
+
 def _default_batch(n: int, workers: int) -> int:
     return max(1, min(250, math.ceil(n / (8 * max(1, workers)))))
 
@@ -304,6 +349,9 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
     client = cluster = None
     nworkers = 1
     cluster_start = 0.0
+    forked = scheduler is None and _can_fork()  # Dask's processes scheduler, workers forked from here
+    if forked:
+        nworkers = max(1, workers or os.cpu_count() or 1)
 
     def tasks_of(todo_round):
         if chain_key is not None:
@@ -324,6 +372,12 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
                     for task in tasks:
                         take(*run_batch(prepared, study.indicators, task))
                     run_s += time.perf_counter() - r0
+                elif forked:
+                    executor = f"dask processes scheduler, {nworkers} worker process(es) forked from this one"
+                    r0 = time.perf_counter()
+                    last = _run_forked(prepared, study.indicators, tasks, nworkers, take)
+                    run_s += last - r0
+                    split_total["cluster_close"] = split_total.get("cluster_close", 0.0) + time.perf_counter() - last
                 else:
                     if client is None:
                         from dask.distributed import Client, LocalCluster
@@ -392,19 +446,22 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
         parts.rmdir()
     write_s += time.perf_counter() - w0
     plot_files = []
+    p0 = time.perf_counter()
     if plots and getattr(prepared, "generic_plots", True):
-        from . import plots as _plots
         try:
+            from . import plots as _plots
+
             plot_files = _plots.write(study, rows, out_dir)
         except Exception as e:  # noqa: BLE001 - the results stand without their plots
             log(f"plots not written: {type(e).__name__}: {e}")
+    plots_s = time.perf_counter() - p0
     write_outputs = getattr(prepared, "write_outputs", None)
     if write_outputs is not None:  # an evaluator's own result files (and plots) beside the parquet
         plot_files += write_outputs(study, rows, out_dir, plots=plots, log=log)
     failed = sum(1 for r in new_rows if r.get("status") != "ok")
     # how the time went (not part of the results, which do not depend on who computed them)
     timing = {"prepare": setup_s, "cluster_start": split_total.pop("cluster_start", 0.0), "run": run_s,
-              "cluster_close": split_total.pop("cluster_close", 0.0), "write": write_s,
+              "cluster_close": split_total.pop("cluster_close", 0.0), "write": write_s, "plots": plots_s,
               "points_computed": len(new_rows), "executor": executor, "batch": nb,
               "sustained_points_per_s": len(new_rows) / run_s if run_s > 0 else None, "workers": split_total}
     (out_dir / "timing.json").write_text(json.dumps(timing, indent=2))

@@ -13,7 +13,15 @@ the cheapest faithful evaluator: they are tried in the order of ORDER.
   same run at 2h, sampled every 2 dt; Richardson: |P_h - P_2h| / (2^4 - 1) for
   RK4's order 4) for the contact point and N, and h is halved for the points
   whose estimate exceeds 0.8 x target_P (the previous run serving as the coarse
-  one), so every point gets the cheapest step that meets the target.
+  one), so every point gets the cheapest step that meets the target. By default
+  (model.error = "one-pass") the run at 2h is made in the same kernel pass as the
+  run at h, in lockstep over every other sample (only its contact point and N,
+  compared in C: no second simulate, no second output series), and the run ends
+  at the first sample where the model stops holding (N > 0 and |F_t| <= mu N:
+  `indicators.validity`), since no indicator reads past it: the indicators are
+  those of the full run bit for bit, and the estimate covers the samples they
+  read (up to t_invalid). model.error = "richardson" keeps the two separate full
+  runs of before (the same estimate for a point that stays valid).
 * "cosim": anything else (the induction motor, CSV sources): the scenario
   through the fmpy co-simulation master, exactly as `ballmill run` does; its
   error is the ball FMU's own estimate, the largest `coupling_error`.
@@ -156,6 +164,12 @@ MOTION = ("x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O")
 SAFETY = 0.8  # RK4: halve h while the estimated contact-point error exceeds SAFETY * target
 MAX_HALVINGS = 4
 LAW_CODES = {1: "quadratic", 2: "scurve", 3: "linear", 4: "quintic"}  # MotorStartup's law parameter
+# how RK4's error is estimated (model.error): the run at 2h in the same kernel pass, stopping where the
+# model stops holding (default), or as a second full run
+ERROR_METHODS = ("one-pass", "richardson")
+RICHARDSON = "Richardson: RK4 at h and 2h, |difference| / 15 (order 4)"
+ONE_PASS = ("Richardson: RK4 at h and 2h in one kernel pass, |difference| / 15 (order 4), "
+            "over the samples the indicators read")
 
 
 class CrankKernel(Evaluator):
@@ -192,7 +206,8 @@ class CrankKernel(Evaluator):
         drive = feeds[(ball, "x1O")]
         m = study.model
         return CrankPrepared(sc=sc, ball=ball, drive=drive, method=m["method"], h=float(m["h"]),
-                             tol=float(m["tolerance"]), dt=float(m["dt"]), target=float(m["target_P"]))
+                             tol=float(m["tolerance"]), dt=float(m["dt"]), target=float(m["target_P"]),
+                             error=m.get("error", ERROR_METHODS[0]))
 
 
 @dataclass
@@ -205,7 +220,12 @@ class CrankPrepared(Prepared):
     tol: float
     dt: float
     target: float = 1e-5
+    error: str = ERROR_METHODS[0]
     timing: dict = field(default_factory=lambda: {"integration": 0.0})
+    _models: dict = field(default_factory=dict, repr=False, compare=False)  # (Ball, h) -> (model, problem)
+
+    def __getstate__(self):  # a worker builds its own models and kernel problems
+        return {**self.__dict__, "_models": {}}
 
     @property
     def model(self):
@@ -246,6 +266,62 @@ class CrankPrepared(Prepared):
                     self.drive: {"l": crank.l, "n0": crank.n0, "t0": crank.t0}}
         return ball, crank, init, j_total, values, defaults
 
+    def _rk4_one_pass(self, ball, crank, init):
+        """`_rk4`'s result (the same h, the same samples, the same estimate for a point that
+        stays valid) with the run at 2h in the same kernel pass (fast.study_run), ending at the
+        first sample where the model stops holding; None when the kernel cannot do the point
+        (then `_rk4` does it, and reports a failure as it always has)."""
+        from ..physics import BallModel, fast
+
+        t0, t_end, dt = self.sc.start, self.sc.stop, self.dt
+        n_steps = int(round((t_end - t0) / dt))  # simulate's grid
+        if n_steps < 1:
+            return None
+        times = t0 + dt * np.arange(n_steps + 1)
+        mu = ball.mu
+
+        def run(h, coarse):
+            key = (ball, h)
+            if key not in self._models:  # the model and its kernel problem, once per ball and step
+                if len(self._models) > 64:
+                    self._models.clear()
+                model = BallModel(ball, method=self.method, tol=self.tol, h_fixed=h)
+                self._models[key] = (model, fast.study_problem(model))
+            model, template = self._models[key]
+            if template is None or fast._motion_params(crank)[0] is None:
+                return None
+            state = model.initial(init[0], init[1], init[2:], t0=t0)
+            r = fast.study_run(model, crank, times, state, coarse, mu, template)
+            return None if r.failed else r
+
+        h = self.h
+        r = run(h, True)
+        if r is None:
+            return None
+        err_P, err_N = r.err_P * (1.0 / 15.0), r.err_N * (1.0 / 15.0)
+        for _ in range(MAX_HALVINGS):
+            if err_P <= SAFETY * self.target or h <= self.h / 2 ** MAX_HALVINGS:
+                break
+            prev, h = r, 0.5 * h
+            r = run(h, False)
+            if r is None:
+                return None
+            fast.study_continue(prev, r.last)  # the coarse run to where this one ends
+            if prev.failed:
+                return None
+            k = r.last + 1
+            f, c = r.outs[:k], prev.outs[:k]
+            dP = np.sqrt((f[:, 0] - c[:, 0]) ** 2 + (f[:, 1] - c[:, 1]) ** 2 + (f[:, 2] - c[:, 2]) ** 2)
+            err_P = float(dP.max()) * (1.0 / 15.0)
+            err_N = float(np.abs(f[:, 9] - c[:, 9]).max()) * (1.0 / 15.0)
+        k = r.last + 1
+        from ..physics.model import Trajectory
+        from ..physics.outputs import Outputs
+
+        outs = r.outs[:k]
+        traj = Trajectory(times[:k], r.ys[:k], {name: outs[:, j] for j, name in enumerate(Outputs._fields)})
+        return traj, {"model": self.model_at(h), "error_P_m": err_P, "error_N_N": err_N, "error_method": ONE_PASS}
+
     def _rk4(self, ball, crank, init):
         """RK4 at h with its error estimated by step doubling (Richardson, order 4: |P_h - P_2h| / 15,
         the 2h run sampled every 2 dt); while the estimate exceeds SAFETY * target, halve h
@@ -257,8 +333,7 @@ class CrankPrepared(Prepared):
         for _ in range(MAX_HALVINGS + 1):
             if not traj.success:
                 raise ArithmeticError(traj.message)
-            est = _difference(traj, coarse, stride, 1.0 / 15.0,
-                              "Richardson: RK4 at h and 2h, |difference| / 15 (order 4)")
+            est = _difference(traj, coarse, stride, 1.0 / 15.0, RICHARDSON)
             if est["error_P_m"] is None or est["error_P_m"] <= SAFETY * self.target or h <= self.h / 2 ** MAX_HALVINGS:
                 break
             coarse, stride, h = traj, 1, 0.5 * h
@@ -275,7 +350,10 @@ class CrankPrepared(Prepared):
     def run(self, params):
         ball, crank, init, j_total, values, defaults = self.objects(params)
         c0 = time.perf_counter()
-        if self.method == "RK4":
+        done = self._rk4_one_pass(ball, crank, init) if self.method == "RK4" and self.error == "one-pass" else None
+        if done is not None:
+            traj, meta = done
+        elif self.method == "RK4":
             traj, meta = self._rk4(ball, crank, init)
         else:
             traj = self._simulate(ball, crank, init, self.h, self.dt)

@@ -112,11 +112,14 @@ def write(study, rows: list[dict], out_dir: Path) -> list[Path]:
             xe, ye = _edges(np.array(xs, float)), _edges(np.array(ys, float))
             mesh = ax.pcolormesh(xe, ye, np.ma.masked_invalid(Z), shading="flat", cmap="viridis")
             fig.colorbar(mesh, ax=ax, label=_label(m, width=45))
-            for i in range(len(ys)):
-                for j in range(len(xs)):
-                    if bad[i, j]:
-                        ax.add_patch(plt.Rectangle((xe[j], ye[i]), xe[j + 1] - xe[j], ye[i + 1] - ye[i],
-                                                   fill=False, hatch="xx", edgecolor="red", lw=0.0))
+            if bad.any():  # the invalid cells, hatched, as one collection of rectangles
+                from matplotlib.collections import PolyCollection
+
+                i, j = np.nonzero(bad)
+                cells = np.stack([np.stack([xe[j], ye[i]], 1), np.stack([xe[j + 1], ye[i]], 1),
+                                  np.stack([xe[j + 1], ye[i + 1]], 1), np.stack([xe[j], ye[i + 1]], 1)], 1)
+                ax.add_collection(PolyCollection(cells, facecolors="none", edgecolors="red", hatch="xx",
+                                                 linewidths=0.0))
             ax.set_xlabel(_parameter_label(fmus, px, width=60))
             ax.set_ylabel(_parameter_label(fmus, py, width=45))
             ax.set_title(f"{m}" + (" (hatched: model not valid)" if bad.any() else ""), fontsize=10)

@@ -24,6 +24,9 @@ command-line options; both become a `Study`:
     h = 0.01                                # RK4 first step [s] (tolerance = 1e-8 for DOP853/RK45)
     target_P = 1e-5                         # RK4: h is halved until the contact point's estimated
                                             # error is below this [m]
+    error = "one-pass"                      # RK4's estimate: the run at 2h in the same kernel pass,
+                                            # to where the model stops holding; or "richardson"
+                                            # (a second full run)
     dt = 0.01                               # sampling of the outputs the indicators read [s]
 
     [[indicators]]                          # extra indicators on any recorded variable
@@ -293,7 +296,8 @@ def build(scenario: str, *, name: str | None = None, description: str = "", set_
             continue
         if f"{inst}.{param}" in g or (smp and f"{inst}.{param}" in smp["ranges"]):
             problems.append(f"{where}: --set {text}: {inst}.{param} is also swept")
-    m = {"kind": "auto", "method": "RK4", "h": 0.01, "tolerance": 1e-8, "dt": 0.01, "target_P": 1e-5}
+    m = {"kind": "auto", "method": "RK4", "h": 0.01, "tolerance": 1e-8, "dt": 0.01, "target_P": 1e-5,
+         "error": "one-pass"}
     if spec_case is not None:
         m = dict(spec_case.MODEL)
     for key, v in (model or {}).items():
@@ -310,6 +314,8 @@ def build(scenario: str, *, name: str | None = None, description: str = "", set_
         g = spec_case.study_grid(g, mode)
     elif m["method"] not in ("RK4", "RK45", "DOP853"):
         problems.append(f"{where}: model.method: expected RK4, RK45 or DOP853, got {m['method']!r}")
+    if spec_case is None and m["error"] not in ("one-pass", "richardson"):
+        problems.append(f"{where}: model.error: expected one-pass or richardson, got {m['error']!r}")
     inds = []
     seen = set()
     for i, spec in enumerate(indicators):

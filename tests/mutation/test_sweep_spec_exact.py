@@ -16,7 +16,8 @@ from ballmill.scenario.spec import ScenarioError
 from ballmill.sweep import spec
 from ballmill.sweep.spec import Indicator, Study, StudyError, build, load
 
-DEFAULT_MODEL = {"kind": "auto", "method": "RK4", "h": 0.01, "tolerance": 1e-8, "dt": 0.01, "target_P": 1e-5}
+DEFAULT_MODEL = {"kind": "auto", "method": "RK4", "h": 0.01, "tolerance": 1e-8, "dt": 0.01, "target_P": 1e-5,
+                 "error": "one-pass"}
 STATS_TEXT = "max, min, range, amplitude, rms, mean, abs_max, integral"
 WINDOW_TEXT = "expected [from, to], each seconds, 'start', 'after', 'stop' or 'instance.parameter', got"
 
@@ -170,7 +171,8 @@ def test_build_defaults_and_fields():
 def test_build_model_values_at_their_edges():
     st = build("fast_start", model={"h": 1e-300, "tolerance": 1, "dt": 2.5, "target_P": 3, "method": "RK45",
                                     "kind": "cosim"})
-    assert st.model == {"kind": "cosim", "method": "RK45", "h": 1e-300, "tolerance": 1, "dt": 2.5, "target_P": 3}
+    assert st.model == {"kind": "cosim", "method": "RK45", "h": 1e-300, "tolerance": 1, "dt": 2.5, "target_P": 3,
+                        "error": "one-pass"}
     assert build("fast_start", stop=1e-9).stop == 1e-9
 
 
@@ -188,8 +190,9 @@ def test_build_model_values_at_their_edges():
     ({"model": {"target_P": True}}, ["W: model.target_P: expected a positive number, got True"]),
     ({"model": {"h": "0.1"}}, ["W: model.h: expected a positive number, got '0.1'"]),
     ({"model": {"method": "Euler"}}, ["W: model.method: expected RK4, RK45 or DOP853, got 'Euler'"]),
+    ({"model": {"error": "embedded"}}, ["W: model.error: expected one-pass or richardson, got 'embedded'"]),
     ({"model": {"order": 4, "h": math.nan}}, [
-        "W: model.order: unknown key (known: kind, method, h, tolerance, dt, target_P)",
+        "W: model.order: unknown key (known: kind, method, h, tolerance, dt, target_P, error)",
         "W: model.h: expected a positive number, got nan"]),
     ({"grid": {"nodot": [1], "drive.t0": "1:2", "drive.n0": [60]}}, [
         "W: 'nodot': expected instance.parameter, e.g. drive.t0",
@@ -468,7 +471,8 @@ def test_context_and_its_hash():
         "scenario": "fast_start",
         "scenario_sha256": hashlib.sha256(b"text of the scenario").hexdigest(),
         "stop": 8.0, "set": ["ball.mu=0.2", "drive.n0=50"],
-        "model": {"dt": 0.01, "h": 0.01, "kind": "auto", "method": "RK45", "target_P": 1e-5, "tolerance": 1e-8},
+        "model": {"dt": 0.01, "error": "one-pass", "h": 0.01, "kind": "auto", "method": "RK45", "target_P": 1e-5,
+                  "tolerance": 1e-8},
         "evaluator": "crank-kernel",
         "indicators": [{"name": "a", "variable": "ball.N", "stat": "max", "window": [0, "after"]}],
     }
