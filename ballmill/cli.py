@@ -266,7 +266,8 @@ def main(argv=None) -> int:
                         "stops holding (one-pass, default), or a second full run (richardson)")
     w.add_argument("--scheduler", metavar="ADDRESS",
                    help="a running Dask scheduler (tcp://host:8786), or local (a Dask LocalCluster); default: "
-                        "worker processes forked from this one (a LocalCluster where the platform cannot fork)")
+                        "Dask's local processes scheduler, workers forked from this one (a LocalCluster "
+                        "where the platform cannot fork)")
     w.add_argument("--workers", type=int, help="local worker processes (default: one per core)")
     w.add_argument("--in-process", action="store_true", help="no Dask: compute the batches in this process")
     w.add_argument("--batch", type=int, help="points per task (default: about 8 tasks per worker, <= 250)")

@@ -238,7 +238,7 @@ def report(data: dict) -> str:
     sp = {**sp, "setup": m["wall"] - inside}
     for key, label in (("setup", "process start, imports, reading the study, plots off (the rest of the command)"),
                        ("prepare", "checking the scenario, listing the points"),
-                       ("cluster_start", "starting the 2 worker processes (forked from the command)"),
+                       ("cluster_start", "starting a Dask LocalCluster (0 on the default scheduler: its forked workers start inside the run)"),
                        ("run", "from the first task to the last result"),
                        ("cluster_close", "stopping the workers"),
                        ("write", "writing results.parquet")):
