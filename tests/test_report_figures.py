@@ -14,15 +14,11 @@ import json
 import re
 from pathlib import Path
 
-import matplotlib
 import numpy as np
 import pytest
 
 from ballmill import cli
 from ballmill.scenario import spec
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
 
 SCENARIOS = Path(spec.SCENARIO_DIR)
 T0_LABEL = "t0 = {} s, start-up time to reach n0"  # MotorStartup's t0, from its declaration
@@ -49,21 +45,6 @@ def run(build_dir, scenario, out, *sets):
     return cli.main(args)
 
 
-@pytest.fixture
-def figures(monkeypatch):
-    """The figures the report makes, in order (closed after saving, still readable)."""
-    kept, subplots = [], plt.subplots
-
-    def recording(*a, **kw):
-        fig, ax = subplots(*a, **kw)
-        kept.append(fig)
-        return fig, ax
-    monkeypatch.setattr(plt, "subplots", recording)
-    yield kept
-    for fig in kept:
-        plt.close(fig)
-
-
 def legend(ax):
     leg = ax.get_legend()
     return [t.get_text() for t in leg.get_texts()] if leg is not None else []
@@ -85,7 +66,7 @@ def column(out, name):
     return np.loadtxt(out / "results.csv", delimiter=",", skiprows=1)[:, header.index(name)]
 
 
-def test_a_set_reaches_the_banner_the_titles_and_the_t0_marker(tmp_path, fmu_build_dir, figures, capsys):
+def test_a_set_reaches_the_banner_the_titles_and_the_t0_marker(tmp_path, fmu_build_dir, subplots_made, capsys):
     """slow_start (t0 = 30 s in its file) run with --set drive.t0=2 over 3 s: the banner, the
     summary's description and every title say t0 = 2 s, the dashed t0 marker stands at 2 s with
     its label; the torque legend and the axes in words with units; the ring plot's start-up
@@ -98,7 +79,7 @@ def test_a_set_reaches_the_banner_the_titles_and_the_t0_marker(tmp_path, fmu_bui
     assert "t0 = 2 s" in banner and "30" not in banner
     summary = json.loads((out / "summary.json").read_text())
     assert "t0 = 2 s" in summary["description"] and summary["after_s"] == 2.0
-    zP, ring, N, torque = (fig.axes[0] for fig in figures)
+    zP, ring, N, torque = (fig.axes[0] for fig in subplots_made)
     for ax in (zP, ring, N, torque):
         assert "t0 = 2 s" in ax.get_title() and "30" not in ax.get_title()
     for ax in (zP, N, torque):
@@ -125,7 +106,7 @@ def test_a_set_reaches_the_banner_the_titles_and_the_t0_marker(tmp_path, fmu_bui
                             f"ring's outer radius {r_out:.4f} m (the summary's, t \u2265 t0 = 2 s)"]
 
 
-def test_the_invalid_span_is_shaded_and_labelled_on_every_time_plot(tmp_path, fmu_build_dir, figures):
+def test_the_invalid_span_is_shaded_and_labelled_on_every_time_plot(tmp_path, fmu_build_dir, subplots_made):
     """induction_start: the ball slips at 0.01 s (BallInShell's t_invalid) and the run goes on to
     0.3 s. Every plot against time shades [t_invalid, 0.3 s] with the legend entry "ball model not
     valid (slip at 0.01 s)"; the ring plot draws the rows from there on in grey."""
@@ -135,7 +116,7 @@ def test_the_invalid_span_is_shaded_and_labelled_on_every_time_plot(tmp_path, fm
     t_inv = summary["t_invalid_s"]
     assert t_inv == pytest.approx(0.01, abs=1e-12) and summary["invalid_reason"] == "slip"
     label = "ball model not valid (slip at 0.01 s)"
-    axes = [fig.axes[0] for fig in figures]
+    axes = [fig.axes[0] for fig in subplots_made]
     assert [ax.get_title() for ax in axes][:2] == ["Crank speed: induction motor vs the kinematic law (t0 = 2.5 s)",
                                                    "Air-gap torque of the motor (at the motor shaft), start_mode = 1"]
     *timed, ring = axes
@@ -148,7 +129,7 @@ def test_the_invalid_span_is_shaded_and_labelled_on_every_time_plot(tmp_path, fm
     # the crank speeds of motor and law, told apart by instance, in words with units
     assert legend(timed[0])[:2] == ["Crank angular speed, psi_dot of motor [rad/s]",
                                     "Crank angular speed, psi_dot of law [rad/s]"]
-    t, xP = column(out, "time"), column(out, "ball.xP")
+    xP = column(out, "ball.xP")
     first_bad = int(np.flatnonzero(column(out, "ball.valid") < 0.5)[0])
     valid_part, grey = ring.get_lines()
     assert same(valid_part.get_xdata(), xP[:first_bad])
@@ -192,7 +173,7 @@ def test_a_placeholder_is_filled_with_its_format(tmp_path, fmu_build_dir):
     assert sc.plots[3]["legend"] == ["ball, l = 0.5 m", "drive"]
 
 
-def test_sweep_axes_and_colour_bars_in_words_with_units(tmp_path, monkeypatch):
+def test_sweep_axes_and_colour_bars_in_words_with_units(tmp_path, subplots_made):
     """The heat map of a two-parameter grid: both axes the swept parameters' declarations
     (MotorStartup's t0 [s], n0 [1/min]), the colour bar the indicator's description and unit."""
     from ballmill.sweep import plots
@@ -201,20 +182,12 @@ def test_sweep_axes_and_colour_bars_in_words_with_units(tmp_path, monkeypatch):
     study = build("fast_start", grid={"drive.t0": [1.0, 2.0], "drive.n0": [60, 80]})
     rows = [{"drive.t0": t0, "drive.n0": n0, "status": "ok", "valid": True, "N_range_after": t0 * n0}
             for n0 in (60, 80) for t0 in (1.0, 2.0)]
-    kept, subplots = [], plt.subplots
-
-    def recording(*a, **kw):
-        fig, ax = subplots(*a, **kw)
-        kept.append(fig)
-        return fig, ax
-    monkeypatch.setattr(plt, "subplots", recording)
     files = plots.write(study, rows, tmp_path)
     assert [f.name for f in files] == ["map_N_range_after.png"]
-    ax, cbar = kept[0].axes
+    ax, cbar = subplots_made[0].axes
     assert ax.get_xlabel() == "Start-up time to reach n0, drive.t0 [s]"
     assert ax.get_ylabel() == "Steady crank speed, drive.n0 [1/min]"
     assert cbar.get_ylabel() == "variation of N after the start-up,\nN_range_after [N]"
-    plt.close(kept[0])
 
 
 @pytest.mark.parametrize("flags, why", [
@@ -223,7 +196,7 @@ def test_sweep_axes_and_colour_bars_in_words_with_units(tmp_path, monkeypatch):
     ({"contact": [1, 1, 1, 1], "rolling": [1, 1, 1, 1]}, "inconsistent inputs"),  # flagged inputs
     ({}, "loss of contact, slip or inconsistent inputs"),  # the flags not recorded: not known here
 ])
-def test_why_the_validity_ended_is_in_the_summary_and_on_the_plot(tmp_path, figures, flags, why):
+def test_why_the_validity_ended_is_in_the_summary_and_on_the_plot(tmp_path, subplots_made, flags, why):
     """valid turns false at the third row, BallInShell's t_invalid = 0.15 s (between rows): the
     summary's invalid_reason and statistics_over, and the span [0.15, 0.3] s labelled with both."""
     from ballmill.scenario import report
@@ -239,12 +212,12 @@ def test_why_the_validity_ended_is_in_the_summary_and_on_the_plot(tmp_path, figu
     res = RunResult(scenario=sc, columns=["time", *cols], data=data, success=True, message="completed")
     summary = report.write_all(res, {}, tmp_path)
     assert summary["invalid_reason"] == why and f"t_invalid = 0.15 s ({why}; see log)" in summary["statistics_over"]
-    ax = figures[0].axes[0]
+    ax = subplots_made[0].axes[0]
     assert spans(ax) == [(0.15, 0.3, f"ball model not valid ({why} at 0.15 s)")]
     assert ax.get_ylabel() == "Normal force of the chamber on the ball, N [N]"
 
 
-def test_the_structure_with_and_without_the_ball_shades_the_invalid_span(tmp_path, figures):
+def test_the_structure_with_and_without_the_ball_shades_the_invalid_span(tmp_path, subplots_made):
     """The absorber's comparison plot is a time plot too: the ball's invalid span shaded there."""
     from ballmill.scenario import report
     from ballmill.scenario.runner import RunResult
@@ -260,11 +233,11 @@ def test_the_structure_with_and_without_the_ball_shades_the_invalid_span(tmp_pat
     bare = RunResult(scenario=sc, columns=["time", "tower.x_rel"], data=np.column_stack([t, [0.0, 2.0, 4.0, 2.0]]),
                      success=True, message="")
     report.plot_bare(res, bare, tmp_path)
-    ax = figures[0].axes[0]
+    ax = subplots_made[0].axes[0]
     assert spans(ax) == [(0.1, 0.3, "ball model not valid (loss of contact at 0.1 s)")]
 
 
-def test_a_plot_legend_given_for_a_table_replaces_the_column_names(tmp_path, figures):
+def test_a_plot_legend_given_for_a_table_replaces_the_column_names(tmp_path, subplots_made):
     """A table's columns have no declaration: the plot's legend = [...] names the curves."""
     from ballmill.scenario import report
     from ballmill.scenario.runner import RunResult
@@ -278,6 +251,6 @@ def test_a_plot_legend_given_for_a_table_replaces_the_column_names(tmp_path, fig
     res = RunResult(scenario=sc, columns=["time", "ground.ax", "ground.ay"],
                     data=np.array([[0.0, 1.0, 2.0], [0.1, 3.0, 4.0]]), success=True, message="")
     report.plot(res, tmp_path)
-    assert legend(figures[0].axes[0]) == ["ground x [m/s2]", "ground y [m/s2]"]
-    assert legend(figures[1].axes[0]) == ["ground.ax", "ground.ay"]
-    assert figures[1].axes[0].get_ylabel() == "ground.ax, ground.ay"
+    assert legend(subplots_made[0].axes[0]) == ["ground x [m/s2]", "ground y [m/s2]"]
+    assert legend(subplots_made[1].axes[0]) == ["ground.ax", "ground.ay"]
+    assert subplots_made[1].axes[0].get_ylabel() == "ground.ax, ground.ay"

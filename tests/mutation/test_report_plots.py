@@ -250,23 +250,7 @@ def test_slip_margin_of_a_ball_that_holds_and_of_long_runs(figures):
         check_slip(fig.axes[0], 0.5, t, np.full(n, 0.25), [], lw=lw)
 
 
-@pytest.fixture
-def made(monkeypatch):
-    """The figures report.plot / plot_bare make (recorded as plt.subplots makes them; plt.close
-    stays real, and a closed figure can still be read)."""
-    kept, subplots = [], plt.subplots
-
-    def recording(*a, **kw):
-        fig, ax = subplots(*a, **kw)
-        kept.append(fig)
-        return fig, ax
-    monkeypatch.setattr(plt, "subplots", recording)
-    yield kept
-    for fig in kept:
-        plt.close(fig)
-
-
-def test_plot_dispatches_by_kind_and_writes_every_file(tmp_path, made):
+def test_plot_dispatches_by_kind_and_writes_every_file(tmp_path, subplots_made):
     """A shell, a slip margin and a series plot, in the scenario's order, each its own PNG at
     110 dpi; every figure closed after saving."""
     plots = [{"kind": "shell", "ball": "second", "file": "shell.png"},
@@ -278,8 +262,8 @@ def test_plot_dispatches_by_kind_and_writes_every_file(tmp_path, made):
     files = report.plot(res, tmp_path, MODELS)
     assert files == [tmp_path / "shell.png", tmp_path / "margin.png", tmp_path / "ratio.png", tmp_path / "path.png"]
     assert [png_size(f) for f in files] == [(990, 539), (825, 528), (825, 528), (704, 704)]
-    assert len(made) == 4 and set(plt.get_fignums()) == open_before
-    shell_fig, margin_fig, ratio_fig, path_fig = made
+    assert len(subplots_made) == 4 and set(plt.get_fignums()) == open_before
+    shell_fig, margin_fig, ratio_fig, path_fig = subplots_made
     assert [ax.get_title() for ax in shell_fig.axes[:2]] == ["lower hemisphere, seen from above",
                                                              "upper hemisphere, seen from below"]
     assert margin_fig.axes[0].get_title() == "Slip margin: the ball rolls while positive"
@@ -298,11 +282,11 @@ def test_plot_dispatches_by_kind_and_writes_every_file(tmp_path, made):
     sc = scenario([{"y": ["second.N"], "file": "n.png"}])
     res = result(sc, {"second": {"N": np.r_[-1e299, np.ones(n - 1)]}}, t=np.linspace(0.0, 1.0, n))
     report.plot(res, tmp_path, MODELS)
-    line = made[-1].axes[0].get_lines()[0]
+    line = subplots_made[-1].axes[0].get_lines()[0]
     assert math.isnan(line.get_ydata()[0]) and line.get_ydata()[1] == 1.0 and line.get_linewidth() == 1.2
 
 
-def test_plot_bare(tmp_path, made):
+def test_plot_bare(tmp_path, subplots_made):
     """The structure's displacement with (blue) and without (red) the ball, one plot per axis the
     bare run moves in; an axis the bare run does not record, or where it stays at zero, is left out."""
     sc = scenario(summary={"structure": "tower"})
@@ -316,7 +300,7 @@ def test_plot_bare(tmp_path, made):
     assert files == [tmp_path / "structure_x_with_without_ball.png", tmp_path / "structure_y_with_without_ball.png"]
     assert [png_size(f) for f in files] == [(825, 528)] * 2
     assert set(plt.get_fignums()) == open_before
-    for fig, axis, col in zip(made, "xy", (1, 2)):
+    for fig, axis, col in zip(subplots_made, "xy", (1, 2)):
         ax, = fig.axes
         b, w = ax.get_lines()
         assert np.array_equal(b.get_xdata(), bare.data[:, 0]) and np.array_equal(b.get_ydata(), bare.data[:, col])
@@ -332,6 +316,6 @@ def test_plot_bare(tmp_path, made):
     still = RunResult(scenario=sc, columns=["time", "tower.x_rel", "tower.y_rel"],
                       data=np.column_stack([t, np.zeros(3), [0.0, 0.03, 0.04]]), success=True, message="")
     assert report.plot_bare(res, still, tmp_path) == [tmp_path / "structure_y_with_without_ball.png"]
-    assert made[-1].axes[0].get_ylabel() == "displacement y at the absorber [m]"
+    assert subplots_made[-1].axes[0].get_ylabel() == "displacement y at the absorber [m]"
     x_only = RunResult(scenario=sc, columns=["time", "tower.x_rel"], data=bare.data[:, :2], success=True, message="")
     assert report.plot_bare(res, x_only, tmp_path) == [tmp_path / "structure_x_with_without_ball.png"]
