@@ -340,7 +340,7 @@ def section(repeats: int, quick: bool, literal_time_at, progress=print) -> list[
     lines += ["", f"BallInShell's `motion`: the same crank translation costs {m2 / m1:.2f}x per step "
               f"on the general model (motion = 2) as on the translation-only one (motion = 1) natively, "
               f"{p2 / p1:.2f}x in the pythonfmu flavour; a motion = 1 scene runs the translation-only code "
-              f"as before (its outputs are the pre-issue-12 build's bit for bit, tests/test_fmu_chamber.py) "
+              f"as before (its outputs are those of the build before motion = 2 existed, bit for bit, tests/test_fmu_chamber.py) "
               f"plus a check that the 18 new inputs hold their defaults and 9 more outputs."]
     lines += ["", "### The coupled fast start, whole run (load, initialisation, steps)", "",
               f"MotorStartup -> BallInShell at H = {H * 1e3:g} ms through `ballmill run`'s fmpy master; "

@@ -174,13 +174,17 @@ def build_one(script: Path, build_dir: Path | None = None) -> Path:
     listing the problems."""
     from pythonfmu.builder import FmuBuilder
 
-    out_dir = fmu_path(model_name(script), build_dir, "pythonfmu").parent
-    out_dir.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryDirectory(prefix="ballmill_stage_") as tmp:
+    target = fmu_path(model_name(script), build_dir, "pythonfmu")
+    target.parent.mkdir(parents=True, exist_ok=True)
+    # pythonfmu writes the archive in place: built in a folder of its own beside the target and
+    # renamed into place, so that a reader (or a second build) never sees a half-written FMU
+    with tempfile.TemporaryDirectory(prefix="ballmill_stage_") as tmp, \
+            tempfile.TemporaryDirectory(prefix=".partial_", dir=target.parent) as part:
         pkg, _ = _stage(Path(tmp))
-        fmu = FmuBuilder.build_FMU(script, dest=out_dir, project_files=[pkg],
+        fmu = FmuBuilder.build_FMU(script, dest=part, project_files=[pkg],
                                    canGetAndSetFMUstate=True, canSerializeFMUstate=True)
-    return _validated(Path(fmu))
+        Path(fmu).replace(target)
+    return _validated(target)
 
 
 # ----------------------------------------------------------------------------- the build's stamp
