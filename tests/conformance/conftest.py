@@ -15,6 +15,7 @@ after a refused call: the tests then check that it kept its state.
 """
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -42,8 +43,11 @@ class Flavour:
 
 
 def _paths(flavour: str) -> dict:
-    from ballmill.fmi.build import build_all
+    from ballmill.fmi.build import build_all, fmu_path
 
+    prebuilt = os.environ.get("BALLMILL_TEST_FMU_DIR")  # as tests/conftest.py's fmu_build_dir
+    if prebuilt:
+        return {name: fmu_path(name, Path(prebuilt), flavour) for name in MODELS}
     paths = build_all(ROOT / "build", log=lambda msg: None, flavour=flavour)
     return {p.stem: p for p in paths}
 
