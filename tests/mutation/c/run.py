@@ -161,8 +161,36 @@ class Scratch:
         self.pristine.mkdir()
         for so in (self.tree / "ballmill/physics").glob("_kernel*.so"):
             shutil.copy2(so, self.pristine / so.name)
+        code, out = sh([sys.executable, "-c", "import sys; from pathlib import Path; "
+                        "from ballmill.fmi import native; "
+                        "[native.stage_sources(n, Path(sys.argv[1]) / n) for n in native.available()]",
+                        str(self.root / "staged")], cwd=self.tree, env=self.env())
+        if code != 0:
+            raise SystemExit(f"staging the native sources failed:\n{out[-3000:]}")
         stamp.write_text(self.commit)
         self.reset_fmus()
+
+    def syntax_check(self, rel: str, mutant: Path, builds: list[str]) -> tuple[bool, str]:
+        """A quick screen before the build: the compiler's -fsyntax-only, warnings as errors,
+        on the unit that holds the file (the kernel is checked inside ballinshell.c, which
+        #includes it). Only a screen: what the build refuses is discarded all the same."""
+        model = next((b.split(":", 1)[1] for b in builds if b.startswith("native:")), None)
+        if model is None:
+            return True, ""
+        staged = self.root / "staged" / model
+        tmp = self.root / "check"
+        shutil.rmtree(tmp, ignore_errors=True)
+        tmp.mkdir()
+        name = Path(rel).name
+        shutil.copy2(mutant, tmp / name)
+        unit = tmp / name
+        if name == "_kernel.c":
+            shutil.copy2(staged / "ballinshell.c", tmp / "ballinshell.c")
+            unit = tmp / "ballinshell.c"
+        cc = os.environ.get("CC") or shutil.which("cc") or "gcc"
+        code, out = sh([cc, "-fsyntax-only", "-Wall", "-Wextra", "-Werror", "-ffp-contract=off",
+                        "-I", str(staged), str(unit)])
+        return code == 0, out
 
     def reset_fmus(self) -> None:
         shutil.rmtree(self.fmus, ignore_errors=True)
@@ -275,7 +303,9 @@ def judge(scratch: Scratch, cfg: dict, m: dict, full: bool) -> dict:
     shutil.copy2(m["path"], scratch.tree / m["file"])
     try:
         t0 = time.monotonic()
-        built, words = scratch.build(fcfg["builds"])
+        built, words = scratch.syntax_check(m["file"], Path(m["path"]), fcfg["builds"])
+        if built:
+            built, words = scratch.build(fcfg["builds"])
         record["build_s"] = round(time.monotonic() - t0, 1)
         if not built:
             record.update(verdict="not built", detail=words.strip().splitlines()[-1][:300] if words.strip() else "")
