@@ -2,7 +2,8 @@
 
 `flavours()` is the one place that says which builds of the models exist.
 ``pythonfmu`` (build/pythonfmu/<Model>.fmu) and ``native`` (the C FMUs,
-build/<Model>.fmu), both written by `ballmill build`.
+build/<Model>.fmu), both written by `ballmill build`; or, when BALLMILL_TEST_FMU_DIR names
+a folder, the FMUs already built there (the C mutation runner, tests/mutation/c/run.py).
 
 A flavour also says which FMI status its refusals carry: the specification asks
 for fmi2Error; pythonfmu 0.7.0 can only return fmi2Fatal from a refused call

@@ -84,21 +84,29 @@ def generate(rel: str, scratch: Path) -> list[dict]:
         if code != 0:
             raise SystemExit(f"universalmutator failed on {rel} (exit {code}):\n{log[-2000:]}")
         done.write_text(log)
+    listing = out / "mutants.json"
+    if listing.exists():
+        return json.loads(listing.read_text())
     original = src.read_text().splitlines()
     stem = src.stem
     mutants = []
     for path in out.glob(f"{stem}.mutant.*{src.suffix}"):
         number = int(path.name[len(stem) + len(".mutant."):-len(src.suffix)])
         lines = path.read_text().splitlines()
-        sm = difflib.SequenceMatcher(a=original, b=lines, autojunk=False)
-        ops = [op for op in sm.get_opcodes() if op[0] != "equal"]
-        if not ops:
+        if lines == original:
             continue
-        _, i1, i2, j1, j2 = ops[0]
+        if len(lines) == len(original):  # universalmutator rewrites one line in place (fast path)
+            diff = [i for i, (a, b) in enumerate(zip(original, lines)) if a != b]
+            i1, i2, j1, j2 = diff[0], diff[-1] + 1, diff[0], diff[-1] + 1
+        else:
+            sm = difflib.SequenceMatcher(a=original, b=lines, autojunk=False)
+            _, i1, i2, j1, j2 = next(op for op in sm.get_opcodes() if op[0] != "equal")
         mutants.append(dict(id=f"{rel}:{number}", file=rel, line=i1 + 1,
                             before="\n".join(original[i1:i2]), after="\n".join(lines[j1:j2]),
                             path=str(path)))
-    return sorted(mutants, key=lambda m: int(m["id"].rsplit(":", 1)[1]))
+    mutants.sort(key=lambda m: int(m["id"].rsplit(":", 1)[1]))
+    listing.write_text(json.dumps(mutants))
+    return mutants
 
 
 def stratified(files: list[str], scratch: Path, seed: int) -> list[dict]:
