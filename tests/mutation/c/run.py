@@ -145,12 +145,23 @@ class Scratch:
         return subprocess.run(["git", "-C", str(ROOT), "rev-parse", "HEAD"], capture_output=True,
                               text=True, check=True).stdout.strip()
 
+    def built_from(self, commit: str) -> str:
+        """What the reference builds depend on at commit: its tree less tests/ and docs/ (a
+        commit of tests only keeps the scratch tree; sync_tests brings the tests)."""
+        listing = subprocess.run(["git", "-C", str(ROOT), "ls-tree", commit], capture_output=True,
+                                 text=True, check=True).stdout
+        return "\n".join(ln for ln in listing.splitlines() if not ln.endswith(("\ttests", "\tdocs")))
+
     def setup(self, files: list[str]) -> None:
-        self.commit = self.head()
+        head = self.head()
         stamp = self.root / "tree.commit"
-        if stamp.exists() and stamp.read_text() == self.commit and (self.ref / "BallInShell.fmu").exists():
+        if stamp.exists() and (self.ref / "BallInShell.fmu").exists() \
+                and self.built_from(stamp.read_text()) == self.built_from(head):
+            self.commit = stamp.read_text()
+            self.sync_tests()
             self.reset_fmus()
             return
+        self.commit = head
         print(f"scratch tree {self.tree} from {self.commit[:10]}: exporting, building the kernel and "
               "both flavours of every FMU", flush=True)
         shutil.rmtree(self.tree, ignore_errors=True)
