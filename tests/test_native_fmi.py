@@ -91,6 +91,43 @@ def test_calls_not_allowed_in_the_state_get_one_uniform_error(opened, fmus_of, m
     inst.fmu.doStep(0.0, H)
 
 
+_TYPES = {"Real": ("fmi2GetReal", "fmi2SetReal", ctypes.c_double),
+          "Integer": ("fmi2GetInteger", "fmi2SetInteger", ctypes.c_int),
+          "Boolean": ("fmi2GetBoolean", "fmi2SetBoolean", ctypes.c_int)}
+
+
+def test_value_references_of_another_type_or_none_are_refused_by_name(opened, fmus_of):
+    """A getter or setter of one type given a variable of another, or a value reference no
+    variable has: fmi2Error naming the function, the reference, the variable and both types,
+    and nothing read or written."""
+    inst = _start(opened, fmus_of, "BallInShell")
+    ref = _start(opened, fmus_of, "BallInShell", name="reference")
+    for name in ("r", "input_mode", "valid"):  # a Real, an Integer and a Boolean variable
+        var = inst.vars[name]
+        for kind, (getter, setter, ctype) in _TYPES.items():
+            if kind == var.type:
+                continue
+            vr = (ctypes.c_uint * 1)(var.valueReference)
+            for function in (getter, setter):
+                value = (ctype * 1)(7)
+                assert _raw(inst, function, vr, ctypes.c_size_t(1), value) == ERROR, (function, name)
+                assert _errors(inst)[-1] == (f"BallInShell 'ballinshell': {function}: value reference "
+                                             f"{var.valueReference} is {name}, a {var.type}, not a {kind}")
+                assert value[0] == 7  # nothing read into the caller's array
+    n = len(inst.vars)
+    for getter, setter, ctype in _TYPES.values():
+        for function in (getter, setter):
+            vr, value = (ctypes.c_uint * 1)(n), (ctype * 1)(7)
+            assert _raw(inst, function, vr, ctypes.c_size_t(1), value) == ERROR
+            assert _errors(inst)[-1] == f"BallInShell 'ballinshell': {function}: no variable has value reference {n}"
+    # nothing was written: the instance steps on like one that never saw the calls
+    for k in range(3, 8):
+        inst.fmu.doStep(k * H, H)
+        ref.fmu.doStep(k * H, H)
+    assert [inst.get(v) for v in ("r", "input_mode", "valid", "xC")] == \
+        [ref.get(v) for v in ("r", "input_mode", "valid", "xC")]
+
+
 @pytest.mark.parametrize("model,name,value", [("BallInShell", "m", 2.0), ("BallInShell", "integrator", 1),
                                               ("MotorStartup", "t0", 1.0), ("InductionMotor", "model", 2)])
 def test_fixed_parameters_cannot_change_after_initialisation(opened, fmus_of, model, name, value):
