@@ -25,8 +25,9 @@ gives the same order). For each mutant, one at a time:
 Every verdict is appended at once to the results file (JSONL), with the commit whose tests
 judged it, so that a run stopped at any point gives a score. A re-run with the same results
 file skips the mutants it already has. ``--score`` counts them, with the mutants of
-equivalent.toml (each with its reason) apart; ``--full`` runs the subset's survivors on the
-file's full list of test files (config.toml) and records that verdict too.
+equivalent.toml (each with its reason) apart; ``--full`` runs the subset's survivors (the equivalent ones too) on
+the file's full list of test files (config.toml) and records that verdict too; ``--ids``
+judges the given mutants again (after new tests: the newest verdict counts).
 """
 from __future__ import annotations
 
@@ -441,7 +442,7 @@ def main(argv=None) -> int:
     ap.add_argument("--score", type=Path, metavar="RESULTS", help="print the score of a results file")
     ap.add_argument("--survivors", action="store_true", help="with --score: list the survivors")
     ap.add_argument("--full", type=Path, metavar="RESULTS",
-                    help="run the survivors of RESULTS (not listed as equivalent) on the full test files")
+                    help="run the survivors of RESULTS (equivalent ones included) on the full test files")
     ap.add_argument("--ids", nargs="+", help="judge these mutants (FILE:N) only")
     args = ap.parse_args(argv)
     if args.score:
@@ -457,10 +458,9 @@ def main(argv=None) -> int:
     full = bool(args.full)
     if args.ids:
         order = [m for m in order if m["id"] in set(args.ids)]
-    elif full:
-        eq = equivalents()
+    elif full:  # the equivalent ones too: the full files must not kill them either
         order = [m for m in order if m["id"] in done and done[m["id"]].get("verdict") == "survived"
-                 and "full_verdict" not in done[m["id"]] and m["id"] not in eq]
+                 and "full_verdict" not in done[m["id"]]]
     judged = sum(1 for r in done.values() if r.get("verdict") in ("killed", "survived"))
     print(f"{len(order)} mutants in order; {judged} already judged in {results_path}", flush=True)
     for m in order:
