@@ -91,6 +91,26 @@ def test_calls_not_allowed_in_the_state_get_one_uniform_error(opened, fmus_of, m
     inst.fmu.doStep(0.0, H)
 
 
+@pytest.mark.parametrize("model,name,value,got", [
+    ("MotorStartup", "psi", 1.0, "psi = 1.0 rad"), ("BallInShell", "N", 1.0, "N = 1.0 N"),
+    # a Boolean's value is written as the number the plumbing holds (the pythonfmu flavour: False)
+    ("BallInShell", "valid", False, "valid = 0.0"), ("BallInShell", "contact", True, "contact = 1.0"),
+])
+def test_an_output_cannot_be_set_before_or_after_initialisation(opened, fmus_of, model, name, value, got):
+    kind = {float: "Real", bool: "Boolean"}[type(value)]
+    fresh = opened(fmus_of("native")[model], "fresh")
+    inst = _start(opened, fmus_of, model)
+    for instance, state in ((fresh, "instantiated"), (inst, "stepComplete")):
+        before = instance.get(name) if instance is inst else None
+        with pytest.raises(FMICallException) as info:
+            instance.set(**{name: value})
+        assert info.value.status == ERROR
+        assert _errors(instance)[-1] == (f"{model} '{instance.name}': fmi2Set{kind}: {name} cannot be set in "
+                                         f"state {state}: {name} is an output and cannot be set (got {got})")
+        if before is not None:
+            assert instance.get(name) == before
+
+
 _TYPES = {"Real": ("fmi2GetReal", "fmi2SetReal", ctypes.c_double),
           "Integer": ("fmi2GetInteger", "fmi2SetInteger", ctypes.c_int),
           "Boolean": ("fmi2GetBoolean", "fmi2SetBoolean", ctypes.c_int)}
