@@ -168,6 +168,7 @@ def test_fixed_parameters_cannot_change_after_initialisation(opened, fmus_of, mo
     ("MotorStartup", {"J_crank": math.nan}, ["parameter J_crank = nan kg.m2 is outside its accepted range"]),
     ("InductionMotor", {"cos_phi": 1.5}, ["parameter cos_phi = 1.5 is outside its accepted range [0, 1]"]),
     ("InductionMotor", {"cos_phi": 0.0}, ["cos_phi must lie in (0, 1]", "cos_phi = 0.0"]),
+    ("InductionMotor", {"eta": 0.0}, ["eta must lie in (0, 1]", "eta = 0.0"]),
     ("InductionMotor", {"start_mode": 4}, ["parameter start_mode = 4 is outside its accepted range [1, 3]"]),
 ])
 def test_bad_parameters_are_refused_at_exit_of_initialisation(opened, fmus_of, model, parameters, fragments):
