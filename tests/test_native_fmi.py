@@ -169,6 +169,9 @@ def test_fixed_parameters_cannot_change_after_initialisation(opened, fmus_of, mo
     ("InductionMotor", {"cos_phi": 1.5}, ["parameter cos_phi = 1.5 is outside its accepted range [0, 1]"]),
     ("InductionMotor", {"cos_phi": 0.0}, ["cos_phi must lie in (0, 1]", "cos_phi = 0.0"]),
     ("InductionMotor", {"eta": 0.0}, ["eta must lie in (0, 1]", "eta = 0.0"]),
+    ("BallInShell", {"input_mode": 3, "x1O": 1e308, "xC0": 0.01, "wz0": 0.5},
+     ["the initial state (xC0 = 0.01 m, yC0 = 0.0 m, wx0 = 0.0, wy0 = 0.0, wz0 = 0.5 rad/s) gives non-finite "
+      "outputs: output MO1y would be inf"]),
     ("InductionMotor", {"start_mode": 4}, ["parameter start_mode = 4 is outside its accepted range [1, 3]"]),
 ])
 def test_bad_parameters_are_refused_at_exit_of_initialisation(opened, fmus_of, model, parameters, fragments):

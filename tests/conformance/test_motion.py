@@ -201,3 +201,21 @@ def test_motion_is_fixed_after_initialisation(open_fmu, flavour):
     assert "parameter motion is fixed" in fmu.messages(n) and "motion keeps 2" in fmu.messages(n)
     if flavour.usable_after_refusal:
         assert fmu.get("motion") == 2
+
+
+def test_a_rotation_that_permutes_the_axes_is_accepted(open_fmu, flavour):
+    """Q = the cyclic permutation of the axes (a rotation by 120 degrees about (1, 1, 1): det Q = +1
+    with zeros on the diagonal, so every term of the determinant's expansion counts) is a
+    rotation: accepted at initialisation and in steps; two of its rows swapped (det -1) is
+    refused as a reflection."""
+    cyclic = dict(Q11=0.0, Q12=1.0, Q13=0.0, Q21=0.0, Q22=0.0, Q23=1.0, Q31=1.0, Q32=0.0, Q33=0.0)
+    fmu = open_fmu("BallInShell", motion=2)
+    assert fmu.set(**cyclic) == OK
+    assert fmu.init() == OK, fmu.messages()
+    for _ in range(3):
+        assert fmu.step(H) == OK, fmu.messages()
+    assert "rotation" not in fmu.messages()
+    mirrored = open_fmu("BallInShell", motion=2)
+    assert mirrored.set(**dict(cyclic, Q21=1.0, Q23=0.0, Q31=0.0, Q33=1.0)) == OK  # rows 2 and 3 swapped
+    assert mirrored.init() == flavour.refusal
+    assert "input Q is not a rotation matrix: det Q = -1.0, expected +1 (a reflection)" in mirrored.messages()
