@@ -227,6 +227,33 @@ def test_a_state_with_impossible_parameters_is_refused_instance_unchanged(opened
     ball.fmu.doStep(3 * H, H)  # and it carries on
 
 
+def test_a_paper_formulation_state_beyond_the_equator_is_refused(opened, fmus_of):
+    """The paper's formulation holds the ball centre's (x, y), which must lie inside the
+    circle of radius d = R - r: a state whose y is moved to 0.3 m (> d = 0.225 m; x stays
+    0.05 m) is refused by name, and the instance keeps its state."""
+    ball = opened(fmus_of("native")["BallInShell"], "paper", formulation=2, xC0=0.05, yC0=0.03)
+    ball.initialize()
+    for k in range(3):
+        ball.fmu.doStep(k * H, H)
+    blob = bytearray(ball.fmu.serializeFMUstate(ball.fmu.getFMUstate()))
+    # the values (the output yC first) come before the model's data, which holds the state's
+    # y, equal to yC to round-off
+    yc = ball.get("yC")
+    found = [i for i in range(len(blob) - 7)
+             if abs(ctypes.c_double.from_buffer_copy(blob, i).value - yc) <= 1e-12 * abs(yc)]
+    assert len(found) >= 2 and found[0] < 8 * len(ball.vars) + 200
+    for at in found[1:]:
+        blob[at:at + 8] = bytes(ctypes.c_double(0.3))
+    state = ball.fmu.deSerializeFMUstate(bytes(blob))
+    before = ball.get("yC")
+    with pytest.raises(FMICallException) as info:
+        ball.fmu.setFMUstate(state)
+    assert info.value.status == ERROR
+    assert _errors(ball)[-2].endswith("FMU state refused: its ball centre lies at or beyond the chamber's equator")
+    assert ball.get("yC") == before
+    ball.fmu.doStep(3 * H, H)  # and it carries on
+
+
 def test_a_state_from_another_configuration_restores_that_configuration(opened, fmus_of):
     """A state carries its parameters: set into an instance with other parameters, the
     configuration is rebuilt from the state's (checked like at initialisation) and the
