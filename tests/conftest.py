@@ -2,6 +2,7 @@
 
 ``fmu_build_dir`` builds every FMU once per test session, both flavours, into a
 temporary folder (never into the checkout's build/), with ``build_all(force=True)``.
+``BALLMILL_TEST_FMU_DIR`` names a folder of FMUs already built (both flavours) to use instead.
 ``built_fmus`` maps model name -> FMU path and is parametrised over the flavours
 (native: <dir>/<Model>.fmu, pythonfmu: <dir>/pythonfmu/<Model>.fmu), so that every
 FMU-level test runs on both; ``fmus_of(flavour)`` gives one flavour's map.
@@ -52,6 +53,14 @@ def fmu_build_dir(tmp_path_factory) -> Path:
         # under mutmut (docs/mutation.md) every mutant would rebuild every FMU, and the FMUs
         # would bundle the mutated copy: the tests that need built FMUs do not run there
         pytest.skip("FMUs are not built under mutmut")
+    prebuilt = os.environ.get("BALLMILL_TEST_FMU_DIR")
+    if prebuilt:
+        # the C mutation runner (tests/mutation/c/run.py) builds both flavours once and
+        # rebuilds, per mutant, only the FMUs its mutated file goes into
+        if not Path(prebuilt, "BallInShell.fmu").is_file():
+            raise RuntimeError(f"BALLMILL_TEST_FMU_DIR={prebuilt}: no BallInShell.fmu there "
+                               "(expected a folder written by ballmill build, both flavours)")
+        return Path(prebuilt)
     build_dir = tmp_path_factory.mktemp("fmus")
     build_all(build_dir, force=True, log=lambda msg: None)
     return build_dir

@@ -154,14 +154,21 @@ def test_flavours_agree_coupled_on_the_quintic_start(fmu_build_dir):
 # position jump (mode 1: flagged, the history restarts, the latch). Found: the 6-node quintic
 # on unequal spacings needs more than long double to round its inverse correctly.
 _IRREGULAR = [2e-3] * 100 + [1e-6, 2e-3 - 1e-6] + [1e-3, 3e-3] * 50
+# one step of 4/3.75 H after equal ones: the newest spacing is then 4/3.75 H and the oldest
+# of the six position nodes 4.75 of it back, so the fit's node positions change from
+# -5, ..., 0 to -4.75, ...: a new matrix whose first number differs from the last one's by
+# the bytes 0xc014... -> 0xc013... (the fit's memo of its inverse must see a new matrix)
+_ONE_LONGER = [2e-3] * 20 + [2e-3 * 4 / 3.75] + [2e-3] * 10
 
 
-@pytest.mark.parametrize("mode,offset,noise,jump", [
-    (1, 1e6, 0.0, False), (1, 0.0, 1e-6, True), (2, 0.0, 1e-9, False), (2, 1e3, 0.0, False),
-    (2, 1e6, 1e-9, False), (4, 1e6, 0.1, False),
+@pytest.mark.parametrize("mode,offset,noise,jump,steps", [
+    (1, 1e6, 0.0, False, _IRREGULAR), (1, 0.0, 1e-6, True, _IRREGULAR), (2, 0.0, 1e-9, False, _IRREGULAR),
+    (2, 1e3, 0.0, False, _IRREGULAR), (2, 1e6, 1e-9, False, _IRREGULAR), (4, 1e6, 0.1, False, _IRREGULAR),
+    (2, 0.0, 0.0, False, _ONE_LONGER),
 ], ids=["derivatives-far", "derivatives-jump", "positions-noise", "positions-far",
-        "positions-far-noise", "accelerations-far-noise"])
-def test_flavours_agree_on_the_input_reconstruction_with_irregular_steps(fmus_of, mode, offset, noise, jump):
+        "positions-far-noise", "accelerations-far-noise", "positions-one-longer-step"])
+def test_flavours_agree_on_the_input_reconstruction_with_irregular_steps(fmus_of, mode, offset, noise, jump,
+                                                                        steps):
     import random
 
     from tests.conformance.harness import Fmu
@@ -180,7 +187,7 @@ def test_flavours_agree_on_the_input_reconstruction_with_irregular_steps(fmus_of
             feed(f, 0.0, offset, t0=1.0, noise=disturbance)
             assert f.init() == 0, f.messages()
         t = 0.0
-        for h in _IRREGULAR:
+        for h in steps:
             for f in fmus:
                 assert f.step(h, t) == 0, f.messages()
             t += h

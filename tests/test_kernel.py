@@ -99,6 +99,37 @@ def test_losses_and_other_motions_identical(motion, method):
 
 
 @needs_kernel
+@pytest.mark.parametrize("law", ["quintic", "quadratic"], ids=["from_rest", "paper"])
+def test_the_c_initial_step_is_the_pythons(law):
+    """bm_initial_step (which starts the benchmark's standalone C program's adaptive runs)
+    against Integrator.initial_step on the same right-hand side: the same step to round-off
+    (C sums the norms in a loop, numpy pairwise). The quintic law starts with zero
+    acceleration, so the ball at rest at the bottom has a vanishing derivative: the branch
+    d1 < 1e-5 (h0 = 1e-6)."""
+    model = BallModel(Ball(), method="RK45", tol=1e-9)
+    P = fast.problem(model, CrankStartup(l=0.5, n0=60.0, t0=2.5, law=law))
+    y0 = np.array(model.initial().y, dtype=float)
+
+    def f(t, y):
+        return np.array(fast.eval_rhs(P, t, y))
+    for span in (0.01, 1e-7):
+        h_py = model.integrator.initial_step(f, 0.0, y0, f(0.0, y0), span)
+        assert fast.eval_initial_step(P, 0.0, y0, span) == pytest.approx(h_py, rel=1e-12, abs=0.0), span
+    assert np.any(f(0.0, y0)) == (law != "quintic")
+
+
+@needs_kernel
+@pytest.mark.parametrize("law", ["scurve", "linear", "quintic"])
+def test_every_start_up_law_identical(law):
+    """The crank's other start-up laws (the paper's quadratic one is FAST_START): their angle,
+    speed and acceleration in the kernel's motion, through the whole start and after."""
+    a, b = run_both(lambda: BallModel(Ball(), method="RK45", tol=1e-9),
+                    CrankStartup(l=0.5, n0=60.0, t0=1.0, law=law), 1.5, 0.01)
+    assert a.success and np.ptp(a["N"]) > 0.1
+    assert_identical(a, b)
+
+
+@needs_kernel
 def test_carried_state_h_max_and_no_outputs():
     """A state that carries its step size, a step limit, an offset start time, no outputs."""
     def model():

@@ -92,6 +92,63 @@ def test_calls_not_allowed_in_the_state_get_one_uniform_error(opened, fmus_of, m
     inst.fmu.doStep(0.0, H)
 
 
+@pytest.mark.parametrize("model,name,value,got", [
+    ("MotorStartup", "psi", 1.0, "psi = 1.0 rad"), ("BallInShell", "N", 1.0, "N = 1.0 N"),
+    # a Boolean's value is written as the number the plumbing holds (the pythonfmu flavour: False)
+    ("BallInShell", "valid", False, "valid = 0.0"), ("BallInShell", "contact", True, "contact = 1.0"),
+])
+def test_an_output_cannot_be_set_before_or_after_initialisation(opened, fmus_of, model, name, value, got):
+    kind = {float: "Real", bool: "Boolean"}[type(value)]
+    fresh = opened(fmus_of("native")[model], "fresh")
+    inst = _start(opened, fmus_of, model)
+    for instance, state in ((fresh, "instantiated"), (inst, "stepComplete")):
+        before = instance.get(name) if instance is inst else None
+        with pytest.raises(FMICallException) as info:
+            instance.set(**{name: value})
+        assert info.value.status == ERROR
+        assert _errors(instance)[-1] == (f"{model} '{instance.name}': fmi2Set{kind}: {name} cannot be set in "
+                                         f"state {state}: {name} is an output and cannot be set (got {got})")
+        if before is not None:
+            assert instance.get(name) == before
+
+
+_TYPES = {"Real": ("fmi2GetReal", "fmi2SetReal", ctypes.c_double),
+          "Integer": ("fmi2GetInteger", "fmi2SetInteger", ctypes.c_int),
+          "Boolean": ("fmi2GetBoolean", "fmi2SetBoolean", ctypes.c_int)}
+
+
+def test_value_references_of_another_type_or_none_are_refused_by_name(opened, fmus_of):
+    """A getter or setter of one type given a variable of another, or a value reference no
+    variable has: fmi2Error naming the function, the reference, the variable and both types,
+    and nothing read or written."""
+    inst = _start(opened, fmus_of, "BallInShell")
+    ref = _start(opened, fmus_of, "BallInShell", name="reference")
+    for name in ("r", "input_mode", "valid"):  # a Real, an Integer and a Boolean variable
+        var = inst.vars[name]
+        for kind, (getter, setter, ctype) in _TYPES.items():
+            if kind == var.type:
+                continue
+            vr = (ctypes.c_uint * 1)(var.valueReference)
+            for function in (getter, setter):
+                value = (ctype * 1)(7)
+                assert _raw(inst, function, vr, ctypes.c_size_t(1), value) == ERROR, (function, name)
+                assert _errors(inst)[-1] == (f"BallInShell 'ballinshell': {function}: value reference "
+                                             f"{var.valueReference} is {name}, a {var.type}, not a {kind}")
+                assert value[0] == 7  # nothing read into the caller's array
+    n = len(inst.vars)
+    for getter, setter, ctype in _TYPES.values():
+        for function in (getter, setter):
+            vr, value = (ctypes.c_uint * 1)(n), (ctype * 1)(7)
+            assert _raw(inst, function, vr, ctypes.c_size_t(1), value) == ERROR
+            assert _errors(inst)[-1] == f"BallInShell 'ballinshell': {function}: no variable has value reference {n}"
+    # nothing was written: the instance steps on like one that never saw the calls
+    for k in range(3, 8):
+        inst.fmu.doStep(k * H, H)
+        ref.fmu.doStep(k * H, H)
+    assert [inst.get(v) for v in ("r", "input_mode", "valid", "xC")] == \
+        [ref.get(v) for v in ("r", "input_mode", "valid", "xC")]
+
+
 @pytest.mark.parametrize("model,name,value", [("BallInShell", "m", 2.0), ("BallInShell", "integrator", 1),
                                               ("MotorStartup", "t0", 1.0), ("InductionMotor", "model", 2)])
 def test_fixed_parameters_cannot_change_after_initialisation(opened, fmus_of, model, name, value):
@@ -112,6 +169,10 @@ def test_fixed_parameters_cannot_change_after_initialisation(opened, fmus_of, mo
     ("MotorStartup", {"J_crank": math.nan}, ["parameter J_crank = nan kg.m2 is outside its accepted range"]),
     ("InductionMotor", {"cos_phi": 1.5}, ["parameter cos_phi = 1.5 is outside its accepted range [0, 1]"]),
     ("InductionMotor", {"cos_phi": 0.0}, ["cos_phi must lie in (0, 1]", "cos_phi = 0.0"]),
+    ("InductionMotor", {"eta": 0.0}, ["eta must lie in (0, 1]", "eta = 0.0"]),
+    ("BallInShell", {"input_mode": 3, "x1O": 1e308, "xC0": 0.01, "wz0": 0.5},
+     ["the initial state (xC0 = 0.01 m, yC0 = 0.0 m, wx0 = 0.0, wy0 = 0.0, wz0 = 0.5 rad/s) gives non-finite "
+      "outputs: output MO1y would be inf"]),
     ("InductionMotor", {"start_mode": 4}, ["parameter start_mode = 4 is outside its accepted range [1, 3]"]),
 ])
 def test_bad_parameters_are_refused_at_exit_of_initialisation(opened, fmus_of, model, parameters, fragments):
@@ -173,6 +234,33 @@ def test_a_state_with_impossible_parameters_is_refused_instance_unchanged(opened
     assert info.value.status == ERROR
     assert any("parameter r = -1.0 m is outside its accepted range" in m for m in _errors(ball))
     assert ball.get("xC") == before and ball.get("r") == 0.025
+    ball.fmu.doStep(3 * H, H)  # and it carries on
+
+
+def test_a_paper_formulation_state_beyond_the_equator_is_refused(opened, fmus_of):
+    """The paper's formulation holds the ball centre's (x, y), which must lie inside the
+    circle of radius d = R - r: a state whose y is moved to 0.3 m (> d = 0.225 m; x stays
+    0.05 m) is refused by name, and the instance keeps its state."""
+    ball = opened(fmus_of("native")["BallInShell"], "paper", formulation=2, xC0=0.05, yC0=0.03)
+    ball.initialize()
+    for k in range(3):
+        ball.fmu.doStep(k * H, H)
+    blob = bytearray(ball.fmu.serializeFMUstate(ball.fmu.getFMUstate()))
+    # the values (the output yC first) come before the model's data, which holds the state's
+    # y, equal to yC to round-off
+    yc = ball.get("yC")
+    found = [i for i in range(len(blob) - 7)
+             if abs(ctypes.c_double.from_buffer_copy(blob, i).value - yc) <= 1e-12 * abs(yc)]
+    assert len(found) >= 2 and found[0] < 8 * len(ball.vars) + 200
+    for at in found[1:]:
+        blob[at:at + 8] = bytes(ctypes.c_double(0.3))
+    state = ball.fmu.deSerializeFMUstate(bytes(blob))
+    before = ball.get("yC")
+    with pytest.raises(FMICallException) as info:
+        ball.fmu.setFMUstate(state)
+    assert info.value.status == ERROR
+    assert _errors(ball)[-2].endswith("FMU state refused: its ball centre lies at or beyond the chamber's equator")
+    assert ball.get("yC") == before
     ball.fmu.doStep(3 * H, H)  # and it carries on
 
 

@@ -711,6 +711,13 @@ def eval_rhs(P: _Problem, t: float, y) -> tuple:
     return tuple(f.tolist())
 
 
+def eval_initial_step(P: _Problem, t: float, y, span: float) -> float:
+    """bm_initial_step: the C twin of Integrator.initial_step that the benchmark's standalone
+    program (ballmill/bench/compiled.py) starts its adaptive runs with."""
+    yy = np.ascontiguousarray(y, dtype=float)
+    return _kernel().bm_initial_step(ctypes.byref(P), t, yy.ctypes.data_as(_dp), span)
+
+
 def eval_motion(P: _Problem, t: float) -> tuple:
     o = np.empty(6)
     _kernel().bm_eval_motion(ctypes.byref(P), t, o.ctypes.data_as(_dp))

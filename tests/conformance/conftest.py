@@ -2,7 +2,8 @@
 
 `flavours()` is the one place that says which builds of the models exist.
 ``pythonfmu`` (build/pythonfmu/<Model>.fmu) and ``native`` (the C FMUs,
-build/<Model>.fmu), both written by `ballmill build`.
+build/<Model>.fmu), both written by `ballmill build`; or, when BALLMILL_TEST_FMU_DIR names
+a folder, the FMUs already built there (the C mutation runner, tests/mutation/c/run.py).
 
 A flavour also says which FMI status its refusals carry: the specification asks
 for fmi2Error; pythonfmu 0.7.0 can only return fmi2Fatal from a refused call
@@ -15,6 +16,7 @@ after a refused call: the tests then check that it kept its state.
 """
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -42,8 +44,11 @@ class Flavour:
 
 
 def _paths(flavour: str) -> dict:
-    from ballmill.fmi.build import build_all
+    from ballmill.fmi.build import build_all, fmu_path
 
+    prebuilt = os.environ.get("BALLMILL_TEST_FMU_DIR")  # as tests/conftest.py's fmu_build_dir
+    if prebuilt:
+        return {name: fmu_path(name, Path(prebuilt), flavour) for name in MODELS}
     paths = build_all(ROOT / "build", log=lambda msg: None, flavour=flavour)
     return {p.stem: p for p in paths}
 

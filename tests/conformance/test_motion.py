@@ -16,24 +16,26 @@ H = 2e-3
 W = 0.5  # rad/s about z: the chamber spins, O stays where it is
 
 
-def q_of(t):
+def q_of(t, tilt=0.0):
+    """Rz(W t) Rx(tilt): the chamber turned by tilt about its x axis, spinning about z1."""
     c, s = math.cos(W * t), math.sin(W * t)
-    return dict(Q11=c, Q12=-s, Q13=0.0, Q21=s, Q22=c, Q23=0.0, Q31=0.0, Q32=0.0, Q33=1.0)
+    ca, sa = math.cos(tilt), math.sin(tilt)
+    return dict(Q11=c, Q12=-s * ca, Q13=s * sa, Q21=s, Q22=c * ca, Q23=-c * sa, Q31=0.0, Q32=sa, Q33=ca)
 
 
-def feed(fmu, t, **override):
-    values = dict(x1O=0.0, y1O=0.0, z1O=0.0, az1O=0.0, Omega_x=0.0, Omega_y=0.0, Omega_z=W, **q_of(t))
+def feed(fmu, t, tilt=0.0, **override):
+    values = dict(x1O=0.0, y1O=0.0, z1O=0.0, az1O=0.0, Omega_x=0.0, Omega_y=0.0, Omega_z=W, **q_of(t, tilt))
     values.update(override)
     assert fmu.set(**values) == OK
 
 
-def spinning(open_fmu, steps, **parameters):
+def spinning(open_fmu, steps, tilt=0.0, **parameters):
     fmu = open_fmu("BallInShell", motion=2, xC0=0.04, **parameters)
-    feed(fmu, 0.0)
+    feed(fmu, 0.0, tilt)
     assert fmu.init() == OK, fmu.messages()
     for k in range(steps):
         assert fmu.step(H) == OK, fmu.messages()
-        feed(fmu, fmu.time)
+        feed(fmu, fmu.time, tilt)
     return fmu
 
 
@@ -45,11 +47,13 @@ def _dot(a, b):
     return sum(x * y for x, y in zip(a, b))
 
 
-@pytest.mark.parametrize("change", [
-    {"az1O": 1.5}, {"ax1O": -0.8, "ay1O": 0.3}, {"Omega_dot_x": 0.7}, {"Omega_dot_z": 2.0},
-    {"az1O": 0.4, "Omega_dot_y": -1.1},
-], ids=lambda c: ",".join(c))
-def test_the_load_on_the_chamber_follows_its_acceleration_without_a_step(open_fmu, change):
+@pytest.mark.parametrize("change, tilt", [
+    ({"az1O": 1.5}, 0.0), ({"ax1O": -0.8, "ay1O": 0.3}, 0.0), ({"Omega_dot_x": 0.7}, 0.0),
+    ({"Omega_dot_z": 2.0}, 0.0), ({"az1O": 0.4, "Omega_dot_y": -1.1}, 0.0),
+    # a tilted chamber: A - O has x and y components, so each of Omega' x (A - O)'s terms counts
+    ({"Omega_dot_z": 2.0}, 0.3), ({"Omega_dot_y": -1.1, "Omega_dot_z": 0.6}, 0.3),
+], ids=lambda c: ",".join(c) if isinstance(c, dict) else f"tilt{c:g}")
+def test_the_load_on_the_chamber_follows_its_acceleration_without_a_step(open_fmu, change, tilt):
     """motion = 2 has the declared feedthrough too (the outputs were left as the step made
     them). Newton for the rolling ball, m a_C = F + m g, with the constraint's own part:
     changing the chamber centre's acceleration by da_A (= da_O + dOmega' x (A - O)) and the
@@ -57,7 +61,7 @@ def test_the_load_on_the_chamber_follows_its_acceleration_without_a_step(open_fm
     + c R dOmega' x n with c = I / (I + m r^2) = 2/7; the load on the chamber F_s = -F changes
     by -m da_C, N = m (g - a_C) . n by -m da_A . n, the moment about O1 by P x dF_s. n from the
     outputs: C - A = (R - r) n, A - O = R Q e3; O stays at the origin, so P - O is P."""
-    fmu = spinning(open_fmu, 20)
+    fmu = spinning(open_fmu, 20, tilt)
     m, r, R = fmu.get("m"), fmu.get("r"), fmu.get("R")
     d, c = R - r, 0.4 / 1.4
     before = fmu.outputs()
@@ -201,3 +205,21 @@ def test_motion_is_fixed_after_initialisation(open_fmu, flavour):
     assert "parameter motion is fixed" in fmu.messages(n) and "motion keeps 2" in fmu.messages(n)
     if flavour.usable_after_refusal:
         assert fmu.get("motion") == 2
+
+
+def test_a_rotation_that_permutes_the_axes_is_accepted(open_fmu, flavour):
+    """Q = the cyclic permutation of the axes (a rotation by 120 degrees about (1, 1, 1): det Q = +1
+    with zeros on the diagonal, so every term of the determinant's expansion counts) is a
+    rotation: accepted at initialisation and in steps; two of its rows swapped (det -1) is
+    refused as a reflection."""
+    cyclic = dict(Q11=0.0, Q12=1.0, Q13=0.0, Q21=0.0, Q22=0.0, Q23=1.0, Q31=1.0, Q32=0.0, Q33=0.0)
+    fmu = open_fmu("BallInShell", motion=2)
+    assert fmu.set(**cyclic) == OK
+    assert fmu.init() == OK, fmu.messages()
+    for _ in range(3):
+        assert fmu.step(H) == OK, fmu.messages()
+    assert "rotation" not in fmu.messages()
+    mirrored = open_fmu("BallInShell", motion=2)
+    assert mirrored.set(**dict(cyclic, Q21=1.0, Q23=0.0, Q31=0.0, Q33=1.0)) == OK  # rows 2 and 3 swapped
+    assert mirrored.init() == flavour.refusal
+    assert "input Q is not a rotation matrix: det Q = -1.0, expected +1 (a reflection)" in mirrored.messages()

@@ -68,6 +68,10 @@ def test_a_tunable_parameter_takes_effect_at_the_next_step(open_fmu, flavour):
     ("BallInShell", "m", 1e300, "parameter m = 1e+300 kg is outside its accepted range [0, 1e+06] kg"),
     ("BallInShell", "wx0", 1e300, "parameter wx0 = 1e+300 rad/s is outside its accepted range [-10000, 10000]"),
     ("BallInShell", "r", 0.3, "R must be larger than r"),
+    # inside the declared range [0, ...] but not positive: refused by the model's own checks
+    ("BallInShell", "r", 0.0, "r must be positive and finite, got r = 0.0 m"),
+    ("BallInShell", "m", 0.0, "m must be positive and finite, got m = 0.0 kg"),
+    ("BallInShell", "g", 0.0, "g must be positive and finite, got g = 0.0 m/s2"),
     ("BallInShell", "R", float("nan"), "parameter R = nan m is outside its accepted range"),
     ("MotorStartup", "l", 1e300, "parameter l = 1e+300 m is outside its accepted range [0, 1000] m"),
     ("MotorStartup", "t0", 1e300, "parameter t0 = 1e+300 s is outside its accepted range [0.001, 1e+06] s"),

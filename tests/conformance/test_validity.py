@@ -53,3 +53,15 @@ def test_state_restore_brings_back_the_latch(open_fmu):
     assert not fmu.get("valid")
     assert fmu.set_state(s) == OK
     assert fmu.get("valid")
+
+
+def test_a_slip_at_the_first_communication_point_is_reported_at_that_time(open_fmu):
+    """Started at 1 s with the ball at xC0 = 0.05 m during the crank's start-up, the ball
+    slips at once (|F_t|/N = 0.3009 > mu = 0.3): the warning dates it at the start, 1 s,
+    not in an interval since an earlier communication point (there is none)."""
+    fmu, st = run_ball(open_fmu, [H] * 3, t_start=1.0, xC0=0.05)
+    assert st == OK
+    assert not fmu.get("valid") and fmu.get("t_invalid") == 1.0
+    assert fmu.log[0] == (1, "BallInShell 'ballinshell': slip at t = 1 s: |F_t|/N = 0.3009 > mu = 0.3; "
+                             "the ball would slide"), fmu.messages()
+    assert "valid = false from t = 1 s (latched until reset)" in fmu.messages()

@@ -1,0 +1,486 @@
+"""Mutation testing of the project's C (docs/mutation.md, "The C").
+
+    python tests/mutation/c/run.py [--sample N] [--seed S] [--files F ...] [--results R.jsonl]
+    python tests/mutation/c/run.py --score R.jsonl [--survivors]
+    python tests/mutation/c/run.py --full R.jsonl          # survivors of the subset on the full files
+
+Mutants are made by universalmutator (PyPI; ``mutate FILE c --noCheck``: every rule of its
+C and generic rule sets, one change per mutant) for the files of config.toml. A run draws a
+sample stratified by file: each file's mutants are shuffled with the seed and the files are
+interleaved in proportion to their mutant counts, so that any prefix of the run is spread
+over the files like the whole (a run stopped early is still a fair sample; the same seed
+gives the same order). For each mutant, one at a time:
+
+1. the mutant is written into a scratch copy of the checkout (``--scratch``, default
+   /tmp/cmut: the committed tree of HEAD, never the working copy), and what the tests load is
+   rebuilt from it: the kernel (``python setup.py build_ext --inplace``), the native FMUs the
+   file goes into, and for the kernel the pythonfmu FMUs that bundle it. A mutant the
+   project's build refuses (a compile error, or a warning at -Wall -Wextra, which the native
+   build treats as an error) is discarded, not counted;
+2. it is judged by the file's fast subset (``pytest -x -k "<fast_k>"``, BALLMILL_TEST_FMU_DIR
+   pointing at the rebuilt FMUs), with a time limit: a failing test, a crashed test process
+   or the time limit kills it;
+3. the tree and the FMUs are restored.
+
+Every verdict is appended at once to the results file (JSONL), with the commit whose tests
+judged it, so that a run stopped at any point gives a score. A re-run with the same results
+file skips the mutants it already has. ``--score`` counts them, with the mutants of
+equivalent.toml (each with its reason) apart; ``--full`` runs the subset's survivors (the equivalent ones too) on
+the file's full list of test files (config.toml) and records that verdict too; ``--ids``
+judges the given mutants again (after new tests: the newest verdict counts).
+"""
+from __future__ import annotations
+
+import argparse
+import difflib
+import hashlib
+import json
+import os
+import random
+import shutil
+import signal
+import subprocess
+import sys
+import time
+import tomllib
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parents[2]
+CONFIG = HERE / "config.toml"
+EQUIVALENT = HERE / "equivalent.toml"
+MODELS = ("BallInShell", "MotorStartup", "InductionMotor", "Structure", "Fig1Drive")
+
+
+def config() -> dict:
+    return tomllib.loads(CONFIG.read_text())
+
+
+def sh(cmd, cwd=None, env=None, timeout=None, capture=True):
+    """Run cmd in its own process group at nice 10; (returncode or 'timeout', output)."""
+    proc = subprocess.Popen(["nice", "-n", "10", *cmd], cwd=cwd, env=env, start_new_session=True,
+                            stdout=subprocess.PIPE if capture else None, stderr=subprocess.STDOUT,
+                            text=True)
+    try:
+        out, _ = proc.communicate(timeout=timeout)
+        return proc.returncode, out or ""
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        out, _ = proc.communicate()
+        return "timeout", out or ""
+
+
+# ----------------------------------------------------------------------------- mutants
+def generate(rel: str, scratch: Path) -> list[dict]:
+    """Every mutant of the checkout's file `rel`: [{id, file, line, before, after, path}].
+    Cached under scratch/gen/<file's sha256>/ (a changed file gets new mutants)."""
+    src = ROOT / rel
+    digest = hashlib.sha256(src.read_bytes()).hexdigest()[:16]
+    out = scratch / "gen" / f"{rel.replace('/', '_')}-{digest}"
+    done = out / "DONE"
+    if not done.exists():
+        shutil.rmtree(out, ignore_errors=True)
+        out.mkdir(parents=True)
+        code, log = sh(["mutate", str(src), "c", "--noCheck", "--mutantDir", str(out)])
+        if code != 0:
+            raise SystemExit(f"universalmutator failed on {rel} (exit {code}):\n{log[-2000:]}")
+        done.write_text(log)
+    listing = out / "mutants.json"
+    if listing.exists():
+        return json.loads(listing.read_text())
+    original = src.read_text().splitlines()
+    stem = src.stem
+    mutants = []
+    for path in out.glob(f"{stem}.mutant.*{src.suffix}"):
+        number = int(path.name[len(stem) + len(".mutant."):-len(src.suffix)])
+        lines = path.read_text().splitlines()
+        if lines == original:
+            continue
+        if len(lines) == len(original):  # universalmutator rewrites one line in place (fast path)
+            diff = [i for i, (a, b) in enumerate(zip(original, lines)) if a != b]
+            i1, i2, j1, j2 = diff[0], diff[-1] + 1, diff[0], diff[-1] + 1
+        else:
+            sm = difflib.SequenceMatcher(a=original, b=lines, autojunk=False)
+            _, i1, i2, j1, j2 = next(op for op in sm.get_opcodes() if op[0] != "equal")
+        mutants.append(dict(id=f"{rel}:{number}", file=rel, line=i1 + 1,
+                            before="\n".join(original[i1:i2]), after="\n".join(lines[j1:j2]),
+                            path=str(path)))
+    mutants.sort(key=lambda m: int(m["id"].rsplit(":", 1)[1]))
+    listing.write_text(json.dumps(mutants))
+    return mutants
+
+
+def stratified(files: list[str], scratch: Path, seed: int) -> list[dict]:
+    """All mutants of the files in the run's order: each file's shuffled with the seed, the
+    files interleaved in proportion to their counts (the k-th of n at (k + 1/2) / n)."""
+    keyed = []
+    for rel in files:
+        ms = generate(rel, scratch)
+        random.Random(f"{seed}:{rel}").shuffle(ms)
+        keyed += [((k + 0.5) / len(ms), rel, m) for k, m in enumerate(ms)]
+    keyed.sort(key=lambda x: (x[0], x[1]))
+    return [m for _, _, m in keyed]
+
+
+# ----------------------------------------------------------------------------- the scratch tree
+class Scratch:
+    """scratch/tree: HEAD's committed tree with the kernel built; scratch/fmus_ref: both
+    flavours built from it; scratch/fmus: what the tests load (the reference, plus the
+    artifacts of the mutant under test)."""
+
+    def __init__(self, root: Path):
+        self.root = root
+        self.tree = root / "tree"
+        self.ref = root / "fmus_ref"
+        self.fmus = root / "fmus"
+        self.pristine = root / "pristine"
+        self.commit = ""
+
+    def env(self) -> dict:
+        env = dict(os.environ, PYTHONPATH=str(self.tree), BALLMILL_TEST_FMU_DIR=str(self.fmus),
+                   PYTHONDONTWRITEBYTECODE="1")
+        env.pop("MUTANT_UNDER_TEST", None)
+        return env
+
+    def head(self) -> str:
+        return subprocess.run(["git", "-C", str(ROOT), "rev-parse", "HEAD"], capture_output=True,
+                              text=True, check=True).stdout.strip()
+
+    def built_from(self, commit: str) -> str:
+        """What the reference builds depend on at commit: its tree less tests/ and docs/ (a
+        commit of tests only keeps the scratch tree; sync_tests brings the tests)."""
+        listing = subprocess.run(["git", "-C", str(ROOT), "ls-tree", commit], capture_output=True,
+                                 text=True, check=True).stdout
+        return "\n".join(ln for ln in listing.splitlines() if not ln.endswith(("\ttests", "\tdocs")))
+
+    def setup(self, files: list[str]) -> None:
+        head = self.head()
+        stamp = self.root / "tree.commit"
+        if stamp.exists() and (self.ref / "BallInShell.fmu").exists() \
+                and self.built_from(stamp.read_text()) == self.built_from(head):
+            self.commit = stamp.read_text()
+            self.clean(files)
+            self.sync_tests()
+            self.reset_fmus()
+            return
+        self.commit = head
+        print(f"scratch tree {self.tree} from {self.commit[:10]}: exporting, building the kernel and "
+              "both flavours of every FMU", flush=True)
+        shutil.rmtree(self.tree, ignore_errors=True)
+        self.tree.mkdir(parents=True)
+        archive = subprocess.run(["git", "-C", str(ROOT), "archive", "HEAD"], capture_output=True, check=True)
+        subprocess.run(["tar", "-x", "-C", str(self.tree)], input=archive.stdout, check=True)
+        self._kernel_build(check=True)
+        shutil.rmtree(self.ref, ignore_errors=True)
+        code, out = sh([sys.executable, "-c", "import sys; from pathlib import Path; "
+                        "from ballmill.fmi.build import build_all; "
+                        "build_all(Path(sys.argv[1]), force=True, log=lambda m: None)", str(self.ref)],
+                       cwd=self.tree, env=self.env())
+        if code != 0:
+            raise SystemExit(f"building the reference FMUs failed:\n{out[-3000:]}")
+        shutil.rmtree(self.pristine, ignore_errors=True)
+        self.pristine.mkdir()
+        for so in (self.tree / "ballmill/physics").glob("_kernel*.so"):
+            shutil.copy2(so, self.pristine / so.name)
+        code, out = sh([sys.executable, "-c", "import sys; from pathlib import Path; "
+                        "from ballmill.fmi import native; "
+                        "[native.stage_sources(n, Path(sys.argv[1]) / n) for n in native.available()]",
+                        str(self.root / "staged")], cwd=self.tree, env=self.env())
+        if code != 0:
+            raise SystemExit(f"staging the native sources failed:\n{out[-3000:]}")
+        stamp.write_text(self.commit)
+        self.reset_fmus()
+
+    def syntax_check(self, rel: str, mutant: Path, builds: list[str]) -> tuple[bool, str]:
+        """A quick screen before the build: the compiler's -fsyntax-only, warnings as errors,
+        on the unit that holds the file (the kernel is checked inside ballinshell.c, which
+        #includes it). Only a screen: what the build refuses is discarded all the same."""
+        model = next((b.split(":", 1)[1] for b in builds if b.startswith("native:")), None)
+        if model is None:
+            return True, ""
+        staged = self.root / "staged" / model
+        tmp = self.root / "check"
+        shutil.rmtree(tmp, ignore_errors=True)
+        tmp.mkdir()
+        name = Path(rel).name
+        shutil.copy2(mutant, tmp / name)
+        unit = tmp / name
+        if name == "_kernel.c":
+            shutil.copy2(staged / "ballinshell.c", tmp / "ballinshell.c")
+            unit = tmp / "ballinshell.c"
+        cc = os.environ.get("CC") or shutil.which("cc") or "gcc"
+        code, out = sh([cc, "-fsyntax-only", "-Wall", "-Wextra", "-Werror", "-ffp-contract=off",
+                        "-I", str(staged), str(unit)])
+        return code == 0, out
+
+    def clean(self, files: list[str]) -> None:
+        """The C files and the kernel library as built (a run stopped mid-mutant leaves its
+        mutant there), with the export's modification time (the FMUs built from them stay
+        newer than their sources, so that nothing rebuilds them behind the runner's back)."""
+        when = int(subprocess.run(["git", "-C", str(ROOT), "log", "-1", "--format=%ct", self.commit],
+                                  capture_output=True, text=True, check=True).stdout)
+        for rel in files:
+            data = subprocess.run(["git", "-C", str(ROOT), "show", f"{self.commit}:{rel}"], capture_output=True,
+                                  check=True).stdout
+            (self.tree / rel).write_bytes(data)
+            os.utime(self.tree / rel, (when, when))
+        for so in (self.tree / "ballmill/physics").glob("_kernel*.so"):
+            so.unlink()
+        for so in self.pristine.glob("_kernel*.so"):
+            shutil.copy2(so, self.tree / "ballmill/physics" / so.name)
+
+    def reset_fmus(self) -> None:
+        shutil.rmtree(self.fmus, ignore_errors=True)
+        shutil.copytree(self.ref, self.fmus)
+
+    def sync_tests(self) -> None:
+        """The tests of the checkout's HEAD (a commit made during a run judges the mutants after it)."""
+        head = self.head()
+        if head == self.commit:
+            return
+        archive = subprocess.run(["git", "-C", str(ROOT), "archive", head, "tests"], capture_output=True, check=True)
+        shutil.rmtree(self.tree / "tests")
+        subprocess.run(["tar", "-x", "-C", str(self.tree)], input=archive.stdout, check=True)
+        self.commit = head
+        print(f"tests now those of {head[:10]}", flush=True)
+
+    def _kernel_build(self, check=False):
+        code, out = sh([sys.executable, "setup.py", "build_ext", "--inplace", "--force", "-q"],
+                       cwd=self.tree, env=self.env())
+        # optional=True in setup.py: a kernel that does not compile leaves the install going;
+        # fast.check_library says whether the library now there is a build of this source
+        ok, why = sh([sys.executable, "-c", "import sys; from ballmill.physics import fast; "
+                      "why = fast.check_library(fast._find_library()) if fast._find_library() else 'none'; "
+                      "print(why); sys.exit(1 if why else 0)"], cwd=self.tree, env=self.env())
+        if check and (code != 0 or ok != 0):
+            raise SystemExit(f"the kernel does not build in {self.tree}:\n{out[-3000:]}\n{why}")
+        return code == 0 and ok == 0, out + why
+
+    def build(self, builds: list[str]) -> tuple[bool, str]:
+        """Rebuild the artifacts of a mutant; (built, the compiler's words)."""
+        if "kernel" in builds:
+            ok, out = self._kernel_build()
+            if not ok:
+                return False, out
+        natives = [b.split(":", 1)[1] for b in builds if b.startswith("native:")]
+        code = ("import sys; from pathlib import Path; from ballmill.fmi import native, build; "
+                "d = Path(sys.argv[1]); [native.build_native(n, d) for n in sys.argv[2].split(',') if n]; "
+                "[build.build_one(s, d) for s in build.scripts()] if sys.argv[3] == '1' else None")
+        rc, out = sh([sys.executable, "-c", code, str(self.fmus), ",".join(natives),
+                      "1" if "pythonfmu" in builds else "0"], cwd=self.tree, env=self.env())
+        return rc == 0, out
+
+    def restore(self, rel: str, builds: list[str]) -> None:
+        shutil.copy2(self.pristine / rel.replace("/", "_"), self.tree / rel)
+        if "kernel" in builds:
+            for so in (self.tree / "ballmill/physics").glob("_kernel*.so"):
+                so.unlink()
+            for so in self.pristine.glob("_kernel*.so"):
+                shutil.copy2(so, self.tree / "ballmill/physics" / so.name)
+        for b in builds:
+            if b.startswith("native:"):
+                name = b.split(":", 1)[1]
+                shutil.copy2(self.ref / f"{name}.fmu", self.fmus / f"{name}.fmu")
+            elif b == "pythonfmu":
+                shutil.rmtree(self.fmus / "pythonfmu")
+                shutil.copytree(self.ref / "pythonfmu", self.fmus / "pythonfmu")
+
+    def keep_originals(self, files: list[str]) -> None:
+        for rel in files:
+            shutil.copy2(self.tree / rel, self.pristine / rel.replace("/", "_"))
+
+    def pytest(self, files: list[str], k: str | None, timeout: float, first_failure=True):
+        present = [f for f in files if (self.tree / f).exists()]
+        cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "--tb=line", "-W", "ignore"]
+        if first_failure:  # the fast subset: the native flavour (native_only.py), up to the first failure
+            cmd += ["-x", "-p", "tests.mutation.c.native_only"]
+        if k:
+            cmd += ["-k", k]
+        t0 = time.monotonic()
+        code, out = sh(cmd + present, cwd=self.tree, env=self.env(), timeout=timeout)
+        return code, out, time.monotonic() - t0
+
+
+def verdict_of(code, out: str) -> tuple[str, str]:
+    """(killed | survived | error, detail) from pytest's exit."""
+    tail = [ln for ln in out.strip().splitlines() if ln.strip()]
+    last = tail[-1] if tail else ""
+    failed = next((ln for ln in tail if ln.startswith("FAILED") or ln.startswith("ERROR")), "")
+    if code == "timeout":
+        return "killed", "timeout"
+    if code == 0:
+        return "survived", last
+    if code == 1:
+        return "killed", (failed or last)[:300]
+    if isinstance(code, int) and code < 0:
+        return "killed", f"test process died of signal {-code}"
+    return "error", f"pytest exit {code}: {last[:300]}"
+
+
+def load_results(path: Path) -> dict:
+    out = {}
+    if path.exists():
+        for line in path.read_text().splitlines():
+            if line.strip():
+                r = json.loads(line)
+                out.setdefault(r["id"], {}).update(r)
+    return out
+
+
+def append(path: Path, record: dict) -> None:
+    with path.open("a") as f:
+        f.write(json.dumps(record) + "\n")
+
+
+def judge(scratch: Scratch, cfg: dict, m: dict, full: bool) -> dict:
+    fcfg = cfg["files"][m["file"]]
+    run = cfg["run"]
+    record = dict(id=m["id"], file=m["file"], line=m["line"], before=m["before"], after=m["after"])
+    shutil.copy2(m["path"], scratch.tree / m["file"])
+    try:
+        t0 = time.monotonic()
+        built, words = scratch.syntax_check(m["file"], Path(m["path"]), fcfg["builds"])
+        if built:
+            built, words = scratch.build(fcfg["builds"])
+        record["build_s"] = round(time.monotonic() - t0, 1)
+        if not built:
+            record.update(verdict="not built", detail=words.strip().splitlines()[-1][:300] if words.strip() else "")
+            return record
+        if full:
+            code, out, dt = scratch.pytest(fcfg["full"], None, run["full_timeout_s"], first_failure=False)
+            record["full_verdict"], record["full_detail"] = verdict_of(code, out)
+            record["full_s"] = round(dt, 1)
+            record["full_commit"] = scratch.commit
+        else:
+            code, out, dt = scratch.pytest(fcfg["fast"], run["fast_k"], run["timeout_s"])
+            record["verdict"], record["detail"] = verdict_of(code, out)
+            record["test_s"] = round(dt, 1)
+            record["commit"] = scratch.commit
+        return record
+    finally:
+        scratch.restore(m["file"], fcfg["builds"])
+
+
+# ----------------------------------------------------------------------------- the score
+def equivalents() -> dict:
+    if not EQUIVALENT.exists():
+        return {}
+    return {m["id"]: m for m in tomllib.loads(EQUIVALENT.read_text()).get("mutant", [])}
+
+
+def final_verdict(r: dict) -> str:
+    if r.get("verdict") in ("not built", "error", None):
+        return r.get("verdict") or "not run"
+    if r.get("full_verdict") == "killed":
+        return "killed"
+    return r["verdict"]
+
+
+def score(path: Path, survivors: bool, files: list[str]) -> int:
+    results = load_results(path)
+    eq = equivalents()
+    rows, problems = {}, []
+    for mid, m in eq.items():  # the list must not go stale
+        r = results.get(mid)
+        if r and (r.get("before"), r.get("after")) != (m.get("before"), m.get("after")):
+            problems.append(f"{mid}: equivalent.toml's change is not the mutant's now ({r.get('after')!r})")
+        if r and final_verdict(r) == "killed":
+            problems.append(f"{mid}: listed as equivalent but killed ({r.get('detail') or r.get('full_detail')})")
+    left = []
+    for mid, r in results.items():
+        row = rows.setdefault(r["file"], dict(killed=0, equivalent=0, survived=0, discarded=0, errors=0))
+        v = final_verdict(r)
+        if v == "not built":
+            row["discarded"] += 1
+        elif v == "error":
+            row["errors"] += 1
+        elif mid in eq and v != "killed":
+            row["equivalent"] += 1
+        elif v == "killed":
+            row["killed"] += 1
+        else:
+            row["survived"] += 1
+            left.append(r)
+    print("| file | judged | killed | equivalent | not killed | score | not built (discarded) |")
+    print("| --- | ---: | ---: | ---: | ---: | ---: | ---: |")
+    tot = dict(killed=0, equivalent=0, survived=0, discarded=0, errors=0)
+    for f in sorted(rows, key=lambda f: files.index(f) if f in files else 99):
+        row = rows[f]
+        for k in tot:
+            tot[k] += row[k]
+        judged = row["killed"] + row["equivalent"] + row["survived"]
+        denom = row["killed"] + row["survived"]
+        pct = f"{100 * row['killed'] / denom:.1f} %" if denom else "-"
+        print(f"| `{f}` | {judged} | {row['killed']} | {row['equivalent']} | {row['survived']} | {pct} | {row['discarded']} |")
+    judged = tot["killed"] + tot["equivalent"] + tot["survived"]
+    denom = tot["killed"] + tot["survived"]
+    pct = f"{100 * tot['killed'] / denom:.1f} %" if denom else "-"
+    print(f"| **total** | **{judged}** | **{tot['killed']}** | **{tot['equivalent']}** | **{tot['survived']}** "
+          f"| **{pct}** | **{tot['discarded']}** |")
+    if tot["errors"]:
+        print(f"\n{tot['errors']} mutant(s) whose test run errored (not counted): rerun them")
+    if survivors:
+        print(f"\nnot killed and not listed as equivalent ({len(left)}):")
+        for r in sorted(left, key=lambda r: (r["file"], r["line"])):
+            full = f" [full files: {r['full_verdict']}]" if "full_verdict" in r else " [full files: not run]"
+            print(f"  {r['id']} line {r['line']}{full}\n    - {r['before'].strip()}\n    + {r['after'].strip()}")
+    for p in problems:
+        print("equivalent.toml:", p)
+    return 1 if problems else 0
+
+
+def main(argv=None) -> int:
+    cfg = config()
+    files_all = list(cfg["files"])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--sample", type=int, default=300, help="mutants to judge (built ones; default 300)")
+    ap.add_argument("--seed", type=int, default=cfg["run"]["seed"])
+    ap.add_argument("--files", nargs="+", default=files_all, choices=files_all)
+    ap.add_argument("--results", type=Path, default=None,
+                    help="JSONL of verdicts (default scratch/results-seed<S>.jsonl)")
+    ap.add_argument("--scratch", type=Path, default=Path("/tmp/cmut"))
+    ap.add_argument("--score", type=Path, metavar="RESULTS", help="print the score of a results file")
+    ap.add_argument("--survivors", action="store_true", help="with --score: list the survivors")
+    ap.add_argument("--full", type=Path, metavar="RESULTS",
+                    help="run the survivors of RESULTS (equivalent ones included) on the full test files")
+    ap.add_argument("--ids", nargs="+", help="judge these mutants (FILE:N) only")
+    args = ap.parse_args(argv)
+    if args.score:
+        return score(args.score, args.survivors, files_all)
+    if shutil.which("mutate") is None:
+        raise SystemExit("universalmutator's `mutate` is not installed: pip install universalmutator")
+    scratch = Scratch(args.scratch)
+    results_path = args.full or args.results or args.scratch / f"results-seed{args.seed}.jsonl"
+    done = load_results(results_path)
+    scratch.setup(files_all)
+    scratch.keep_originals(files_all)
+    order = stratified(args.files, args.scratch, args.seed)
+    full = bool(args.full)
+    if args.ids:
+        order = [m for m in order if m["id"] in set(args.ids)]
+    elif full:  # the equivalent ones too: the full files must not kill them either
+        order = [m for m in order if m["id"] in done and done[m["id"]].get("verdict") == "survived"
+                 and "full_verdict" not in done[m["id"]]]
+    judged = sum(1 for r in done.values() if r.get("verdict") in ("killed", "survived"))
+    print(f"{len(order)} mutants in order; {judged} already judged in {results_path}", flush=True)
+    for m in order:
+        if not full and not args.ids:
+            if judged >= args.sample:
+                break
+            if m["id"] in done and done[m["id"]].get("verdict") != "error":
+                continue
+        scratch.sync_tests()
+        r = judge(scratch, cfg, m, full)
+        append(results_path, r)
+        done.setdefault(m["id"], {}).update(r)
+        if r.get("verdict") in ("killed", "survived"):
+            judged += 1
+        v = r.get("full_verdict") or r.get("verdict")
+        print(f"[{judged}] {m['id']} line {m['line']}: {v} (build {r.get('build_s')} s, tests "
+              f"{r.get('test_s', r.get('full_s'))} s) {r.get('detail', r.get('full_detail', ''))[:120]}",
+              flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
