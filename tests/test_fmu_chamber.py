@@ -27,7 +27,7 @@ import pytest
 from ballmill.fmi.interface import BALL_MOTION_OUTPUTS, BALL_OUTPUTS
 from ballmill.physics import Ball
 from ballmill.physics.turning import Fig1Machine, Spin, simulate_chamber
-from chamber_master import drive, inputs_of
+from chamber_master import drive
 from fmu_instance import Opened
 from tests.conformance.inputs import INPUTS as CRANK_INPUTS
 from tests.conformance.inputs import crank as crank_inputs
