@@ -76,6 +76,7 @@ def _run(args) -> int:
     from .fmi.build import BuildError
     from .scenario import report, runner
     from .scenario.spec import ScenarioError
+    _phases("imports")
     say = (lambda m: None) if args.quiet else _say  # --quiet: only errors
     try:
         sc, models, paths = runner.prepare(args.scenario, args.set or (),

@@ -53,6 +53,8 @@ PHASES = (  # (label, mark that ends it); the first starts at the process's laun
     ("results.csv, summary.json and the 4 plots", "results and plots"),
     ("leaving the process", "exit"),
 )
+
+
 def _env(tree: Path, **extra) -> dict:
     env = {k: v for k, v in os.environ.items() if k != "BALLMILL_PHASES"}
     return {**env, "PYTHONPATH": str(tree), **extra}
