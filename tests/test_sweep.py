@@ -163,10 +163,13 @@ def test_fast_start_point_reproduces_the_paper_numbers(tmp_path):
 @needs_kernel
 def test_resume_skips_finished_points_and_a_bad_point_is_a_failed_row(tmp_path):
     # n0 = 1e5 1/min passes the check before the run (within MotorStartup's range) but the
-    # kernel's RK4 at h = 0.01 s diverges on it: a failed row with the integrator's reason
+    # kernel's RK4 at h = 0.01 s diverges on it: a failed row with the integrator's reason. With
+    # the Richardson estimate's two full runs: the default one-pass run stops at the point's first
+    # invalid sample (it slips at once), before it diverges (tests/test_sweep_one_pass.py)
     out = tmp_path / "s"
-    first = run_study(build("fast_start", grid={"drive.n0": [60.0, 1e5]}), out, scheduler="in-process",
-                      progress=False, plots=False)
+    model = {"error": "richardson"}
+    first = run_study(build("fast_start", grid={"drive.n0": [60.0, 1e5]}, model=model), out,
+                      scheduler="in-process", progress=False, plots=False)
     assert (first.computed, first.failed) == (2, 1)
     bad = next(r for r in first.rows if r["drive.n0"] == 1e5)
     assert bad["status"] == "failed" and "non-finite" in bad["message"]
@@ -174,19 +177,19 @@ def test_resume_skips_finished_points_and_a_bad_point_is_a_failed_row(tmp_path):
     good = next(r for r in first.rows if r["drive.n0"] == 60.0)
     assert good["status"] == "ok" and good["N_max"] > 0
     # a larger grid over the same study: only the new points run; the old rows stay as they were
-    second = run_study(build("fast_start", grid={"drive.n0": [60.0, 1e5, 70.0]}), out, scheduler="in-process",
-                       progress=False, plots=False)
+    second = run_study(build("fast_start", grid={"drive.n0": [60.0, 1e5, 70.0]}, model=model), out,
+                       scheduler="in-process", progress=False, plots=False)
     assert (second.computed, second.skipped) == (1, 2)
     rows = read_rows(out / "results.parquet")
     assert [r["point"] for r in rows] == [0, 1, 2]
     assert rows[0] == good and rows[1]["status"] == "failed"
     # failed points again, on request
-    third = run_study(build("fast_start", grid={"drive.n0": [60.0, 1e5, 70.0]}), out, scheduler="in-process",
-                      progress=False, plots=False, retry_failed=True)
+    third = run_study(build("fast_start", grid={"drive.n0": [60.0, 1e5, 70.0]}, model=model), out,
+                      scheduler="in-process", progress=False, plots=False, retry_failed=True)
     assert (third.computed, third.skipped, third.failed) == (1, 2, 1)
     # another study into the same folder is refused, not mixed
     with pytest.raises(StudyError, match="another study"):
-        run_study(build("fast_start", grid={"drive.n0": [60.0]}, set_=["drive.t0=2"]), out,
+        run_study(build("fast_start", grid={"drive.n0": [60.0]}, set_=["drive.t0=2"], model=model), out,
                   scheduler="in-process", progress=False, plots=False)
 
 
