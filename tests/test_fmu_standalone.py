@@ -18,7 +18,9 @@ SCRIPT = textwrap.dedent("""
     # hide the installed (editable) ballmill: only the FMUs' bundled copies may be used
     sys.meta_path[:] = [f for f in sys.meta_path if "ballmill" not in str(getattr(f, "__module__", ""))
                         and "ballmill" not in type(f).__module__]
-    sys.path[:] = [p for p in sys.path if p not in ("", ".") and not p.endswith("/main")]
+    import os
+    sys.path[:] = [p for p in sys.path if p not in ("", ".")
+                   and not os.path.isfile(os.path.join(p, "ballmill", "__init__.py"))]
     for name in [n for n in sys.modules if n.split(".")[0] == "ballmill"]:
         del sys.modules[name]
     try:

@@ -1,7 +1,7 @@
-"""The conformance numbers for a build of the three FMUs (not a test): each point's case as the
-issue describes it, printed as it is measured.
+"""The conformance numbers for a build of the three FMUs (not a test): each conformance
+case, printed as it is measured.
 
-    python tests/conformance/issue9_numbers.py BUILD_DIR     (e.g. build)
+    python tests/conformance/numbers.py BUILD_DIR     (e.g. build)
 
 Run from a checkout; the FMUs are driven through fmpy only (the host does not import
 ballmill, so an older build runs its own bundled copy)."""
