@@ -143,9 +143,10 @@ def test_a_bounce_sequence_near_e_1_ends_by_the_rest_rule_at_a_bounded_cost():
     wide, so only the model ends the sequence): the k-th impact comes at e^(k-1) v1, so the
     rest rule (rebound e v_k < v_rest) ends it at the K-th impact, K the first k with
     e^k v1 < v_rest (193 here): exactly K events, the last at t_inf - 2 t1 e^K / (1 - e).
-    The hops shrink by four decades on the way, the work per hop does not: after a rebound
-    the first step is a quarter of the hop and steps grow at most tenfold, so a hop takes two
-    steps, one more where a grid point cuts it."""
+    The hops shrink by four decades on the way, the work per hop does not: free flight is a
+    quadratic the method follows to round-off, so the controller grows the step tenfold after
+    the first (a quarter of the hop at most, `HybridBall.first_step`) and a hop takes two
+    steps, one more where a grid point cuts it (measured: 2.2 per impact)."""
     b = Ball()
     h0, e, v_rest = 2e-3, 0.95, 1e-5
     v1, t1 = math.sqrt(2 * G * h0), math.sqrt(2 * h0 / G)

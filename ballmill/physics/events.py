@@ -1,4 +1,4 @@
-"""Event-driven integration: one driver for every model whose motion switches between modes.
+"""Event-driven integration: the one driver every model of the library runs on.
 
 A *system* integrated here has a finite set of modes (integers). In each mode it has a
 right-hand side, an `Integrator`, and guard functions g(t, y); a guard *fires* when it
@@ -6,9 +6,22 @@ crosses from g > 0 to g <= 0 (a guard is armed once it has been seen positive, s
 that starts at or below zero, as the gap of a flight that has just left the wall, does
 not fire at once). At the event the system's exact map (`jump`) gives the new mode and
 state, and the integration restarts there. Without events this is a plain integration
-over the user's grid: the integrator's steps land on every grid point, as
+over the user's grid: the integrator's steps land on every grid point (and on every
+``stops`` time, breakpoints of the right-hand side that are not sampled), as
 `Integrator.advance` from one grid point to the next does, so a scene that never switches
-gives the same floats as a loop of `advance` calls (`model.simulate`'s Python path).
+gives the same floats as a loop of `advance` calls.
+
+Who runs on it: the hybrid ball (`hybrid.HybridBall`: rolling, sliding, flight, impacts);
+and, as `Plain` systems (one mode, no guards: the loop is the integrator's steps over the
+grid, nothing more), the rolling models' Python paths (`model.simulate`,
+`turning.model.simulate_general`, and the intervals the compiled kernel hands back to
+Python, `model.record_interval`) and the absorber's structure + ball and bare structure
+(`absorber.model.simulate_absorber`, `simulate_structure`, with a ground record's samples
+as stops). The compiled kernel's own grid loops (_kernel.c) mirror it for the rolling
+models, bit for bit.
+
+The adaptive methods and RK4 with its fixed step are driven alike: an RK4 step is cut short
+where a grid point, a stop or an event ends it (the next one starts there, with h_fixed).
 
 Locating an event (docs/design.md section 14):
 
