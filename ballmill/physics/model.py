@@ -1,9 +1,12 @@
 """The ball model: formulation + integrator + state, one interval at a time.
 
-`BallModel` is what both the monolithic driver (`simulate`) and the
+`BallModel` is what both the monolithic run (`simulate`) and the
 BallInShell FMU use. Its `advance` is a pure step: it takes a `BallState`,
 returns a new one, and leaves the old one intact when it raises, so a
-failing step never loses the last good state.
+failing step never loses the last good state. `simulate` runs over its grid
+in the compiled kernel or, in Python, on the library's one integration driver
+(`events.integrate`, through `grid_run`), as the turning chamber's
+`simulate_general` does.
 """
 from __future__ import annotations
 
