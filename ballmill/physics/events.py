@@ -245,7 +245,7 @@ def integrate(system, mode: int, t: float, y, times, *, h: float | None = None, 
                 hit = None
                 if not kinds:  # no events possible in this mode: a plain integration
                     for step in integ.steps(f, t, y, target, h, seg):
-                        y, h = step.y1, step.h_next
+                        t, y, h = step.t1, step.y1, step.h_next
                     t = target
                     continue
                 armed = [v > lv for v, lv in zip(G(t, y), levels)]
