@@ -50,7 +50,6 @@ ground). `AbsorberResult.energy_residual` is W_exc - (E - E_0) - W_damp - W_ball
 """
 from __future__ import annotations
 
-import bisect
 import math
 from dataclasses import dataclass, field
 
@@ -59,6 +58,7 @@ import numpy as np
 from ballmill.physics import outputs as _out
 from ballmill.physics.equations import ROLLING_EPS, VectorFormulation, omega_dot, omega_dot_lossy
 from ballmill.physics.errors import ParameterError
+from ballmill.physics.events import Plain, integrate
 from ballmill.physics.integrators import Integrator
 from ballmill.physics.model import judge
 from ballmill.physics.params import Ball
@@ -343,6 +343,11 @@ class AbsorberResult:
 RECORDS = ("full", "motion")
 
 
+def _state_row(t, z):
+    """The driver's grid row of the absorber's runs: the state itself."""
+    return z
+
+
 def simulate_absorber(system: StructureBall, t_end: float, dt: float, state: AbsorberState | None = None,
                       tol: float = 1e-9, method: str = "DOP853", x_ref: float = 1e-3,
                       record: str = "full", h_max: float | None = None,
@@ -401,20 +406,17 @@ def simulate_absorber(system: StructureBall, t_end: float, dt: float, state: Abs
                 steps, nfev, h = steps + st_steps, nfev + st_nfev, h_c
                 z, t, i = zs[reached].copy(), float(times[reached]), reached + 1
                 continue
-        te = float(times[i])  # this interval in Python (the kernel handed it back, or is not used)
-        try:
-            j = bisect.bisect_right(bps, t)
-            while j < len(bps) and bps[j] < te - 1e-12:
-                z, h, st = integ.advance(f, t, z, bps[j], h)
-                steps, nfev, t = steps + st.steps, nfev + st.nfev, bps[j]
-                j += 1
-            z, h, st = integ.advance(f, t, z, te, h)
-            steps, nfev, t = steps + st.steps, nfev + st.nfev, te
-        except ArithmeticError as e:
-            success, message, last = False, f"stopped at t = {t:.6g} s: {e}", i - 1
+        # in Python on the event-driven driver: the interval the kernel handed back (or,
+        # before the kernel's first chunk, the first one), or all the rest without the kernel
+        upto = i if compiled is not None else n_steps
+        run = integrate(Plain(integ, f, _state_row), 0, t, z, times[i:upto + 1], h=h, stops=bps)
+        steps, nfev = steps + run.stats.steps, nfev + run.stats.nfev
+        done = len(run.rows)
+        zs[i:i + done] = run.rows
+        if not run.success:
+            success, message, last = False, f"stopped at t = {run.t_last:.6g} s: {run.error}", i - 1 + done
             break
-        zs[i] = z
-        i += 1
+        z, h, t, i = run.y, run.h, run.t_last, i + done
     times, zs = times[:last + 1], zs[:last + 1]
     data = {}
     if record == "full":
@@ -458,17 +460,10 @@ def simulate_structure(structure: Structure, excitation, t_end: float, dt: float
     n_steps = int(round(t_end / dt))
     times = dt * np.arange(n_steps + 1)
     bps = tuple(getattr(excitation, "breakpoints", lambda: ())())
-    zs = np.zeros((n_steps + 1, ns + 2))
-    z, h, t = zs[0].copy(), None, 0.0
-    for i in range(1, n_steps + 1):
-        te = float(times[i])
-        j = bisect.bisect_right(bps, t)
-        while j < len(bps) and bps[j] < te - 1e-12:
-            z, h, _ = integ.advance(f, t, z, bps[j], h)
-            t, j = bps[j], j + 1
-        z, h, _ = integ.advance(f, t, z, te, h)
-        t = te
-        zs[i] = z
+    run = integrate(Plain(integ, f, _state_row), 0, 0.0, np.zeros(ns + 2), times, stops=bps)
+    if not run.success:
+        raise run.error
+    zs = np.array(run.rows)
     rows = []
     for tt, zz in zip(times, zs):
         zl = zz.tolist()

@@ -1,4 +1,4 @@
-"""Event-driven integration: one driver for every model whose motion switches between modes.
+"""Event-driven integration: the one driver every model of the library runs on.
 
 A *system* integrated here has a finite set of modes (integers). In each mode it has a
 right-hand side, an `Integrator`, and guard functions g(t, y); a guard *fires* when it
@@ -6,9 +6,22 @@ crosses from g > 0 to g <= 0 (a guard is armed once it has been seen positive, s
 that starts at or below zero, as the gap of a flight that has just left the wall, does
 not fire at once). At the event the system's exact map (`jump`) gives the new mode and
 state, and the integration restarts there. Without events this is a plain integration
-over the user's grid: the integrator's steps land on every grid point, as
+over the user's grid: the integrator's steps land on every grid point (and on every
+``stops`` time, breakpoints of the right-hand side that are not sampled), as
 `Integrator.advance` from one grid point to the next does, so a scene that never switches
-gives the same floats as a loop of `advance` calls (`model.simulate`'s Python path).
+gives the same floats as a loop of `advance` calls.
+
+Who runs on it: the hybrid ball (`hybrid.HybridBall`: rolling, sliding, flight, impacts);
+and, as `Plain` systems (one mode, no guards: the loop is the integrator's steps over the
+grid, nothing more), the rolling models' Python paths (`model.simulate`,
+`turning.model.simulate_general`, and the intervals the compiled kernel hands back to
+Python, `model.record_interval`) and the absorber's structure + ball and bare structure
+(`absorber.model.simulate_absorber`, `simulate_structure`, with a ground record's samples
+as stops). The compiled kernel's own grid loops (_kernel.c) mirror it for the rolling
+models, bit for bit.
+
+The adaptive methods and RK4 with its fixed step are driven alike: an RK4 step is cut short
+where a grid point, a stop or an event ends it (the next one starts there, with h_fixed).
 
 Locating an event (docs/design.md section 14):
 
@@ -46,6 +59,8 @@ The system's interface (duck-typed):
 """
 from __future__ import annotations
 
+import bisect
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -70,7 +85,8 @@ class Event:
 @dataclass
 class EventRun:
     """What `integrate` returns: the grid times reached, one `sample` row per time, the
-    events in order, and whether the run reached the end (``message`` says why not)."""
+    events in order, and whether the run reached the end (``message`` says why not, and
+    ``error`` is the exception that stopped it)."""
 
     t: np.ndarray
     rows: list
@@ -78,8 +94,13 @@ class EventRun:
     success: bool = True
     message: str = "completed"
     stats: StepStats = field(default_factory=StepStats)
+    # the state at the last grid point reached (continue from here): mode, state vector, the
+    # integrator's next step, and its time
     mode: int = 0
     y: np.ndarray | None = None
+    h: float | None = None
+    t_last: float = math.nan
+    error: Exception | None = None  # what stopped the run (None: it completed)
 
 
 def illinois(phi, a: float, fa: float, b: float, fb: float, xtol: float, max_iter: int = 200):
@@ -180,43 +201,66 @@ def _detect(step, f, G, levels, armed, scan):
     return []
 
 
-def integrate(system, mode: int, t: float, y, times, *, scan: int = 3, xtol: float = 1e-11,
-              burst: int = 100, max_rate: float = 1e4) -> EventRun:
+def integrate(system, mode: int, t: float, y, times, *, h: float | None = None, stops=(),
+              scan: int = 3, xtol: float = 1e-11, burst: int = 100,
+              max_rate: float = 1e4) -> EventRun:
     """Integrate ``system`` from (t, mode, y) over the grid ``times`` (times[0] == t is
     sampled as it is), handling every event on the way (module docstring). Returns an
-    `EventRun`; a step failure or a Zeno sequence ends it early with success False."""
+    `EventRun`; a step failure or a Zeno sequence ends it early with success False.
+
+    h: the integrator's step to try first (None: its own starting step), as
+        `Integrator.advance` takes it; the run's last one comes back in ``EventRun.h``.
+    stops: times (increasing) the integration lands on without sampling them, e.g. the
+        breakpoints of a piecewise excitation: an interval of the grid is integrated in
+        pieces up to each stop inside it (one less than 1e-12 s before the grid point is
+        left out), as a loop of `Integrator.advance` calls from stop to stop does.
+
+    The work of an interval is added to ``EventRun.stats`` when the interval is complete:
+    a failing interval's is not counted (as `Integrator.advance`, which raises, reports
+    none)."""
     times = np.asarray(times, dtype=float)
     y = np.array(y, dtype=float)
     t = float(t)
     stats = StepStats()
     events: list[Event] = []
     rows = []
-    h = None
-    success, message = True, "completed"
+    success, message, error = True, "completed", None
+    stops = tuple(float(s) for s in stops)
     start = 1 if len(times) and times[0] == t else 0
     if start:
         rows.append(system.sample(mode, t, y))
+    last = (mode, t, y, h)  # the state at the last grid point reached
     for i in range(start, len(times)):
         t_next = float(times[i])
+        seg = StepStats()
         try:
+            j = bisect.bisect_right(stops, t)
             while t < t_next:
+                while j < len(stops) and stops[j] <= t:
+                    j += 1
+                target = stops[j] if j < len(stops) and stops[j] < t_next - 1e-12 else t_next
                 kinds, G, levels = system.guards(mode)
                 f = system.rhs(mode)
                 integ = system.integrator(mode)
-                armed = [v > lv for v, lv in zip(G(t, y), levels)] if kinds else []
-                if kinds and hasattr(system, "armed"):
-                    armed = [a or b for a, b in zip(armed, system.armed(mode, t, y))]
                 hit = None
-                for step in integ.steps(f, t, y, t_next, h, stats):
-                    for j, ta, tb in (_detect(step, f, G, levels, armed, scan) if kinds else ()):
-                        loc = _locate(integ, f, step, G, j, ta, tb, xtol)
+                if not kinds:  # no events possible in this mode: a plain integration
+                    for step in integ.steps(f, t, y, target, h, seg):
+                        t, y, h = step.t1, step.y1, step.h_next
+                    t = target
+                    continue
+                armed = [v > lv for v, lv in zip(G(t, y), levels)]
+                if hasattr(system, "armed"):
+                    armed = [a or b for a, b in zip(armed, system.armed(mode, t, y))]
+                for step in integ.steps(f, t, y, target, h, seg):
+                    for j_, ta, tb in _detect(step, f, G, levels, armed, scan):
+                        loc = _locate(integ, f, step, G, j_, ta, tb, xtol)
                         if loc is not None and (hit is None or loc[0] < hit[1]):
-                            hit = (kinds[j], loc[0], loc[1], loc[2], step.t1 - step.t0)
+                            hit = (kinds[j_], loc[0], loc[1], loc[2], step.t1 - step.t0)
                     if hit is not None:
                         break
                     t, y, h = step.t1, step.y1, step.h_next
                 if hit is None:
-                    t = t_next
+                    t = target
                     continue
                 kind, t_e, y_e, width, h_used = hit
                 t_e = float(t_e)
@@ -233,11 +277,40 @@ def integrate(system, mode: int, t: float, y, times, *, scan: int = 3, xtol: flo
                                 f"(the last: {kind!r}), more than the allowed rate "
                                 f"{max_rate:g} events/s")
         except (_Zeno, StepFailure, ArithmeticError) as e:
-            success = False
+            success, error = False, e
             message = f"stopped at t = {t:.9g} s: {e}"
             break
+        stats.steps += seg.steps
+        stats.rejected += seg.rejected
+        stats.nfev += seg.nfev
         rows.append(system.sample(mode, t, y))
-    return EventRun(times[:len(rows)], rows, events, success, message, stats, mode, y)
+        last = (mode, t, y, h)
+    mode, t_last, y, h = last
+    return EventRun(times[:len(rows)], rows, events, success, message, stats, mode, y, h,
+                    t_last, error)
+
+
+class Plain:
+    """A system of one mode without events (mode 0): dy/dt = f(t, y) integrated by
+    ``integrator``, each grid point recorded as ``sample(t, y)``. What the rolling models
+    (`model.simulate`, `turning.model.simulate_general`) and the absorber
+    (`absorber.model.simulate_absorber`) run on the driver: with no guard the driver's
+    loop is a plain sequence of the integrator's steps over the grid."""
+
+    def __init__(self, integrator, f, sample):
+        self._integ, self._f, self._sample = integrator, f, sample
+
+    def integrator(self, mode):
+        return self._integ
+
+    def rhs(self, mode):
+        return self._f
+
+    def guards(self, mode):
+        return (), None, ()
+
+    def sample(self, mode, t, y):
+        return self._sample(t, y)
 
 
 class _Zeno(Exception):

@@ -119,7 +119,8 @@ class HybridBall:
     loss, first slip and flight), so one instance serves one run."""
 
     def __init__(self, ball: Ball, motion, contact: Contact = Contact(), method: str = "DOP853",
-                 tol: float = 1e-9, h_max: float | None = None, energy: bool = True):
+                 tol: float = 1e-9, h_max: float | None = None, energy: bool = True,
+                 h_fixed: float = 1e-3):
         if ball.rolling_resistance or ball.drag:
             raise ParameterError(
                 f"the hybrid model has no rolling resistance or drag in sliding and flight; got "
@@ -135,22 +136,22 @@ class HybridBall:
         # the chamber turning) on the general one
         self.turning = isinstance(motion, ChamberMotion)
         if self.turning:
-            self.rolling = _turning.ChamberModel(ball, method, tol=tol, h_max=h_max)
+            self.rolling = _turning.ChamberModel(ball, method, tol=tol, h_fixed=h_fixed, h_max=h_max)
             self._f_roll = self.rolling.rhs(motion)
             self._c_roll, self._oc_roll = _turning.constants(ball), _turning.out_constants(ball)
             project, check = _turning._project, (lambda y: None)
         else:
-            self.rolling = BallModel(ball, "vector", method, tol=tol, h_max=h_max)
+            self.rolling = BallModel(ball, "vector", method, tol=tol, h_fixed=h_fixed, h_max=h_max)
             self._f_roll = self.rolling.rhs(motion.accel)
             project, check = self.rolling.form.project, self.rolling.form.check
         v_ref = math.sqrt(ball.g * ball.r)
         e_ref = ball.m * ball.g * ball.r
         q = [e_ref, e_ref]  # W, E_friction
         roll_scale = list(self.rolling.integrator.scale) + q
-        self._int_roll_q = Integrator(method, tol=tol, scale=roll_scale, h_max=h_max,
+        self._int_roll_q = Integrator(method, tol=tol, scale=roll_scale, h_fixed=h_fixed, h_max=h_max,
                                       project=project, check=check)
         free = [ball.r] * 3 + [v_ref] * 3 + [v_ref / ball.r] * 3 + q
-        self._int_free = Integrator(method, tol=tol, scale=free, h_max=h_max)
+        self._int_free = Integrator(method, tol=tol, scale=free, h_fixed=h_fixed, h_max=h_max)
         self.book = dict(E_impact=0.0, n_impacts=0, v_impact_max=0.0, t_first_slip=math.nan,
                          t_first_flight=math.nan, Q=(0.0, 0.0))
         self._seed = (0.0, 0.0, 0.0)
@@ -622,7 +623,7 @@ class HybridTrajectory:
 def simulate_hybrid(ball: Ball, motion, t_end: float, dt: float, contact: Contact = Contact(), *,
                     initial=None, t0: float = 0.0, method: str = "DOP853", tol: float = 1e-9,
                     h_max: float | None = None, energy: bool = True, burst: int = 100,
-                    max_rate: float = 1e4) -> HybridTrajectory:
+                    max_rate: float = 1e4, h_fixed: float = 1e-3) -> HybridTrajectory:
     """The ball in a chamber moved by ``motion`` (a platform motion: translation; a
     `turning.motions.ChamberMotion`: any rigid motion) with rolling, sliding, flight and
     impacts, sampled every dt [s] from t0 to t_end.
@@ -634,13 +635,17 @@ def simulate_hybrid(ball: Ball, motion, t_end: float, dt: float, contact: Contac
     energy: carry the chamber's work W_chamber in the rolling mode too (the energy balance in
         every mode); False integrates rolling exactly as `simulate` does (the same floats
         while the ball rolls) and leaves W_chamber NaN after rolling.
+    method, tol, h_fixed, h_max: the integrator (`integrators.Integrator`) of every mode:
+        DOP853 or RK45 adaptive at tol, or RK4 with the fixed step h_fixed [s] (the last
+        step before a grid point or an event shortened to land there); with either, events
+        are located on the method's own step from the step's start (events.py).
     burst, max_rate: the Zeno guard of `events.integrate`.
     """
     if not (dt > 0 and math.isfinite(dt)):
         raise ValueError(f"dt must be positive and finite, got dt = {dt!r} s")
     if not (math.isfinite(t_end) and t_end >= t0):
         raise ValueError(f"t_end must be finite and >= t0 = {t0!r} s, got t_end = {t_end!r} s")
-    system = HybridBall(ball, motion, contact, method, tol, h_max, energy)
+    system = HybridBall(ball, motion, contact, method, tol, h_max, energy, h_fixed)
     if initial is None:  # at rest relative to the chamber (co-rotating) at its lowest point
         A, vA, _, Om, _ = system.chamber(t0)
         Q = motion.state(t0)[15:24] if system.turning else (1, 0, 0, 0, 1, 0, 0, 0, 1)

@@ -1,9 +1,12 @@
 """The ball model: formulation + integrator + state, one interval at a time.
 
-`BallModel` is what both the monolithic driver (`simulate`) and the
+`BallModel` is what both the monolithic run (`simulate`) and the
 BallInShell FMU use. Its `advance` is a pure step: it takes a `BallState`,
 returns a new one, and leaves the old one intact when it raises, so a
-failing step never loses the last good state.
+failing step never loses the last good state. `simulate` runs over its grid
+in the compiled kernel or, in Python, on the library's one integration driver
+(`events.integrate`, through `grid_run`), as the turning chamber's
+`simulate_general` does.
 """
 from __future__ import annotations
 
@@ -13,6 +16,7 @@ from typing import Callable
 
 import numpy as np
 
+from . import events as _events
 from . import fast
 from . import outputs as _out
 from .equations import make_formulation
@@ -248,39 +252,75 @@ def simulate(model: BallModel, motion, t_end: float, dt: float, state: BallState
         raise ParameterError(
             f"state.y must hold the {size} coordinates of the {model.formulation!r} formulation "
             f"({'n, omega' if size == 6 else 'xC, yC, omega'}), got shape {np.shape(state.y)}")
+    return grid_run(model, motion, fast, t_end, dt, state, outputs, kernel, "simulate",
+                    model.rhs(motion.accel), _sampler(model, motion), _out.Outputs._fields)
+
+
+def grid_run(model, motion, compiled, t_end: float, dt: float, state: BallState, outputs: bool,
+             kernel: str, who: str, f, outputs_at, fields) -> Trajectory:
+    """A rolling model's run sampled every dt from state.t to t_end (`simulate`,
+    `turning.model.simulate_general`): in the compiled kernel (``compiled``: the module with
+    its ``applicable(model, motion, state)`` and ``simulate(model, motion, times, state,
+    outputs)``) when ``kernel`` allows it and it covers the run, else in Python
+    (`run_python`: the event-driven driver; right-hand side f, outputs_at(t, y) the row of
+    output columns ``fields``). Both give the same `Trajectory`, judged for validity."""
     n_steps = int(round((t_end - state.t) / dt))
     times = state.t + dt * np.arange(n_steps + 1)
+    run = None
     if kernel != "python":
-        why = fast.applicable(model, motion, state)
+        why = compiled.applicable(model, motion, state)
         if not why and n_steps < 1:
             why = "no interval to integrate"
         if not why:
-            ys, arr, success, message, last = fast.simulate(model, motion, times, state, outputs)
-            out = {name: arr[:, j] for j, name in enumerate(_out.Outputs._fields)} if outputs else {}
-            return Trajectory(times[:last + 1], ys, out, success, message, model.info).judge(model.ball.mu)
-        if kernel == "c":
-            raise fast.KernelUnavailable(f"simulate(kernel='c'): {why}")
-    ys = np.empty((n_steps + 1, state.y.size))
-    outs = []
-    accel = motion.accel
-    success, message, last = True, "completed", n_steps
-    for i, t in enumerate(times):
-        if i:
-            try:
-                state = model.advance(state, float(t), accel)
-            except ArithmeticError as e:
-                success, message, last = False, _stopped(times, i, e), i - 1
-                break
-        ys[i] = state.y
-        if outputs:
-            x, yy, _, _, ax, ay = motion.state(float(t))
-            outs.append(model.outputs(state, ax, ay, x, yy))
-    times, ys = times[:last + 1], ys[:last + 1]
-    out = {}
-    if outputs and outs:
-        arr = np.array([tuple(o) for o in outs], dtype=float)
-        out = {name: arr[:, j] for j, name in enumerate(_out.Outputs._fields)}
-    return Trajectory(times, ys, out, success, message, model.info).judge(model.ball.mu)
+            run = compiled.simulate(model, motion, times, state, outputs)
+        elif kernel == "c":
+            raise fast.KernelUnavailable(f"{who}(kernel='c'): {why}")
+    if run is None:
+        run = run_python(model, f, outputs_at, times, state, outputs)
+    ys, arr, success, message, last = run
+    out = {name: arr[:, j] for j, name in enumerate(fields)} if outputs and last >= 0 else {}
+    return Trajectory(times[:last + 1], ys, out, success, message, model.info).judge(model.ball.mu)
+
+
+def _sampler(model: BallModel, motion):
+    """outputs(t, y): the `Outputs` of state y at time t (the platform's state from motion)."""
+    def outputs(t, y):
+        x, yy, _, _, ax, ay = motion.state(t)
+        return tuple(model.outputs(BallState(t, y), ax, ay, x, yy))
+    return outputs
+
+
+def python_grid(model, f, outputs_at, times, state: BallState, outputs: bool = True):
+    """A rolling model's run in Python over the grid ``times`` (times[0] = state.t, or the
+    first interval's end when state.t is its start), on the event-driven driver without
+    events (`events.Plain`): `simulate`'s and `turning.model.simulate_general`'s Python path
+    and the intervals the compiled kernel hands back (`record_interval`). f(t, y) is the
+    right-hand side, outputs_at(t, y) a row of outputs; the work goes to ``model.info``.
+
+    Returns (run, ys, outputs or None): the driver's `events.EventRun` (success, error, the
+    last state and step) and the states and outputs on its grid, run.t."""
+    def sample(t, y):
+        return y, (outputs_at(t, y) if outputs else None)
+
+    run = _events.integrate(_events.Plain(model.integrator, f, sample), 0, state.t, state.y, times,
+                            h=state.h)
+    info = model.info
+    info.steps += run.stats.steps
+    info.rejected += run.stats.rejected
+    info.nfev += run.stats.nfev
+    n = len(run.rows)
+    ys = np.array([r[0] for r in run.rows], dtype=float).reshape(n, np.size(state.y))
+    arr = np.array([r[1] for r in run.rows], dtype=float).reshape(n, -1) if outputs and n else None
+    return run, ys, arr
+
+
+def run_python(model, f, outputs_at, times, state: BallState, outputs: bool = True):
+    """`python_grid` over the whole grid (times[0] = state.t), as `fast.run_grid` returns
+    a kernel run: (ys, outputs or None, success, message, last), the message on failure
+    "stopped at t = <the last grid time reached> s: <why>"."""
+    run, ys, arr = python_grid(model, f, outputs_at, times, state, outputs)
+    message = run.message if run.success else f"stopped at t = {run.t_last:.6g} s: {run.error}"
+    return ys, arr, run.success, message, len(run.rows) - 1
 
 
 def _stopped(times, i, e) -> str:
@@ -291,12 +331,18 @@ def record_python(model: BallModel, motion, times, state: BallState, i: int, ys,
     """One interval of `simulate`'s loop in Python, times[i - 1] -> times[i], recorded
     in row i of ys and outs (None: no outputs). Returns (ok, message, state); the
     compiled kernel hands over the intervals it cannot do through this."""
-    try:
-        state = model.advance(state, float(times[i]), motion.accel)
-    except ArithmeticError as e:
-        return False, _stopped(times, i, e), state
-    ys[i] = state.y
+    return record_interval(model, model.rhs(motion.accel), _sampler(model, motion), times, state, i,
+                           ys, outs)
+
+
+def record_interval(model, f, outputs_at, times, state: BallState, i: int, ys, outs):
+    """`python_grid` over the one interval times[i - 1] -> times[i] from ``state``, recorded in
+    row i of ys and outs (None: no outputs). Returns (ok, message, state): on failure the
+    message and ``state`` itself, untouched."""
+    run, y1, o1 = python_grid(model, f, outputs_at, times[i:i + 1], state, outs is not None)
+    if not run.success:
+        return False, _stopped(times, i, run.error), state
+    ys[i] = y1[0]
     if outs is not None:
-        x, yy, _, _, ax, ay = motion.state(float(times[i]))
-        outs[i] = tuple(model.outputs(state, ax, ay, x, yy))
-    return True, "completed", state
+        outs[i] = o1[0]
+    return True, "completed", BallState(float(times[i]), y1[0], run.h)

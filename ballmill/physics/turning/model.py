@@ -77,7 +77,7 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..integrators import Integrator
-from ..model import KERNELS, BallModel, BallState, StepInfo, Trajectory, _stopped, simulate
+from ..model import KERNELS, BallModel, BallState, StepInfo, Trajectory, grid_run, record_interval, simulate
 from ..params import Ball
 from .motions import ChamberMotion, Translation
 
@@ -342,49 +342,22 @@ def simulate_general(model: ChamberModel, motion: ChamberMotion, t_end: float, d
     if kernel not in KERNELS:
         raise ValueError(f"kernel must be one of {KERNELS}, got {kernel!r}")
     state = state or model.initial(motion)
-    n_steps = int(round((t_end - state.t) / dt))
-    times = state.t + dt * np.arange(n_steps + 1)
-    if kernel != "python":
-        why = fast_turning.applicable(model, motion, state)
-        if not why and n_steps < 1:
-            why = "no interval to integrate"
-        if not why:
-            ys, arr, success, message, last = fast_turning.simulate(model, motion, times, state, outputs)
-            out = _columns(arr) if outputs else {}
-            return Trajectory(times[:last + 1], ys, out, success, message, model.info).judge(model.ball.mu)
-        if kernel == "c":
-            raise fast_turning.KernelUnavailable(f"simulate_general(kernel='c'): {why}")
-    ys = np.empty((n_steps + 1, 6))
-    outs = []
-    success, message, last = True, "completed", n_steps
-    for i, t in enumerate(times):
-        if i:
-            try:
-                state = model.advance(state, float(t), motion)
-            except ArithmeticError as e:
-                success, message, last = False, _stopped(times, i, e), i - 1
-                break
-        ys[i] = state.y
-        if outputs:
-            outs.append(tuple(model.outputs(state, motion)))
-    out = _columns(np.array(outs, dtype=float)) if outputs and outs else {}
-    return Trajectory(times[:last + 1], ys[:last + 1], out, success, message, model.info).judge(model.ball.mu)
+    return grid_run(model, motion, fast_turning, t_end, dt, state, outputs, kernel, "simulate_general",
+                    model.rhs(motion), _sampler(model, motion), ChamberOutputs._fields)
 
 
-def _columns(arr) -> dict:
-    return {name: arr[:, j] for j, name in enumerate(ChamberOutputs._fields)}
+def _sampler(model, motion):
+    """outputs(t, y): the `ChamberOutputs` of state y at time t."""
+    oc = model._oc
+
+    def outputs(t, y):
+        return tuple(evaluate_c(oc, y.tolist(), motion.state(t)))
+    return outputs
 
 
 def record_python(model, motion, times, state, i, ys, outs):
     """One interval of `simulate_general`'s loop in Python (the kernel hands failures here)."""
-    try:
-        state = model.advance(state, float(times[i]), motion)
-    except ArithmeticError as e:
-        return False, _stopped(times, i, e), state
-    ys[i] = state.y
-    if outs is not None:
-        outs[i] = tuple(model.outputs(state, motion))
-    return True, "completed", state
+    return record_interval(model, model.rhs(motion), _sampler(model, motion), times, state, i, ys, outs)
 
 
 def simulate_chamber(ball: Ball, motion: ChamberMotion, t_end: float, dt: float, xC0: float = 0.0,

@@ -1,0 +1,172 @@
+"""Benchmark section "The hybrid ball on the event-driven driver" of BENCHMARKS.md.
+
+    ballmill bench --section hybrid [--quick]     run only this section and splice it into the report
+
+What `simulate_hybrid` (ballmill/physics/hybrid.py, on `events.integrate`) costs, in Python (the
+compiled kernel does not have the hybrid model), next to the rolling model it runs while the
+ball rolls:
+
+1. a scene that stays rolling (the crank start with t0 = 2.5 s over its first 2 s):
+   `simulate` in Python and in the kernel, `simulate_hybrid` without and with the energy
+   quadrature (the same driver; the hybrid evaluates its guards on each step's dense output);
+2. scenes with events: a ball dropped on the bottom of a chamber at rest (flight and impacts
+   to rest), the fast crank start with t0 = 0.5 s (slip at once, sliding, sticking), the
+   Fig. 1 machine's first 3 s (slip, flight, impacts): time per simulated second, per
+   event (the whole run's time over its events), and the time spent locating the events
+   (`events._locate`: regula falsi on the method's own steps) and detecting them
+   (`events._detect`: the guards on each step's dense output), timed by wrapping those two
+   functions during the run.
+
+Each time is the median of ``repeats`` runs (after one untimed run), in CPU time of this
+process (`time.process_time`; the runs are single-threaded): on a machine shared with other
+work, contention for the cores stretches wall time several-fold but not the CPU time a run
+takes.
+"""
+from __future__ import annotations
+
+import statistics
+import time
+from collections import Counter
+from pathlib import Path
+
+from .report import _table, splice_section
+
+BEGIN, END = "<!-- section: hybrid -->", "<!-- end of section: hybrid -->"
+
+
+def _scenes():
+    from ballmill.physics import Ball, CrankStartup, Fixed
+    from ballmill.physics.hybrid import Contact
+    from ballmill.physics.turning.motions import Fig1Machine
+
+    b = Ball()
+    drop = ((0.0, 0.0, b.R - b.d + 0.05), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    return [  # (label, motion, t_end [s], keyword arguments of simulate_hybrid)
+        ("ball dropped 5 cm, e_n = 0.5, chamber at rest", Fixed(), 0.5,
+         {"contact": Contact(e_n=0.5), "initial": drop}),
+        ("fast crank start, t0 = 0.5 s", CrankStartup(l=0.5, n0=60.0, t0=0.5), 1.0, {}),
+        ("Fig. 1 machine, first 3 s", Fig1Machine(), 3.0, {}),
+    ]
+
+
+def _median_time(fn, repeats: int):
+    fn()
+    times = []
+    for _ in range(repeats):
+        t0 = time.process_time()
+        fn()
+        times.append(time.process_time() - t0)
+    return statistics.median(times)
+
+
+class _Clock:
+    """Wraps a module function, summing the time spent in it and counting its calls."""
+
+    def __init__(self, module, name):
+        self.module, self.name, self.inner = module, name, getattr(module, name)
+        self.seconds, self.calls = 0.0, 0
+
+    def __enter__(self):
+        inner = self.inner
+
+        def timed(*a, **k):
+            t0 = time.process_time()
+            try:
+                return inner(*a, **k)
+            finally:
+                self.seconds += time.process_time() - t0
+                self.calls += 1
+        setattr(self.module, self.name, timed)
+        return self
+
+    def __exit__(self, *exc):
+        setattr(self.module, self.name, self.inner)
+
+
+def measure(repeats: int, progress=print) -> dict:
+    from ballmill.physics import KERNEL_AVAILABLE, Ball, BallModel, CrankStartup, events, simulate
+    from ballmill.physics.hybrid import simulate_hybrid
+
+    b = Ball()
+    crank = CrankStartup(l=0.5, n0=60.0, t0=2.5)
+    t_roll = 2.0
+    rolling = [("`simulate`, Python", lambda: simulate(BallModel(b), crank, t_roll, 0.01, kernel="python"))]
+    if KERNEL_AVAILABLE:
+        rolling.append(("`simulate`, compiled kernel",
+                        lambda: simulate(BallModel(b), crank, t_roll, 0.01, kernel="c")))
+    rolling += [("`simulate_hybrid(energy=False)`", lambda: simulate_hybrid(b, crank, t_roll, 0.01, energy=False)),
+                ("`simulate_hybrid` (with the energy quadrature)", lambda: simulate_hybrid(b, crank, t_roll, 0.01))]
+    roll_rows = []
+    for label, fn in rolling:
+        progress(f"hybrid: rolling scene, {label}")
+        roll_rows.append((label, _median_time(fn, repeats)))
+    scene_rows = []
+    for label, motion, t_end, kw in _scenes():
+        progress(f"hybrid: {label}")
+
+        def run(motion=motion, t_end=t_end, kw=kw):
+            return simulate_hybrid(b, motion, t_end, 0.01, **kw)
+
+        cpu = _median_time(run, repeats)
+        locs, dets = [], []
+        for _ in range(repeats):
+            with _Clock(events, "_locate") as loc, _Clock(events, "_detect") as det:
+                tr = run()
+            locs.append((loc.seconds, loc.calls))
+            dets.append(det.seconds)
+        if not tr.success:
+            raise RuntimeError(f"hybrid scene {label!r} failed: {tr.message}")
+        scene_rows.append({"label": label, "t_end": t_end, "cpu": cpu, "events": tr.events,
+                           "steps": tr.info.steps, "rejected": tr.info.rejected,
+                           "locate": statistics.median(s for s, _ in locs), "locate_calls": locs[0][1],
+                           "detect": statistics.median(dets)})
+    return {"t_roll": t_roll, "rolling": roll_rows, "scenes": scene_rows, "repeats": repeats}
+
+
+def report(data: dict, quick: bool) -> str:
+    t_roll, reps = data["t_roll"], data["repeats"]
+    base = data["rolling"][0][1]
+    L = [BEGIN, "## The hybrid ball on the event-driven driver\n",
+         f"Measured by `ballmill bench --section hybrid{' --quick' if quick else ''}` "
+         f"(ballmill/bench/hybrid.py): `simulate_hybrid` in Python (the compiled kernel does not "
+         f"have the hybrid model), CPU time of the process (`time.process_time`: contention on a "
+         f"shared machine stretches wall time, not this), medians of {reps} runs. Events are located "
+         f"to 1e-11 s on the method's own steps (docs/design.md section 14).\n",
+         f"**A scene that stays rolling** (the crank start, t0 = 2.5 s, its first {t_roll:g} s, "
+         f"DOP853 at 1e-9, dt = 10 ms): the hybrid runs the rolling model's own right-hand side "
+         f"on the same driver and gives its numbers; what it adds is its guards (slip, loss of "
+         f"contact) on each step's dense output.\n"]
+    L.append(_table(["run", "CPU [ms]", "per simulated second [ms/s]", "vs `simulate`, Python"],
+                [[label, f"{w * 1e3:.1f}", f"{w / t_roll * 1e3:.1f}", f"{w / base:.2f}x"]
+                 for label, w in data["rolling"]]))
+    L.append("\n**Scenes with events** (DOP853 at 1e-9, dt = 10 ms). Per event: the run's time "
+             "over its events. Location: the time inside the root finder (`events._locate`, "
+             "regula falsi on the method's own step from the step's start), per call (one per "
+             "bracketed guard crossing) and its share of the run; detection: the guards on each "
+             "step's dense output (`events._detect`), share of the run.\n")
+    rows = []
+    for r in data["scenes"]:
+        n = len(r["events"])
+        kinds = ", ".join(f"{c} {k}" for k, c in sorted(Counter(e.kind for e in r["events"]).items()))
+        calls = max(r["locate_calls"], 1)
+        rows.append([r["label"], f"{r['t_end']:g}", f"{n} ({kinds})", f"{r['steps']} ({r['rejected']})",
+                     f"{r['cpu'] * 1e3:.0f}", f"{r['cpu'] / r['t_end'] * 1e3:.0f}",
+                     f"{r['cpu'] / n * 1e3:.1f}" if n else "-",
+                     f"{r['locate'] / calls * 1e3:.2f} ({r['locate'] / r['cpu']:.0%})",
+                     f"{r['detect'] / r['cpu']:.0%}"])
+    L.append(_table(["scene", "simulated [s]", "events", "steps (rejected)", "CPU [ms]",
+                 "per simulated second [ms/s]", "per event [ms]", "location per call [ms] (share)",
+                 "detection (share)"], rows))
+    L.append(END)
+    return "\n".join(L) + "\n"
+
+
+def splice(path: Path, section: str):
+    """Put the section into the report at path (replacing an earlier one, else appended)."""
+    splice_section(path, section, BEGIN, END)
+
+
+def run_section(out: Path, quick: bool, progress=print) -> Path:
+    data = measure(3 if quick else 5, progress)
+    splice(out, report(data, quick))
+    return out
