@@ -206,3 +206,83 @@ def test_the_pre_run_check_refuses_a_bed_deeper_than_the_chamber(tmp_path, fmu_b
             "between the chamber's lowest and highest points), got") in p.stderr, p.stderr
     assert "h_bed = 0.6 m" in p.stderr and "R = 0.25 m" in p.stderr
     assert not (tmp_path / "out").exists()
+
+
+# -- the indicators ------------------------------------------------------------------------------
+def synthetic(N, friction=lambda t: 0.2 + 0.1 * np.sin(t), t_end=10.0, dt=0.01):
+    """A Record with closed-form series: P_grind = 3 + 2 sin(2 pi t) W, in the bed while
+    sin(2 pi t) > 1/2 (a third of each second), psi = 2 pi 0.6 t, T_drive = 2 sin(3 t) N m,
+    friction |F_t| 0.2 + 0.1 sin(t) N unless given; N given."""
+    from ballmill.sweep.indicators import Record
+
+    t = np.round(np.arange(0.0, t_end + dt / 2, dt), 12)
+    wave = np.sin(2 * np.pi * t)
+    psi_dot = 2 * np.pi * 0.6
+    T = 2.0 * np.sin(3.0 * t)
+    Nv = N(t)
+    Ft = friction(t)
+    series = {"b.P_grind": 3.0 + 2.0 * wave, "b.s_bed": np.where(wave > 0.5, 0.7, 0.0), "b.N": Nv, "b.Ft": Ft,
+              "b.friction_ratio": np.where(Nv > 0, Ft / np.where(Nv > 0, Nv, 1.0), np.inf),
+              "d.psi": psi_dot * t, "d.psi_dot": np.full_like(t, psi_dot), "d.T_drive": T, "d.P_drive": T * psi_dot}
+    return Record(t, series, "b", "d", 0.3, {"start": 0.0, "stop": t_end, "after": 2.0})
+
+
+def test_mill_indicators_against_a_hand_computation():
+    from ballmill.sweep import indicators as ind
+
+    rec = synthetic(lambda t: 5.0 + np.cos(t))
+    valid, _, n_valid = ind.validity(rec.t, rec.get("b.N"), rec.get("b.friction_ratio"), rec.mu)
+    assert valid
+    v = ind.mill(rec, n_valid)
+    # [2, 10] s holds 8 whole periods of the sine: the mean is 3 W (trapezoidal rule: exact to 1e-12 here)
+    assert v["P_grind_mean"] == pytest.approx(3.0, rel=1e-9)
+    # sin > 1/2 a third of the time; the samples resolve the edges to dt = 0.01 s per crossing
+    assert v["bed_fraction"] == pytest.approx(1.0 / 3.0, abs=2 * 0.01 * 16 / 8)
+    assert v["W_grind_rev"] == pytest.approx(3.0 * 8.0 / (0.6 * 8.0), rel=1e-9)  # 24 J over 4.8 revolutions
+    assert v["T_drive_peak"] == pytest.approx(2.0, rel=1e-6)  # parabola-refined peak of 2 sin(3 t)
+    assert v["P_drive_peak"] == pytest.approx(2.0 * 2 * np.pi * 0.6, rel=1e-6)
+    tt = np.linspace(0.0, 10.0, 200001)
+    assert v["slip_margin_min"] == pytest.approx(np.min(0.3 * (5.0 + np.cos(tt)) - 0.2 - 0.1 * np.sin(tt)), abs=1e-7)
+    assert v["N_min"] == pytest.approx(4.0, abs=1e-7)
+
+
+def test_a_design_that_loses_contact_reports_the_margin_it_failed_by():
+    """N = 1 - 0.21 t reaches 0 at t = 4.7619 s (no friction force: rolling holds while N > 0):
+    the statistics after the start-up are not reported (their window reaches past the failure),
+    the margins are, over the samples up to the first failed one: N_min = N(4.77 s) = -0.0017 N,
+    and the slip margin there is N too."""
+    from ballmill.sweep import indicators as ind
+
+    rec = synthetic(lambda t: 1.0 - 0.21 * t, friction=lambda t: 0.0 * t)
+    valid, t_invalid, n_valid = ind.validity(rec.t, rec.get("b.N"), rec.get("b.friction_ratio"), rec.mu)
+    assert not valid
+    v = ind.mill(rec, n_valid)
+    assert v["P_grind_mean"] is None and v["W_grind_rev"] is None and v["bed_fraction"] is None
+    assert v["N_min"] == pytest.approx(1.0 - 0.21 * 4.77, abs=1e-12) and v["N_min"] < 0.0
+    assert v["slip_margin_min"] == v["N_min"]
+    assert t_invalid == pytest.approx(4.77)
+
+
+def test_the_run_summary_reports_the_mill_indicators_with_units(fmu_build_dir):
+    """The scenario summary's indicators (ballmill run: summary.json) by hand from the run's own
+    columns: the grinding scenario's first 8 s (the start-up ends at 2.5 s)."""
+    from ballmill.scenario import report, runner
+
+    sc, models, paths = runner.prepare("grinding", [], fmu_build_dir, log=lambda m: None)
+    sc.stop = 8.0
+    res = runner.run(sc, models, paths, progress=False, echo=False)
+    assert res.success
+    ind = report.summarise(res, models)["indicators"]
+    t = res.column("time")
+    late = t >= 2.5 - 1e-12
+    P = res.column("ball.P_grind")[late]
+    work = np.sum(0.5 * (P[1:] + P[:-1]) * np.diff(t[late]))
+    assert ind["P_grind_mean"] == {"value": pytest.approx(work / (8.0 - 2.5), rel=1e-12), "unit": "W",
+                                   "description": pytest.approx(ind["P_grind_mean"]["description"])}
+    psi = res.column("drive.psi")[late]
+    assert ind["W_grind_rev"]["value"] == pytest.approx(work / ((psi[-1] - psi[0]) / (2 * np.pi)), rel=1e-12)
+    assert ind["W_grind_rev"]["unit"] == "J"
+    assert 0.2 < ind["bed_fraction"]["value"] < 0.9  # the ring dips into the 9 cm bed
+    assert ind["N_min"]["value"] == pytest.approx(res.column("ball.N").min(), rel=1e-3)
+    assert ind["T_drive_peak"]["value"] >= np.abs(res.column("drive.T_drive")).max()
+    assert ind["slip_margin_min"]["unit"] == "N" and ind["slip_margin_min"]["value"] > 0.0
