@@ -246,7 +246,8 @@ def mill(rec: Record, n_valid: int) -> dict:
     upto = _window(rec, "start", "stop", len(t))
     if upto is not None:
         upto = slice(upto.start, min(upto.stop, n_valid + 1))
-    out["slip_margin_min"] = st(b + "slip_margin", "min", upto)
+    friction = b + "Ft" in rec.series or b + "friction_ratio" in rec.series
+    out["slip_margin_min"] = st(b + "slip_margin", "min", upto) if friction else None
     out["N_min"] = st(b + "N", "min", upto)
     return out
 
