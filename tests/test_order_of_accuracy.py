@@ -12,7 +12,9 @@ FMU's cubic input reconstruction), and each method must show its order:
   tolerance loose enough that every step is accepted, which the step counts confirm):
   the error against an independent reference (scipy's solve_ivp, DOP853 at rtol 1e-13)
   falls by 2^p per halving, in Python and in the compiled kernel;
-* adaptive steps: the error follows the tolerance on the moving chamber.
+* adaptive steps: the error follows the tolerance on the moving chamber;
+* fixed steps across the material bed's surface: a run whose contact point crosses the
+  band where the ground material's resistance blends in, and leaves the bed.
 """
 from __future__ import annotations
 
