@@ -752,7 +752,7 @@ static int advance(ball_in_shell *b, const ball_state *in, double t_end, const f
 /* the published outputs: bm_outputs' 22 (outputs.Outputs), then the contact point and the
  * force in the chamber's axes and the moment about O1 */
 enum { O_XP, O_YP, O_ZP, O_XC, O_YC, O_ZC, O_WX, O_WY, O_WZ, O_N, O_FX, O_FY, O_FZ, O_MR, O_MAX, O_MAY,
-       O_MAZ, O_FT, O_RATIO, O_CONTACT, O_ROLLING, O_PDISS, O_XPCH, O_YPCH, O_ZPCH, O_FXCH, O_FYCH, O_FZCH,
+       O_MAZ, O_FT, O_RATIO, O_CONTACT, O_ROLLING, O_PDISS, O_PGRIND, O_SBED, O_XPCH, O_YPCH, O_ZPCH, O_FXCH, O_FYCH, O_FZCH,
        O_MO1X, O_MO1Y, O_MO1Z, N_OUT };
 
 /* motion = 2 (ballinshell_fmu._general_outputs): from ChamberOutputs go at the chamber state cs */
@@ -769,6 +769,7 @@ static void general_outputs(const ball_in_shell *b, const double *y, const doubl
     o[O_MR] = mo[2];
     o[O_MAX] = R * (ny * sz - nz * sy); o[O_MAY] = R * (nz * sx - nx * sz); o[O_MAZ] = R * (nx * sy - ny * sx);
     o[O_FT] = go[14]; o[O_RATIO] = go[15]; o[O_CONTACT] = go[26]; o[O_ROLLING] = go[27]; o[O_PDISS] = 0.0;
+    o[O_PGRIND] = 0.0; o[O_SBED] = 1.0; /* lossless, no bed (bed = 0: the share is 1) */
     o[O_XPCH] = go[3]; o[O_YPCH] = go[4]; o[O_ZPCH] = go[5];
     o[O_FXCH] = go[19]; o[O_FYCH] = go[20]; o[O_FZCH] = go[21];
     o[O_MO1X] = mo[0]; o[O_MO1Y] = mo[1]; o[O_MO1Z] = mo[2];
@@ -816,6 +817,8 @@ static void publish(double *v, const double o[N_OUT])
     v[VR_contact] = o[O_CONTACT] != 0.0;
     v[VR_rolling] = o[O_ROLLING] != 0.0;
     v[VR_P_diss] = o[O_PDISS];
+    v[VR_P_grind] = o[O_PGRIND];
+    v[VR_s_bed] = o[O_SBED];
     for (int i = 0; i < 9; i++) v[vr_more[i]] = o[O_XPCH + i];
 }
 
@@ -895,12 +898,13 @@ static fmi2Status inputs_set(fmu_instance *fi, void *data, double *v, double t)
                              O_FXCH, O_FYCH, O_FZCH, O_MO1X, O_MO1Y, O_MO1Z};
     for (int i = 0; i < (int)(sizeof oi / sizeof oi[0]); i++)
         if (!isfinite(o[oi[i]])) return fmi2OK;
-    if (!isfinite(o[O_PDISS]) || isnan(o[O_RATIO])) return fmi2OK;
+    if (!isfinite(o[O_PDISS]) || !isfinite(o[O_PGRIND]) || isnan(o[O_RATIO])) return fmi2OK;
     for (int i = 0; i < (int)(sizeof vr / sizeof vr[0]); i++) v[vr[i]] = o[oi[i]];
     v[VR_friction_ratio] = isinf(o[O_RATIO]) ? copysign(FMU_BIG, o[O_RATIO]) : o[O_RATIO];
     v[VR_contact] = o[O_CONTACT] != 0.0;
     v[VR_rolling] = o[O_ROLLING] != 0.0;
     v[VR_P_diss] = o[O_PDISS];
+    v[VR_P_grind] = o[O_PGRIND];
     b->fed = now; /* what the published outputs now come from */
     b->has_fed = 1;
     return fmi2OK;
@@ -1033,11 +1037,25 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
     ball_in_shell *b = data;
     double r = v[VR_r], R = v[VR_R], m = v[VR_m], g = v[VR_g], mu = v[VR_mu];
     double delta = v[VR_delta], cdrag = v[VR_c_drag], inertia = 0.4;
+    double h_bed = v[VR_h_bed], w_bed = v[VR_w_bed];
+    int bed = (int)v[VR_bed];
     char msg[512], a[32], c[32];
     if (!positive(fi, "r", r, "m", 0) || !positive(fi, "R", R, "m", 0) || !positive(fi, "m", m, "kg", 0) ||
         !positive(fi, "g", g, "m/s2", 0) || !positive(fi, "mu", mu, "1", 0) ||
-        !positive(fi, "delta", delta, "m", 1) || !positive(fi, "c_drag", cdrag, "N.s/m", 1))
+        !positive(fi, "delta", delta, "m", 1) || !positive(fi, "c_drag", cdrag, "N.s/m", 1) ||
+        !positive(fi, "w_bed", w_bed, "m", 0))
         return fmi2Error;
+    if (bed != 0 && bed != 1) {
+        snprintf(msg, sizeof msg, "bed must be one of [0, 1] (0 = the material fills the chamber, 1 = a bed of "
+                 "depth h_bed), got %d", bed);
+        return init_error(fi, msg, "");
+    }
+    if (bed == 1 && !(h_bed >= 0.0 && h_bed <= 2.0 * R)) {
+        snprintf(msg, sizeof msg, "parameter h_bed = %s m is outside its accepted range [0, 2 R = %g] m with "
+                 "bed = 1 (the bed's surface lies between the chamber's lowest and highest points)",
+                 fmu_repr(h_bed, a), 2.0 * R);
+        return init_error(fi, msg, "");
+    }
     if (!(r < R)) {
         snprintf(msg, sizeof msg, "R must be larger than r (the ball must fit in the chamber), got r = %g m, "
                  "R = %g m", r, R);
@@ -1081,6 +1099,15 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
         P->o_cd = cdrag * d;
         P->o_delta = delta;
         memcpy(P->o_loss, loss, sizeof loss);
+    }
+    if (bed == 1) { /* equations.bed_constants: the resistances' share at the contact point */
+        double bc[3] = {R, h_bed, w_bed};
+        P->o_has_bed = 1;
+        memcpy(P->o_bed, bc, sizeof bc);
+        if (P->rhs_lossy) {
+            P->rhs_has_bed = 1;
+            memcpy(P->rhs_bed, bc, sizeof bc);
+        }
     }
     P->o_lam = lam; P->o_r = r; P->o_d = d; P->o_R = R; P->o_m = m; P->o_g = g; P->o_k = k; P->o_mu = mu;
     const bm_tableau *tab = &BM_TABLEAUS[integrator == 1 ? 0 : integrator == 2 ? 1 : 2];
@@ -1152,6 +1179,11 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
         if (delta != 0.0 || cdrag != 0.0) {
             snprintf(msg, sizeof msg, "motion = 2 is lossless: delta = %s m and c_drag = %s N.s/m must be 0 (the "
                      "ground material's losses exist only with motion = 1)", fmu_repr(delta, a), fmu_repr(cdrag, c));
+            return init_error(fi, msg, "");
+        }
+        if (bed != 0) {
+            snprintf(msg, sizeof msg, "motion = 2 has no material bed: bed = %d must be 0 (the turning chamber's "
+                     "model is lossless)", bed);
             return init_error(fi, msg, "");
         }
         if (mode != 1 && mode != 3) {

@@ -10,7 +10,9 @@ force on the chamber, the reaction torque on the crank shaft, the moment
 about the chamber centre, the ball's centre and angular velocity, and the
 validity of the model (contact, rolling). Losses to the ground material
 (rolling resistance ``delta``, viscous drag ``c_drag``; 0 by default) are
-parameters, and ``P_diss`` reports the power they take.
+parameters, and ``P_diss`` reports the power they take; ``bed = 1`` puts the material in a
+bed of depth ``h_bed`` (blend band ``w_bed``) instead of everywhere, ``P_grind`` is the
+grinding power and ``s_bed`` the resistance's share at the contact point.
 
 The integration between communication points (BallModel.advance along the
 reconstructed input's cubic) runs in the compiled kernel bundled with the FMU
@@ -69,7 +71,8 @@ class BallInShell(Slave):
     horizontally (shockless ball mill; ball vibration absorber)."""
 
     description = BALL_IN_SHELL.description
-    NAMES = {"rolling_resistance": "delta", "drag": "c_drag"}
+    NAMES = {"rolling_resistance": "delta", "drag": "c_drag", "bed_depth": "h_bed", "bed_band": "w_bed"}
+    BEDS = {0: "everywhere", 1: "bed"}
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
@@ -84,7 +87,13 @@ class BallInShell(Slave):
     # -- life cycle --------------------------------------------------------
     def build(self):
         ball = Ball(r=self.r, R=self.R, m=self.m, g=self.g, mu=self.mu,
-                    rolling_resistance=self.delta, drag=self.c_drag)
+                    rolling_resistance=self.delta, drag=self.c_drag, bed_band=self.w_bed)
+        if self.choice("bed", self.BEDS) == "bed":
+            if not 0.0 <= self.h_bed <= 2.0 * self.R:
+                raise ValueError(f"parameter h_bed = {self.h_bed!r} m is outside its accepted range [0, 2 R = "
+                                 f"{2.0 * self.R:g}] m with bed = 1 (the bed's surface lies between the chamber's "
+                                 f"lowest and highest points)")
+            ball = ball.with_(bed_depth=self.h_bed)
         if self.delta > ball.r:
             raise ValueError(f"parameter delta = {self.delta!r} m is outside its accepted range "
                              f"[0, r = {ball.r:g}] m (a rolling-resistance length beyond the ball's radius)")
@@ -120,6 +129,9 @@ class BallInShell(Slave):
         if self.delta != 0.0 or self.c_drag != 0.0:
             raise ValueError(f"motion = 2 is lossless: delta = {self.delta!r} m and c_drag = {self.c_drag!r} "
                              f"N.s/m must be 0 (the ground material's losses exist only with motion = 1)")
+        if self.bed != 0:
+            raise ValueError(f"motion = 2 has no material bed: bed = {self.bed!r} must be 0 (the turning "
+                             f"chamber's model is lossless)")
         if self.input_mode not in GENERAL_MODES:
             raise ValueError(f"input_mode = {self.input_mode!r} is not available with motion = 2: use "
                              f"1 (derivatives) or 3 (hold)")
@@ -405,6 +417,8 @@ class BallInShell(Slave):
         values = [(name, finite(name, out[i], allow_infinite=(name == "friction_ratio")))
                   for name, i in self._index]
         values.append(("P_diss", finite("P_diss", out.P_diss)))
+        values.append(("P_grind", finite("P_grind", out.P_grind)))
+        values.append(("s_bed", finite("s_bed", out.s_bed)))
         values.extend((name, finite(name, v)) for name, v in extra)
         return values
 
@@ -554,7 +568,7 @@ def _general_outputs(model, state, cs):
         ("MAx", R * (ny * sz - nz * sy)), ("MAy", R * (nz * sx - nx * sz)), ("MAz", R * (nx * sy - ny * sx)),
         ("xC", d * nx + ex), ("yC", d * ny + ey), ("zC", d * nz + ez),
         ("wx", o.wx), ("wy", o.wy), ("wz", o.wz), ("Ft", o.Ft), ("friction_ratio", o.friction_ratio),
-        ("P_diss", 0.0),
+        ("P_diss", 0.0), ("P_grind", 0.0), ("s_bed", 1.0),
         ("xP_ch", o.Pch_x), ("yP_ch", o.Pch_y), ("zP_ch", o.Pch_z),
         ("Fx_ch", o.Fch_x), ("Fy_ch", o.Fch_y), ("Fz_ch", o.Fch_z),
         ("MO1x", mo[0]), ("MO1y", mo[1]), ("MO1z", mo[2]))

@@ -180,7 +180,7 @@ def test_inductionmotor_every_output(case, fmu_path, opened):
 # BallInShell
 BALL_OUTPUT_FIELDS = ("xP", "yP", "zP", "N", "Fx", "Fy", "Fz", "M_reaction", "MAx", "MAy", "MAz",
                       "xC", "yC", "zC", "wx", "wy", "wz", "Ft", "friction_ratio", "contact", "rolling",
-                      "P_diss")
+                      "P_diss", "P_grind", "s_bed")
 CRANK = CrankStartup(l=0.5, n0=60.0, t0=2.5)
 START = dict(xC0=0.05, yC0=0.02, wx0=0.0, wy0=0.0, wz0=3.0)
 FORMULATIONS = {1: "vector", 2: "paper"}

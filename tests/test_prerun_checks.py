@@ -140,6 +140,7 @@ VIOLATIONS = {
     "BallInShell": [{"r": 0.0}, {"R": 0.0}, {"m": 0.0}, {"g": 0.0}, {"mu": 0.0}, {"r": 0.3},
                     {"r": 0.25 * (1 - 1e-10)}, {"h_fixed": 0.0}, {"delta": 0.03}, {"c_drag": 1e5},
                     {"xC0": 0.23}, {"motion": 2, "formulation": 2}, {"motion": 2, "delta": 1e-3},
+                    {"w_bed": 0.0}, {"bed": 1, "h_bed": 0.6}, {"motion": 2, "bed": 1},
                     {"motion": 2, "input_mode": 2}, {"integrator": 3, "h_fixed": 1e-7},
                     {"formulation": 2, "xC0": 0.22497}],
     "MotorStartup": [{"l": 0.0}],

@@ -39,7 +39,8 @@ def result(sc, t=T, **cols) -> RunResult:
 
 def models(t0_default=2.5):
     md = SimpleNamespace(modelVariables=[SimpleNamespace(name="t0", start=t0_default)])
-    return {"MotorStartup": md, "BallInShell": SimpleNamespace(modelVariables=[])}
+    # the ball's mu: the summary's indicators judge the rolling margin with it
+    return {"MotorStartup": md, "BallInShell": SimpleNamespace(modelVariables=[SimpleNamespace(name="mu", start=0.3)])}
 
 
 # N: overall min at the run's first sample, overall max just before the window (t = 0.4),

@@ -89,6 +89,10 @@ class StructureBall:
     def __init__(self, structure: Structure, ball: Ball, excitation=None):
         if not isinstance(ball, Ball):
             raise ParameterError(f"ball must be a Ball, got {ball!r}")
+        if ball.bed_depth is not None:
+            raise ParameterError(
+                f"an absorber's cavity holds no ground material: bed_depth = {ball.bed_depth!r} m must be None "
+                f"(its rolling resistance and drag, the absorber's damping, act wherever the ball touches)")
         self.ball = ball
         self.struct = StructureModel(structure, excitation)
         self.structure = structure

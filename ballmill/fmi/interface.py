@@ -508,6 +508,11 @@ _BALL_RULES = (
          "a translating chamber's lower hemisphere)", lambda p: p["motion"] != 2 or p["formulation"] == 1),
     Rule(("motion", "delta", "c_drag"), "delta = c_drag = 0 with motion = 2 (the ground material's losses "
          "exist only with motion = 1)", lambda p: p["motion"] != 2 or p["delta"] == p["c_drag"] == 0.0),
+    *_positive("w_bed"),
+    Rule(("bed", "h_bed", "R"), "h_bed <= 2 R with bed = 1 (the bed's surface lies between the chamber's "
+         "lowest and highest points)", lambda p: p["bed"] != 1 or p["h_bed"] <= 2.0 * p["R"]),
+    Rule(("motion", "bed"), "bed = 0 with motion = 2 (the turning chamber's model has no losses, so no "
+         "material bed)", lambda p: p["motion"] != 2 or p["bed"] == 0),
     Rule(("motion", "input_mode"), "input_mode = 1 or 3 with motion = 2",
          lambda p: p["motion"] != 2 or p["input_mode"] in (1, 3)),
     Rule(("integrator", "h_fixed", "max_step", "g", "r", "R"), f"h_fixed >= max_step / {MAX_INTERNAL_STEPS} "
@@ -526,7 +531,7 @@ _out = dict(depends=BALL_ALL_INPUTS)
 # acceleration x1O, y1O, ax1O, ay1O; motion = 2 also z1O, az1O, Omega, Omega' and Q (the chamber
 # centre's acceleration and the orientation). The velocities enter no force or moment.
 BALL_FEEDTHROUGH = ("N", "Fx", "Fy", "Fz", "M_reaction", "MAx", "MAy", "MAz", "Ft", "friction_ratio",
-                    "contact", "rolling", "P_diss", "Fx_ch", "Fy_ch", "Fz_ch", "MO1x", "MO1y", "MO1z")
+                    "contact", "rolling", "P_diss", "P_grind", "Fx_ch", "Fy_ch", "Fz_ch", "MO1x", "MO1y", "MO1z")
 BALL_FEEDTHROUGH_INPUTS = tuple(n for n in BALL_ALL_INPUTS if n not in ("vx1O", "vy1O", "vz1O"))
 _feed = dict(depends=BALL_ALL_INPUTS, feedthrough=BALL_FEEDTHROUGH_INPUTS)
 BALL_IN_SHELL = _interface(
@@ -617,6 +622,22 @@ BALL_IN_SHELL = _interface(
            dict(unit=_MOTION_INPUT_TEXT[name][1])) for name in BALL_MOTION_INPUTS],
         *[(name, "output", 0.0, desc, dict(unit=unit, **(_feed if name in BALL_FEEDTHROUGH else _out)))
           for name, unit, desc in BALL_MOTION_OUTPUTS],
+        # the material bed and the grinding power (declared last: earlier value references stay)
+        ("bed", "parameter", 0, "Where the ground material lies: 0 = it fills the chamber (delta and "
+         "c_drag act wherever the ball touches the wall); 1 = a bed in the chamber's bottom whose free "
+         "surface is the horizontal plane zP = h_bed: they act only while the contact point is below it "
+         "(motion = 1 only)", dict(min=0, max=1)),
+        ("h_bed", "parameter", 0.0, "Depth of the material bed (bed = 1): height of its free surface above "
+         "the chamber's lowest point (0 = no material; at most 2 R)", dict(unit="m", min=0.0, max=1e3)),
+        ("w_bed", "parameter", _ball.bed_band, "Width of the band below the bed's surface across which the "
+         "material's resistance rises smoothly (C-infinity) from 0 at the surface to its full value "
+         "(bed = 1)", dict(unit="m", min=0.0, max=1e3)),
+        ("P_grind", "output", 0.0, "Grinding power: the power the ball delivers to the ground material, "
+         "the work rate of its rolling resistance and drag relative to the material the chamber carries "
+         "(the rolling model dissipates nothing else: equal to P_diss)", dict(unit="W", **_feed)),
+        ("s_bed", "output", 1.0, "Share of the material's resistance acting at the contact point: 1 in the "
+         "bed (deeper than w_bed below its surface; always with bed = 0), 0 above its surface",
+         dict(unit="1", **_out)),
     ], rules=_BALL_RULES)
 
 # ----------------------------------------------------------------------------- the structure

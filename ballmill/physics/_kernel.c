@@ -61,11 +61,11 @@
 #define BM_SOURCE_HASH 0ULL /* setup.py defines it: first 60 bits of this file's sha256 */
 #endif
 
-#define BM_ABI 4
+#define BM_ABI 5
 #define BM_NY 6      /* the ball's states, at most: nx, ny, nz, wx, wy, wz (vector); xC, yC, wx, wy, wz (paper) */
 #define BM_NYMAX 25  /* states the integrators carry, at most (the native induction motor FMU: 7;
                         the absorber's coupled state: 4 * BMA_MODES + 9) */
-#define BM_NOUT 22   /* fields of outputs.Outputs */
+#define BM_NOUT 24   /* fields of outputs.Outputs */
 #define BM_NS_MAX 12 /* stages of the largest tableau (DOP853) */
 
 enum { BM_FIXED = 0, BM_CRANK = 1, BM_HARMONIC = 2, BM_CIRCLE = 3, BM_POLY = 4 };
@@ -92,6 +92,10 @@ typedef struct {
     double o_cd;      /* drag * d */
     double o_delta;   /* rolling_resistance */
     double o_loss[9]; /* loss_constants */
+    /* the material bed (equations.bed_constants: R, h, w), of the formulation's ball and of
+     * the model's; has_bed 0: the material fills the chamber */
+    int rhs_has_bed, o_has_bed;
+    double rhs_bed[3], o_bed[3];
     /* integrator */
     int ns, order, adaptive, has_e3;
     double A[BM_NS_MAX * BM_NS_MAX]; /* ns x ns, row-major, strictly lower triangular */
@@ -218,13 +222,33 @@ static void bm_omega_dot(double k, double r, double g, double nx, double ny, dou
     wd[2] = k * (nx * by - ny * bx);
 }
 
-/* omega_dot_lossy(c, ...) */
+/* equations.bed_share(bed, nz): the share of the material's resistance at the contact point */
+static double bm_bed_share(const double *bed, double nz)
+{
+    double x = (bed[1] - bed[0] * (1.0 + nz)) / bed[2];
+    if (x <= 0.0) return 0.0;
+    if (x >= 1.0) return 1.0;
+    double e = 1.0 / x - 1.0 / (1.0 - x);
+    if (e > 0.0) {
+        double q = exp(-e);
+        return q / (1.0 + q);
+    }
+    double q = exp(e);
+    return 1.0 / (1.0 + q);
+}
+
+/* omega_dot_lossy(c, ..., bed): bed NULL when the material fills the chamber */
 static void bm_omega_dot_lossy(const double *c, double nx, double ny, double nz, double wx, double wy,
                                double wz, double ndx, double ndy, double ndz, double ax, double ay,
-                               double *wd)
+                               const double *bed, double *wd)
 {
     double k = c[0], r = c[1], g = c[2], m = c[3], d = c[4], cd = c[5], delta = c[6], J = c[7],
            eps2 = c[8];
+    if (bed) {
+        double s = bm_bed_share(bed, nz);
+        cd = cd * s;
+        delta = delta * s;
+    }
     double bx = ax + r * (ndy * wz - ndz * wy) + cd * ndx;
     double by = ay + r * (ndz * wx - ndx * wz) + cd * ndy;
     double bz = g + r * (ndx * wy - ndy * wx) + cd * ndz;
@@ -262,7 +286,8 @@ static void bm_derivative_paper(const bm_problem *P, const double *y, double ax,
     double ndx = xd / d, ndy = yd / d, ndz = zd / d;
     f[0] = xd; f[1] = yd;
     if (P->rhs_lossy) {
-        bm_omega_dot_lossy(P->rhs_loss, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, f + 2);
+        bm_omega_dot_lossy(P->rhs_loss, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay,
+                           P->rhs_has_bed ? P->rhs_bed : NULL, f + 2);
         return;
     }
     bm_omega_dot(k, r, g, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, f + 2);
@@ -282,7 +307,8 @@ static void bm_derivative(const bm_problem *P, const double *y, double ax, doubl
     double ndz = lam * (nx * wy - ny * wx);
     f[0] = ndx; f[1] = ndy; f[2] = ndz;
     if (P->rhs_lossy) {
-        bm_omega_dot_lossy(P->rhs_loss, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, f + 3);
+        bm_omega_dot_lossy(P->rhs_loss, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay,
+                           P->rhs_has_bed ? P->rhs_bed : NULL, f + 3);
         return;
     }
     bm_omega_dot(P->rhs_k, P->rhs_r, P->rhs_g, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, f + 3);
@@ -297,7 +323,7 @@ static void bm_rhs(const bm_problem *P, double t, const double *y, double *f)
 }
 
 /* ----------------------------------------------------------------- outputs.py */
-/* evaluate(ball, n, w, ax, ay, xO, yO) as the 22 fields of Outputs */
+/* evaluate(ball, n, w, ax, ay, xO, yO) as the 24 fields of Outputs */
 static void bm_outputs(const bm_problem *P, const double *y, double ax, double ay, double xO, double yO,
                        double *o)
 {
@@ -308,7 +334,8 @@ static void bm_outputs(const bm_problem *P, const double *y, double ax, double a
     double ndz = lam * (nx * wy - ny * wx);
     double wd[3];
     if (P->out_lossy) {
-        bm_omega_dot_lossy(P->o_loss, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, wd);
+        bm_omega_dot_lossy(P->o_loss, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay,
+                           P->o_has_bed ? P->o_bed : NULL, wd);
     } else { /* omega_dot(ball.k, r, g, ...) */
         bm_omega_dot(P->o_k, r, g, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, wd);
     }
@@ -317,6 +344,7 @@ static void bm_outputs(const bm_problem *P, const double *y, double ax, double a
     double nddy = lam * (ndz * wx - ndx * wz + nz * wdx - nx * wdz);
     double nddz = lam * (ndx * wy - ndy * wx + nx * wdy - ny * wdx);
     double Fx, Fy, Fz, N, Ft, ratio, P_diss = 0.0;
+    double share = P->o_has_bed ? bm_bed_share(P->o_bed, nz) : 1.0;
     double MAx, MAy, MAz, sx, sy, sz;
     int contact;
     if (!P->out_lossy) {
@@ -336,7 +364,11 @@ static void bm_outputs(const bm_problem *P, const double *y, double ax, double a
         double Tx = m * (ax + d * nddx);
         double Ty = m * (ay + d * nddy);
         double Tz = m * (d * nddz + g);
-        double cd = P->o_cd;
+        double cd = P->o_cd, delta = P->o_delta;
+        if (P->o_has_bed) {
+            cd = cd * share;
+            delta = delta * share;
+        }
         double Fdx = -cd * ndx, Fdy = -cd * ndy, Fdz = -cd * ndz;
         Fx = Tx - Fdx; Fy = Ty - Fdy; Fz = Tz - Fdz;
         N = -(Fx * nx + Fy * ny + Fz * nz);
@@ -346,7 +378,6 @@ static void bm_outputs(const bm_problem *P, const double *y, double ax, double a
         ratio = contact ? Ft / N : INFINITY;
         double Mx = 0.0, My = 0.0, Mz = 0.0;
         P_diss = cd * d * (ndx * ndx + ndy * ndy + ndz * ndz);
-        double delta = P->o_delta;
         if (delta != 0.0 && contact) {
             double s = nx * wx + ny * wy + nz * wz;
             double tx = wx - s * nx, ty = wy - s * ny, tz = wz - s * nz;
@@ -372,6 +403,8 @@ static void bm_outputs(const bm_problem *P, const double *y, double ax, double a
     o[19] = contact ? 1.0 : 0.0;
     o[20] = (contact && Ft <= P->o_mu * N) ? 1.0 : 0.0;
     o[21] = P_diss;
+    o[22] = P_diss; /* P_grind: the rolling model loses energy to the material only */
+    o[23] = share;
 }
 
 /* ------------------------------------------------------------- integrators.py */
@@ -1183,7 +1216,7 @@ static void bma_load_affine(const bma_problem *A, const double *n, const double 
     double ndx = nd[0], ndy = nd[1], ndz = nd[2], wd[3];
     (void)lam;
     if (A->lossy) {
-        bm_omega_dot_lossy(A->loss_nr, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, 0.0, 0.0, wd);
+        bm_omega_dot_lossy(A->loss_nr, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, 0.0, 0.0, NULL, wd);
     } else {
         bm_omega_dot(k, r, g, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, 0.0, 0.0, wd);
     }
@@ -1244,7 +1277,7 @@ static void bma_rhs(const bma_problem *A, double t, const double *z, double *dz)
         double ndz = lam * (nx * wy - ny * wx);
         db[0] = ndx; db[1] = ndy; db[2] = ndz;
         if (A->lossy) {
-            bm_omega_dot_lossy(A->loss, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, db + 3);
+            bm_omega_dot_lossy(A->loss, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, NULL, db + 3);
         } else {
             bm_omega_dot(A->c[3], r, g, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, db + 3);
         }

@@ -60,6 +60,27 @@ the equations stiff at rest). The price: a ball that exact Coulomb-type
 rolling resistance would hold at rest at an angle theta from the bottom of
 a fixed chamber creeps instead, at |w_t| = eps r tan(theta) / delta (the
 centre moves at r |w_t|), e.g. 0.03 mm/s for theta = 0.01 rad, delta = 0.1 mm.
+
+The material bed (``Ball.bed_depth`` = h, ``Ball.bed_band`` = w; docs/design.md
+section 2). By default (h None) the material fills the chamber and both
+resistances act wherever the ball touches the wall. With a bed, the material's
+free surface is the horizontal plane z_P = h, z_P = R (1 + n_z) the contact
+point's height above the chamber's lowest point (the chamber translates: its
+axes stay the fixed ones, so the surface stays horizontal), and both
+resistances are multiplied by the share s = `bed_share`, a function of n_z
+alone:
+
+    x = (h - z_P) / w,   s = 0 (x <= 0),   s = 1 (x >= 1),
+    s = 1 / (1 + exp(1/x - 1/(1 - x)))   between,
+
+the standard C-infinity step: every derivative is continuous everywhere (and
+0 at both edges of the band), so the right-hand side stays as smooth as the
+integrators' order needs, and the resistance is exactly 0 above the surface
+and exactly its full value deeper than w below it. |ds/dz_P| <= 2/w (at the
+band's middle): the band adds no stiffness, only a length scale the steps
+must resolve (w/|z_P'|, about 30 ms for w = 10 mm at the paper's speeds).
+The drag and the rolling resistance are both scaled: c -> s c, delta -> s delta
+(N and the spin argument above hold unchanged, s depending on n only).
 """
 from __future__ import annotations
 
@@ -135,10 +156,41 @@ def loss_constants(ball: Ball):
             ball.rolling_resistance, ball.I + ball.m * ball.r ** 2, ROLLING_EPS ** 2)
 
 
-def omega_dot_lossy(c, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay):
+def bed_constants(ball: Ball):
+    """(R, h, w) of the ball's material bed, or None when the material fills the chamber
+    (``Ball.bed_depth`` None: the resistances act wherever the ball touches the wall)."""
+    return None if ball.bed_depth is None else (ball.R, ball.bed_depth, ball.bed_band)
+
+
+def bed_share(bed, nz) -> float:
+    """The share s of the material's resistance acting at the contact point of unit vector
+    n (n_z alone matters), for bed = bed_constants(ball) = (R, h, w): 1 deeper than w below
+    the bed's surface z_P = h, 0 above it, the C-infinity step 1 / (1 + exp(1/x - 1/(1 - x)))
+    of x = (h - z_P) / w between (module docstring). 1 when bed is None."""
+    if bed is None:
+        return 1.0
+    R, h, w = bed
+    x = (h - R * (1.0 + nz)) / w
+    if x <= 0.0:
+        return 0.0
+    if x >= 1.0:
+        return 1.0
+    e = 1.0 / x - 1.0 / (1.0 - x)
+    if e > 0.0:  # exp(-e) <= 1: no overflow on either side of the band
+        q = math.exp(-e)
+        return q / (1.0 + q)
+    q = math.exp(e)
+    return 1.0 / (1.0 + q)
+
+
+def omega_dot_lossy(c, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, bed=None):
     """omega' with drag and rolling resistance (module docstring), for the
-    constants c = loss_constants(ball)."""
+    constants c = loss_constants(ball); with a material bed (bed = bed_constants(ball)
+    not None) both scaled by its share `bed_share` at n."""
     k, r, g, m, d, cd, delta, J, eps2 = c
+    if bed is not None:
+        s = bed_share(bed, nz)
+        cd, delta = cd * s, delta * s
     bx = ax + r * (ndy * wz - ndz * wy) + cd * ndx
     by = ay + r * (ndz * wx - ndx * wz) + cd * ndy
     bz = g + r * (ndx * wy - ndy * wx) + cd * ndz
@@ -180,17 +232,19 @@ class VectorFormulation:
         self.__dict__.pop("derivative", None)
         if _lossy(ball):
             self._loss = loss_constants(ball)
+            self._bed = bed_constants(ball)
             self.derivative = self._derivative_lossy
 
     def _derivative_lossy(self, y, ax, ay):
-        """dy/dt with the ground material's losses (Ball.rolling_resistance, Ball.drag)."""
+        """dy/dt with the ground material's losses (Ball.rolling_resistance, Ball.drag, where
+        its bed lies: Ball.bed_depth)."""
         nx, ny, nz, wx, wy, wz = y
         lam = self._consts[0]
         ndx = lam * (ny * wz - nz * wy)
         ndy = lam * (nz * wx - nx * wz)
         ndz = lam * (nx * wy - ny * wx)
         return (ndx, ndy, ndz) + omega_dot_lossy(self._loss, nx, ny, nz, wx, wy, wz,
-                                                 ndx, ndy, ndz, ax, ay)
+                                                 ndx, ndy, ndz, ax, ay, self._bed)
 
     def derivative(self, y, ax, ay):
         """dy/dt as a tuple, for platform acceleration (ax, ay) [m/s2]."""
@@ -259,6 +313,7 @@ class PaperFormulation:
         self.__dict__.pop("derivative", None)
         if _lossy(ball):
             self._loss = loss_constants(ball)
+            self._bed = bed_constants(ball)
             self.derivative = self._derivative_lossy
 
     def _derivative_lossy(self, y, ax, ay):
@@ -270,7 +325,7 @@ class PaperFormulation:
         yd = -lam * (wx * s + wz * xC)
         zd = (xC * xd + yC * yd) / s
         return (xd, yd) + omega_dot_lossy(self._loss, xC / d, yC / d, -s / d, wx, wy, wz,
-                                          xd / d, yd / d, zd / d, ax, ay)
+                                          xd / d, yd / d, zd / d, ax, ay, self._bed)
 
     def _depth(self, xC, yC):
         """R - zC = sqrt(d^2 - xC^2 - yC^2), or FormulationLimitError past the equator."""

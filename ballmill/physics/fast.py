@@ -51,14 +51,14 @@ from pathlib import Path
 import numpy as np
 
 from .drives.crank import LAWS, Circle, CrankStartup, Fixed, Harmonic
-from .equations import VectorFormulation, _lossy, loss_constants
+from .equations import VectorFormulation, _lossy, bed_constants, loss_constants
 from .integrators import Integrator, TABLEAUS
 from .outputs import Outputs
 
 __all__ = ["KERNEL_AVAILABLE", "KERNEL_REASON", "KERNEL_PATH", "KernelUnavailable", "applicable",
            "simulate"]
 
-ABI = 4
+ABI = 5
 NY = 6
 NYMAX = 25  # BM_NYMAX: the integrators' largest state (the absorber's coupled one)
 NOUT = len(Outputs._fields)
@@ -83,6 +83,8 @@ class _Problem(ctypes.Structure):
         ("o_R", ctypes.c_double), ("o_m", ctypes.c_double), ("o_g", ctypes.c_double),
         ("o_k", ctypes.c_double), ("o_mu", ctypes.c_double), ("o_cd", ctypes.c_double),
         ("o_delta", ctypes.c_double), ("o_loss", ctypes.c_double * 9),
+        ("rhs_has_bed", ctypes.c_int), ("o_has_bed", ctypes.c_int),
+        ("rhs_bed", ctypes.c_double * 3), ("o_bed", ctypes.c_double * 3),
         ("ns", ctypes.c_int), ("order", ctypes.c_int), ("adaptive", ctypes.c_int),
         ("has_e3", ctypes.c_int),
         ("A", ctypes.c_double * (NS_MAX * NS_MAX)), ("B", ctypes.c_double * NS_MAX),
@@ -318,6 +320,9 @@ def _problem(model, motion) -> _Problem:
     if _lossy(fb):
         P.rhs_lossy = 1
         P.rhs_loss[:] = [float(v) for v in model.form._loss]
+        if model.form._bed is not None:
+            P.rhs_has_bed = 1
+            P.rhs_bed[:] = [float(v) for v in model.form._bed]
     b = model.ball
     P.o_lam, P.o_r, P.o_d, P.o_R, P.o_m, P.o_g = b.lam, b.r, b.d, b.R, b.m, b.g
     P.o_k, P.o_mu = b.k, b.mu
@@ -326,6 +331,9 @@ def _problem(model, motion) -> _Problem:
         P.o_cd = b.drag * b.d
         P.o_delta = b.rolling_resistance
         P.o_loss[:] = [float(v) for v in loss_constants(b)]
+    if b.bed_depth is not None:
+        P.o_has_bed = 1
+        P.o_bed[:] = [float(v) for v in bed_constants(b)]
     fill_integrator(P, model.integrator)
     return P
 
@@ -699,7 +707,7 @@ def outputs(model, state, ax, ay, xO, yO):
     c.y[:] = y.tolist()
     c.call(c.Pref, c.y, ax, ay, xO, yO, c.o)
     o = c.o[:]
-    return _Outputs(*o[:19], o[19] != 0.0, o[20] != 0.0, o[21])
+    return _Outputs(*o[:19], o[19] != 0.0, o[20] != 0.0, *o[21:])
 
 
 # ----------------------------------------------------------------------------

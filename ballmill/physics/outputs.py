@@ -11,7 +11,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .equations import loss_constants, omega_dot, omega_dot_lossy
+from .equations import bed_constants, bed_share, loss_constants, omega_dot, omega_dot_lossy
 from .params import Ball
 
 
@@ -40,6 +40,13 @@ class Outputs(NamedTuple):
     contact: bool  # N > 0
     rolling: bool  # contact and |F_t| <= mu N
     P_diss: float = 0.0  # power dissipated by rolling resistance and drag (0 without losses) [W]
+    # grinding power: the power the ball delivers to the ground material, the work rate of the
+    # material's resistance relative to the material (carried by the chamber) [W]; the rolling
+    # model loses energy to nothing else, so it equals P_diss here
+    P_grind: float = 0.0
+    # share of the material's resistance acting at the contact point: 1 in the bed (deeper than
+    # Ball.bed_band below its surface, or everywhere without a bed surface), 0 above it [1]
+    s_bed: float = 1.0
 
 
 def evaluate(ball: Ball, n, w, ax: float, ay: float, xO: float = 0.0, yO: float = 0.0) -> Outputs:
@@ -78,6 +85,7 @@ def evaluate(ball: Ball, n, w, ax: float, ay: float, xO: float = 0.0, yO: float 
         MAx=R * (ny * sz - nz * sy), MAy=R * (nz * sx - nx * sz), MAz=R * (nx * sy - ny * sx),
         Ft=Ft, friction_ratio=ratio, contact=contact,
         rolling=contact and Ft <= ball.mu * N,
+        s_bed=1.0 if ball.bed_depth is None else bed_share(bed_constants(ball), nz),
     )
 
 
@@ -93,16 +101,25 @@ def _evaluate_lossy(ball: Ball, n, w, ax, ay, xO, yO) -> Outputs:
     - MA is the moment about A of that load: -F at P, -F_d at C, and the
       rolling-resistance couple -M_rr (a couple on a translating chamber does
       no work and adds nothing to M_reaction);
-    - P_diss = delta N |w_t|^2 / sqrt(|w_t|^2 + eps^2) + c |v_C,rel|^2 >= 0.
+    - P_diss = delta N |w_t|^2 / sqrt(|w_t|^2 + eps^2) + c |v_C,rel|^2 >= 0, and P_grind,
+      the grinding power, the same: the power of the ball's forces on the material relative
+      to it, -(F_d . v_C,rel + M_rr . omega) (the material moves with the translating chamber);
+    - with a material bed, delta and c scaled by its share s_bed at n (equations.bed_share).
+
+    Energy: d/dt (kinetic + potential energy of the ball) = -M_reaction psi' - P_grind,
+    i.e. (F + F_d) . v_O (the drive's power on the ball through chamber and material) minus
+    the grinding power (tests/test_bed.py checks it to the integrator's tolerance).
     """
     nx, ny, nz = n
     wx, wy, wz = w
     lam, d, R, m, g = ball.lam, ball.d, ball.R, ball.m, ball.g
     consts = loss_constants(ball)
+    bed = bed_constants(ball)
+    share = bed_share(bed, nz)
     ndx = lam * (ny * wz - nz * wy)
     ndy = lam * (nz * wx - nx * wz)
     ndz = lam * (nx * wy - ny * wx)
-    wdx, wdy, wdz = omega_dot_lossy(consts, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay)
+    wdx, wdy, wdz = omega_dot_lossy(consts, nx, ny, nz, wx, wy, wz, ndx, ndy, ndz, ax, ay, bed)
     nddx = lam * (ndy * wz - ndz * wy + ny * wdz - nz * wdy)
     nddy = lam * (ndz * wx - ndx * wz + nz * wdx - nx * wdz)
     nddz = lam * (ndx * wy - ndy * wx + nx * wdy - ny * wdx)
@@ -111,6 +128,9 @@ def _evaluate_lossy(ball: Ball, n, w, ax, ay, xO, yO) -> Outputs:
     Ty = m * (ay + d * nddy)
     Tz = m * (d * nddz + g)
     cd = ball.drag * d
+    delta = ball.rolling_resistance
+    if bed is not None:
+        cd, delta = cd * share, delta * share
     Fdx, Fdy, Fdz = -cd * ndx, -cd * ndy, -cd * ndz  # drag on the centre, -c v_C,rel
     Fx, Fy, Fz = Tx - Fdx, Ty - Fdy, Tz - Fdz  # contact force
     N = -(Fx * nx + Fy * ny + Fz * nz)
@@ -120,7 +140,6 @@ def _evaluate_lossy(ball: Ball, n, w, ax, ay, xO, yO) -> Outputs:
     ratio = Ft / N if contact else math.inf
     Mx = My = Mz = 0.0  # rolling-resistance couple on the ball
     P_diss = cd * d * (ndx * ndx + ndy * ndy + ndz * ndz)
-    delta = ball.rolling_resistance
     if delta and contact:
         s = nx * wx + ny * wy + nz * wz
         tx, ty, tz = wx - s * nx, wy - s * ny, wz - s * nz
@@ -141,7 +160,7 @@ def _evaluate_lossy(ball: Ball, n, w, ax, ay, xO, yO) -> Outputs:
         MAy=R * (nz * cx - nx * cz) + d * (nz * ex - nx * ez) - My,
         MAz=R * (nx * cy - ny * cx) + d * (nx * ey - ny * ex) - Mz,
         Ft=Ft, friction_ratio=ratio, contact=contact,
-        rolling=contact and Ft <= ball.mu * N, P_diss=P_diss,
+        rolling=contact and Ft <= ball.mu * N, P_diss=P_diss, P_grind=P_diss, s_bed=share,
     )
 
 

@@ -54,6 +54,17 @@ class Ball:
     M_rr = -delta N w_t/|w_t| on the ball (w_t: part of omega perpendicular
     to n), and a viscous drag ``drag`` = c on the ball's centre,
     F_d = -c v_C,rel (equations.py has the derivation).
+
+    Where the material lies (docs/design.md section 2, "The material bed"):
+    ``bed_depth`` = None (default) means the material fills the chamber and
+    both resistances act wherever the ball touches the wall, as they always
+    have; a number h [m] puts the material in a bed at the chamber's bottom
+    whose free surface is the horizontal plane z_P = h (z_P the contact
+    point's height above the chamber's lowest point), so the resistances act
+    only while the contact point is below it: their share is
+    `equations.bed_share`, 1 deeper than ``bed_band`` = w [m] below the
+    surface, 0 above it, a C-infinity blend across the band. h = 0 is no bed
+    (no resistance at all); 0 <= h <= 2 R, w > 0.
     """
 
     r: float = PAPER_R_BALL
@@ -64,6 +75,8 @@ class Ball:
     inertia_factor: float = 0.4  # I = inertia_factor * m r^2 (0.4: solid sphere)
     rolling_resistance: float = 0.0  # delta, rolling-resistance length [m]
     drag: float = 0.0  # c, viscous drag of the ground material on the centre [N s/m]
+    bed_depth: float | None = None  # h, the material bed's surface above the lowest point [m]; None: everywhere
+    bed_band: float = 0.01  # w, width of the blend below the bed's surface [m]
 
     def __post_init__(self):
         for name, unit in (("r", "m"), ("R", "m"), ("m", "kg"), ("g", "m/s2"),
@@ -71,6 +84,14 @@ class Ball:
             object.__setattr__(self, name, _positive_finite(name, getattr(self, name), unit))
         for name, unit in (("rolling_resistance", "m"), ("drag", "N s/m")):
             object.__setattr__(self, name, _non_negative_finite(name, getattr(self, name), unit))
+        object.__setattr__(self, "bed_band", _positive_finite("bed_band", self.bed_band, "m"))
+        if self.bed_depth is not None:
+            h = _non_negative_finite("bed_depth", self.bed_depth, "m")
+            if not h <= 2.0 * self.R:
+                raise ParameterError(
+                    f"bed_depth must be within [0, 2 R] = [0, {2.0 * self.R:g}] m (the bed's surface lies "
+                    f"between the chamber's lowest and highest points), got bed_depth = {self.bed_depth!r} m")
+            object.__setattr__(self, "bed_depth", h)
         if not self.r < self.R:
             raise ParameterError(
                 f"R must be larger than r (the ball must fit in the chamber), "
@@ -109,6 +130,6 @@ class Ball:
     def with_(self, **changes) -> "Ball":
         """A copy with some values changed (validated again)."""
         values = {k: getattr(self, k) for k in ("r", "R", "m", "g", "mu", "inertia_factor",
-                                                "rolling_resistance", "drag")}
+                                                "rolling_resistance", "drag", "bed_depth", "bed_band")}
         values.update(changes)
         return Ball(**values)

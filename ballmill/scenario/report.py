@@ -229,6 +229,8 @@ def summarise(res: RunResult, models, bare: RunResult | None = None) -> dict:
             if flag in validity:
                 validity[flag]["first_failure_interpolated_s"] = when
         out["validity"] = validity
+        if not absorber:
+            out["indicators"] = mill_indicators(res, models, ball)
         if all(f"{ball}.{v}" in cols for v in SHELL_OUTPUTS):
             u = _shell_unit_vectors(res, models, ball)
             k = int(keep.sum())
@@ -243,6 +245,29 @@ def summarise(res: RunResult, models, bare: RunResult | None = None) -> dict:
             }
     out["log"] = [m for m in res.messages if m["status"] != "ok"][:50]
     return out
+
+
+def mill_indicators(res: RunResult, models, ball: str) -> dict:
+    """The mill's design indicators (ballmill.sweep.indicators.mill: the drive's peak torque and
+    power, the mean grinding power after the start-up, the fraction of time in the bed, the
+    grinding work per crank revolution, the slip and lift-off margins), computed as the sweep
+    computes them, each {"value": ..., "unit": ..., "description": ...} (value None where the run
+    does not say: not recorded, or past the model's validity)."""
+    from ..sweep import indicators as ind
+
+    sc = res.scenario
+    t = res.column("time")
+    series = {c: res.data[:, j] for j, c in enumerate(res.columns) if c != "time"}
+    drive = next((si for si, sv, di, dv in sc.connections if di == ball and dv == "x1O"), None)
+    mu = _parameter(res, models, ball, "mu")
+    rec = ind.Record(t, series, ball, drive, mu,
+                     {"start": float(t[0]), "stop": float(t[-1]), "after": _after_time(res, models)})
+    N = series[f"{ball}.N"]
+    fr = series.get(f"{ball}.friction_ratio", np.zeros_like(N))
+    n_valid = ind.validity(t, N, fr, mu)[2]
+    values = ind.mill(rec, n_valid)
+    return {name: {"value": ind.clean(values[name]), "unit": ind.BUILTIN[name][0],
+                   "description": ind.BUILTIN[name][1]} for name in ind.MILL}
 
 
 def write_csv(res: RunResult, path: Path):

@@ -154,6 +154,7 @@ def _refs(sc: _scen.Scenario, values: dict, defaults: dict) -> dict:
 BALL_PHYSICS = {"r": "r", "R": "R", "m": "m", "g": "g", "mu": "mu", "delta": "rolling_resistance",
                 "c_drag": "drag"}
 BALL_INITIAL = ("xC0", "yC0", "wx0", "wy0", "wz0")
+BALL_BED = ("bed", "h_bed", "w_bed")  # the material bed: Ball.bed_depth (h_bed with bed = 1, else None), bed_band
 # the FMU's numerical settings: they choose how the co-simulation integrates, and do not apply
 # to the monolithic run (which takes the study's model settings)
 BALL_NUMERICS = ("formulation", "integrator", "tolerance", "h_fixed", "input_mode", "max_step", "corrector",
@@ -242,13 +243,20 @@ class CrankPrepared(Prepared):
 
         values = _with(self.sc, params)
         bp, dp = values[self.ball], values[self.drive]
-        known_b = set(BALL_PHYSICS) | set(BALL_INITIAL) | set(BALL_NUMERICS)
+        known_b = set(BALL_PHYSICS) | set(BALL_INITIAL) | set(BALL_NUMERICS) | set(BALL_BED)
         known_d = set(DRIVE_LAW) | set(DRIVE_LOAD)
         for inst, ps, known in ((self.ball, bp, known_b), (self.drive, dp, known_d)):
             for p in ps:
                 if p not in known:
                     raise ParameterError(f"{inst}.{p}: no such parameter (known: {', '.join(sorted(known))})")
-        ball = Ball(**{BALL_PHYSICS[k]: v for k, v in bp.items() if k in BALL_PHYSICS})
+        bed = bp.get("bed", 0)
+        if bed not in (0, 1):
+            raise ParameterError(f"{self.ball}.bed must be one of [0, 1] (0 = the material fills the chamber, "
+                                 f"1 = a bed of depth h_bed), got {bed!r}")
+        bed_kw = {"bed_band": bp["w_bed"]} if "w_bed" in bp else {}
+        if bed == 1:
+            bed_kw["bed_depth"] = bp.get("h_bed", 0.0)
+        ball = Ball(**{BALL_PHYSICS[k]: v for k, v in bp.items() if k in BALL_PHYSICS}, **bed_kw)
         law = dp.get("law", 1)
         if law not in LAW_CODES:
             raise ParameterError(f"{self.drive}.law must be one of {sorted(LAW_CODES)} "
@@ -412,8 +420,9 @@ class Cosim(Evaluator):
                              extra=tuple(i.variable for i in study.indicators))
 
 
-BALL_NEEDED = ("N", "friction_ratio", "xP", "yP", "zP", "xC", "yC", "zC", "M_reaction", "coupling_error")
-DRIVE_NEEDED = ("psi_dot", "T_drive", "P_drive")
+BALL_NEEDED = ("N", "friction_ratio", "xP", "yP", "zP", "xC", "yC", "zC", "M_reaction", "coupling_error", "Ft",
+               "P_grind", "s_bed")
+DRIVE_NEEDED = ("psi", "psi_dot", "T_drive", "P_drive")
 
 
 def _record_needed(sc, models, ball, drive, extra):

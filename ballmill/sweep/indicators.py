@@ -18,9 +18,20 @@ window reference ("after", "drive.t0", ...) into seconds. From it:
 * `builtin`: the mill designer's indicators (BUILTIN, with units), and custom
   ones (`spec.Indicator`) on any recorded or derived variable.
 
-Derived variables: "BALL.rhoP" (radius of the contact point in Oxy [m]) and
+Derived variables: "BALL.rhoP" (radius of the contact point in Oxy [m]),
 "BALL.theta_deg" (polar angle of the contact point from the lowest point,
-atan2(|P - C| in Oxy, zC - zP), which needs no radii) [deg].
+atan2(|P - C| in Oxy, zC - zP), which needs no radii) [deg] and "BALL.slip_margin"
+(mu N - |F_t| while N > 0, else N: the rolling condition's margin, as
+outputs.validity) [N].
+
+The grinding indicators (docs/design.md section 13): the mean grinding power after
+the start-up (the ball's P_grind integrated over [after, stop] by the trapezoidal rule,
+divided by that time), the fraction of that time the contact point spends in the
+material bed (s_bed > 0), and the grinding work per crank revolution (that integral
+divided by the drive's revolutions psi / 2 pi over the same window). The margins
+(slip_margin_min, N_min) are taken over the run up to and including the first sample
+where the model stopped holding, so that a design that fails reports the margin it failed
+by (<= 0) instead of nothing: what an optimiser's constraint needs.
 """
 from __future__ import annotations
 
@@ -46,6 +57,17 @@ BUILTIN = {
     "T_drive_peak": ("N.m", "largest |T_drive| over the run, T_drive = J_total psi'' - M_reaction"),
     "T_drive_rms": ("N.m", "RMS of T_drive over the run"),
     "E_startup": ("J", "energy the drive delivers during the start-up: integral of T_drive psi' over [start, after]"),
+    "P_drive_peak": ("W", "largest |P_drive| over the run, P_drive = T_drive psi'"),
+    "P_grind_mean": ("W", "mean grinding power after the start-up: integral of P_grind over [after, stop] / its "
+                          "duration"),
+    "bed_fraction": ("1", "fraction of the time after the start-up the contact point is in the material bed "
+                          "(s_bed > 0)"),
+    "W_grind_rev": ("J", "grinding work per crank revolution after the start-up: integral of P_grind over "
+                         "[after, stop] / the revolutions psi / 2 pi made in it"),
+    "slip_margin_min": ("N", "smallest rolling margin mu N - |F_t| (N where N <= 0) up to the first failure "
+                             "(> 0: the ball kept rolling)"),
+    "N_min": ("N", "smallest normal force up to the first failure, the lift-off margin (> 0: the ball kept "
+                   "contact)"),
 }
 VALIDITY = {
     "valid": ("", "the model held over the whole run: N > 0 and |F_t| <= mu N at every sample"),
@@ -79,8 +101,14 @@ class Record:
             s = self.series
             v = np.degrees(np.arctan2(np.hypot(s[b + "xP"] - s[b + "xC"], s[b + "yP"] - s[b + "yC"]),
                                       s[b + "zC"] - s[b + "zP"]))
+        elif name == b + "slip_margin":
+            N = self.series[b + "N"]
+            ft = self.series.get(b + "Ft")
+            with np.errstate(invalid="ignore", over="ignore"):
+                margin = self.mu * N - ft if ft is not None else N * (self.mu - self.series[b + "friction_ratio"])
+            v = np.where(N > 0.0, margin, N)
         else:
-            known = sorted(self.series) + [b + "rhoP", b + "theta_deg"]
+            known = sorted(self.series) + [b + "rhoP", b + "theta_deg", b + "slip_margin"]
             raise KeyError(f"no recorded variable {name!r} (recorded: {', '.join(known)})")
         self.derived[name] = v
         return v
@@ -191,10 +219,58 @@ def builtin(rec: Record, n_valid: int) -> dict:
                zP_max=st(b + "zP", "max", run), friction_ratio_max=st(b + "friction_ratio", "max", run))
     if rec.drive is not None and f"{rec.drive}.T_drive" in rec.series:
         d = rec.drive + "."
-        out.update(T_drive_peak=st(d + "T_drive", "abs_max", run), T_drive_rms=st(d + "T_drive", "rms", run),
+        out.update(T_drive_rms=st(d + "T_drive", "rms", run),
                    E_startup=st(d + "P_drive", "integral", _window(rec, "start", "after", n_valid)))
     else:
-        out.update(T_drive_peak=None, T_drive_rms=None, E_startup=None)
+        out.update(T_drive_rms=None, E_startup=None)
+    out.update(mill(rec, n_valid))
+    return {name: out[name] for name in BUILTIN}
+
+
+MILL = ("T_drive_peak", "P_drive_peak", "P_grind_mean", "bed_fraction", "W_grind_rev", "slip_margin_min", "N_min")
+
+
+def mill(rec: Record, n_valid: int) -> dict:
+    """The indicators a mill is designed by (MILL: the drive's peaks, the grinding ones, the
+    margins), from whatever the record holds (None for what it lacks); `builtin` reports them
+    among the others and the scenario summary (ballmill.scenario.report) on their own."""
+    b = rec.ball + "."
+    t = rec.t
+    run = _window(rec, "start", "stop", n_valid)
+    st = lambda name, stat, sl: _stat(t, rec.get(name), stat, sl)  # noqa: E731
+    d = f"{rec.drive}." if rec.drive is not None else None
+    out = {"T_drive_peak": st(d + "T_drive", "abs_max", run) if d and d + "T_drive" in rec.series else None,
+           "P_drive_peak": st(d + "P_drive", "abs_max", run) if d and d + "P_drive" in rec.series else None}
+    out.update(grinding(rec, _window(rec, "after", "stop", n_valid)))
+    # the margins: up to and including the first failure (the sample that failed)
+    upto = _window(rec, "start", "stop", len(t))
+    if upto is not None:
+        upto = slice(upto.start, min(upto.stop, n_valid + 1))
+    friction = b + "Ft" in rec.series or b + "friction_ratio" in rec.series
+    out["slip_margin_min"] = st(b + "slip_margin", "min", upto) if friction else None
+    out["N_min"] = st(b + "N", "min", upto)
+    return out
+
+
+def grinding(rec: Record, sl) -> dict:
+    """P_grind_mean [W], bed_fraction [1] and W_grind_rev [J] over the samples sl (None: not
+    reported; also when the ball's P_grind, resp. s_bed, resp. the drive's psi, is not recorded)."""
+    b = rec.ball + "."
+    out = dict.fromkeys(("P_grind_mean", "bed_fraction", "W_grind_rev"))
+    if sl is None or sl.stop - sl.start < 2:
+        return out
+    t = rec.t[sl]
+    if b + "s_bed" in rec.series:
+        inside = (rec.series[b + "s_bed"][sl] > 0.0).astype(float)
+        out["bed_fraction"] = float((0.5 * (inside[1:] + inside[:-1])).dot(np.diff(t)) / (t[-1] - t[0]))
+    if b + "P_grind" not in rec.series:
+        return out
+    work = _stat(rec.t, rec.series[b + "P_grind"], "integral", sl)
+    out["P_grind_mean"] = work / float(t[-1] - t[0])
+    psi = rec.series.get(f"{rec.drive}.psi") if rec.drive is not None else None
+    if psi is not None:
+        turns = abs(float(psi[sl][-1] - psi[sl][0])) / (2.0 * math.pi)
+        out["W_grind_rev"] = work / turns if turns > 0.0 else None
     return out
 
 
