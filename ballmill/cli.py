@@ -245,6 +245,29 @@ def _optimize(args) -> int:
     return _design_run(args, "optimize", body)
 
 
+def _sensitivity(args) -> int:
+    def body():
+        from .sweep import sensitivity
+        an = sensitivity.load(args.study, N=args.N, seed=args.seed)
+        out = Path(args.out or Path("out") / "sensitivity" / an.ds.study.name)
+        n = an.N * (len(an.ds.names) + 2)
+        print(f"sensitivity {an.ds.study.name}: Sobol indices of {', '.join(an.indicators)} over "
+              f"{', '.join(an.ds.names)}, N = {an.N} ({n} evaluations) -> {out}", file=sys.stderr)
+        res = sensitivity.run(an, out, **_design_kw(args))
+        print(sensitivity.text_table(res))
+        s = res.session
+        print(f"{len(s.order)} samples ({s.computed} computed, {s.reused} already in the results), "
+              f"{res.wall_s:.1f} s; {out / 'sobol.parquet'}, {out / 'results.parquet'}"
+              + (f", {', '.join(map(str, res.plots))}" if res.plots else ""))
+        for w in res.warnings:
+            print(f"ballmill sensitivity: warning: {w}", file=sys.stderr)
+        if not res.table:
+            print("ballmill sensitivity: no indicator has indices (see the table above)", file=sys.stderr)
+            return 1
+        return 0
+    return _design_run(args, "sensitivity", body)
+
+
 def _steady(args) -> int:
     from .physics import Ball, ParameterError
     from .physics.steady import equilibrium, limits
@@ -335,6 +358,10 @@ def main(argv=None) -> int:
     o.add_argument("--population", type=int, help="designs per generation (replaces the file's)")
     o.add_argument("--generations", type=int, help="generations (replaces the file's)")
     o.add_argument("--seed", type=int, help="the algorithm's seed (replaces the file's)")
+    v = sub.add_parser("sensitivity", help="Sobol indices of indicators over parameters (SALib, on Dask)")
+    _design_options(v, "sensitivity")
+    v.add_argument("--N", type=int, help="base sample, a power of 2 (replaces the file's)")
+    v.add_argument("--seed", type=int, help="the sample's and the bootstrap's seed (replaces the file's)")
     q = sub.add_parser("steady", help="the ball's relative equilibrium on the crank circle (quasi-static)")
     q.add_argument("--n0", type=float, default=60.0, help="crank speed [1/min] (default 60)")
     q.add_argument("--l", type=float, default=0.5, help="crank length [m] (default 0.5)")
@@ -350,7 +377,8 @@ def main(argv=None) -> int:
     if rest:
         parser.error(f"unrecognized arguments: {' '.join(rest)}")
     return {"build": _build, "run": _run, "export-ssp": _export_ssp, "sweep": _sweep,
-            "steady": _steady, "optimize": _optimize}[args.command](args)
+            "steady": _steady, "optimize": _optimize,
+            "sensitivity": _sensitivity}[args.command](args)
 
 
 def entry() -> None:

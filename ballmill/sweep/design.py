@@ -217,7 +217,7 @@ class Session:
         return out
 
     def _take(self, rows, split):
-        rows = [{c: r.get(c) for c in self.setup.cols} for r in rows]
+        rows = [{**{c: r.get(c) for c in self.setup.cols}, **{c: r.get(c) for c, _ in self.extra}} for r in rows]
         for r in rows:
             self.annotate(r)
             self.cache[r["point_id"]] = r
@@ -247,10 +247,13 @@ class Session:
             todo.append((self.order[pid], pid, {k: float(v) for k, v in p.items()}))
         reused = len({pid for pid in ids if pid in self.cache} - seen)
         self.reused += reused
-        self.bar.add(reused)
+        if reused:
+            self.bar.add(reused)
         if todo:
             self.executor.start()
-            nb = self.batch or _eng._default_batch(len(todo), self.executor.nworkers)
+            # about two tasks per worker: a batch (a generation) is small, and every task's rows
+            # are written as it ends
+            nb = self.batch or max(1, min(250, math.ceil(len(todo) / (2 * self.executor.nworkers))))
             tasks = [todo[k:k + nb] for k in range(0, len(todo), nb)]
             self.run_s += self.executor.run(tasks, self.study.indicators,
                                             lambda rows, split: self._take([{**r, **tags} for r in rows], split))

@@ -282,19 +282,16 @@ class Scoring:
 
 
 def pareto_mask(F: np.ndarray) -> np.ndarray:
-    """The rows of F (to minimise) that no other row dominates (<= in all, < in one);
-    of identical rows, the first."""
+    """The rows of F (to minimise) that no other row dominates (<= in all, < in one); of
+    identical rows, the first."""
+    F = np.asarray(F, dtype=float)
     n = len(F)
     keep = np.ones(n, dtype=bool)
-    for i in range(n):
-        if not keep[i]:
-            continue
-        dom = np.all(F <= F[i], axis=1) & np.any(F < F[i], axis=1)
-        same = np.all(F == F[i], axis=1)
-        same[: i + 1] = False
-        if dom.any():
-            keep[i] = False
-        keep &= ~same
+    for a in range(0, n, 256):  # blocks of rows against all rows: O(n^2) comparisons, vectorised
+        Fi = F[a:a + 256, None, :]
+        le, lt = np.all(F[None] <= Fi, axis=2), np.any(F[None] < Fi, axis=2)
+        eq = np.all(F[None] == Fi, axis=2) & (np.arange(n)[None] < np.arange(a, min(n, a + 256))[:, None])
+        keep[a:a + 256] = ~np.any((le & lt) | eq, axis=1)
     return keep
 
 
@@ -336,12 +333,17 @@ def run(prob: Problem, out_dir, *, scheduler=None, workers=None, batch=None, bui
     xu = np.array([prob.ds.bounds[k][1] for k in names])
     history: list[dict] = []
     seen: dict = {}
+    front: list = []
 
     def evaluate(X: np.ndarray, generation: int) -> list[dict]:
         rows = session.evaluate([dict(zip(names, map(float, x))) for x in X], generation=generation)
+        new = []
         for r in rows:
-            seen.setdefault(r["point_id"], r)
-        history.append(_progress(prob, sco, list(seen.values()), generation))
+            if r["point_id"] not in seen:
+                seen[r["point_id"]] = r
+                new.append(r)
+        front[:] = _best(prob, sco, front + new)
+        history.append(_progress(prob, sco, list(seen.values()), generation, front))
         return rows
 
     try:
@@ -364,14 +366,16 @@ def run(prob: Problem, out_dir, *, scheduler=None, workers=None, batch=None, bui
     return res
 
 
-def _progress(prob, sco, rows, generation) -> dict:
+def _progress(prob, sco, rows, generation, front: list) -> dict:
+    """A generation's line of the convergence table; ``front``: the Pareto set of the rows
+    before it (updated: the set of all rows is the set of the old set and the new rows)."""
     feas = [r for r in rows if r.get("feasible")]
     out = {"generation": generation, "evaluations": len(rows), "feasible": len(feas)}
     for o in prob.objectives:
         vals = [design.value(r, o.indicator) for r in feas]
         out[f"best:{o.indicator}"] = (min(vals) if o.goal == "min" else max(vals)) if vals else None
     if len(prob.objectives) > 1:
-        out["pareto_size"] = int(pareto_mask(np.array([sco.F(r) for r in feas])).sum()) if feas else 0
+        out["pareto_size"] = len(front)
     return out
 
 
