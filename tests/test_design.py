@@ -326,3 +326,27 @@ def test_optimize_and_sensitivity_on_the_kernel_evaluator(tmp_path, capsys):
     assert again["computed"] == 0 and again["optimum"] == first["optimum"]
     assert cli.main(["sensitivity", str(path), "--out", str(tmp_path / "s"), "--quiet", "--no-plots"]) == 0
     assert len(rows(tmp_path / "s" / "results.parquet")) == 4 * 4
+
+
+def test_a_cosimulated_point_repeats_no_build_check(tmp_path, monkeypatch):
+    """The co-simulation evaluator builds and checks the FMUs once per study (in its prepare),
+    not per point: a study of 3 points makes as many build checks as a study of 1 (each point
+    still loads the scenario with its values, checked against the model descriptions)."""
+    from ballmill.fmi import build as fmi_build
+    from ballmill.sweep import build, run_study
+
+    real, calls = fmi_build.build_all, []
+
+    def counting(*a, **kw):
+        calls.append(1)
+        return real(*a, **kw)
+
+    monkeypatch.setattr(fmi_build, "build_all", counting)
+    counts = []
+    for n, values in ((1, [2.0]), (3, [2.0, 2.5, 3.0])):
+        calls.clear()
+        res = run_study(build("fast_start", grid={"drive.t0": values}, model={"kind": "cosim"}, stop=0.1),
+                        tmp_path / f"s{n}", scheduler="in-process", progress=False, plots=False)
+        assert [r["status"] for r in res.rows] == ["ok"] * n
+        counts.append(len(calls))
+    assert counts[0] == counts[1], counts
