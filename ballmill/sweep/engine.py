@@ -43,6 +43,9 @@
   function of the rows, so a resumed study finds the same ones. A Prepared
   with ``write_outputs(study, rows, out_dir, plots, log)`` writes its own
   files beside results.parquet (the absorber's frf.csv and frf.png).
+* `setup` (the checks, the evaluator prepared once, DIR's rows so far) and `Executor` (the
+  scheduler, started once and kept for every batch) are what run_study is made of, and
+  what the design studies (`design.Session`: optimize, sensitivity) use for their batches.
 * The rows do not depend on the executor (tests check it): every point is
   computed by the same function from the same inputs, and the rows are sorted
   by point index before they are written.

@@ -79,6 +79,7 @@ from . import design
 from .spec import StudyError
 
 ALGORITHMS = ("auto", "nsga2", "de")
+SHOWN = 10  # designs of the Pareto set printed by the command
 KEYS = {"algorithm": "auto, nsga2 or de", "population": "designs per generation",
         "generations": "generations, the first included", "seed": "an integer"}
 
@@ -531,12 +532,16 @@ def write_plots(prob, session, rows, best, history, out_dir: Path) -> list[Path]
 def summary(prob: Problem, res: Result) -> dict:
     s = res.session
     names = prob.ds.names
+    shown = res.best
+    if len(shown) > SHOWN:  # a long Pareto set: SHOWN designs evenly along it (all in pareto.parquet)
+        shown = [shown[i] for i in np.unique(np.linspace(0, len(shown) - 1, SHOWN).round().astype(int))]
     best = [{**{k: r[k] for k in names}, **{o.indicator: r.get(o.indicator) for o in prob.objectives},
-             **{c.indicator: r.get(c.indicator) for c in prob.constraints}} for r in res.best]
+             **{c.indicator: r.get(c.indicator) for c in prob.constraints}} for r in shown]
     out = {"study": s.study.name, "algorithm": res.message, "evaluator": s.setup.ev.kind,
            "executor": s.executor.name, "evaluations": len(s.order), "computed": s.computed,
            "reused (already in the results)": s.reused,
            "feasible": sum(1 for r in res.rows if r.get("feasible") and r["point_id"] in s.order),
+           **({"pareto set size": len(res.best)} if len(prob.objectives) > 1 else {}),
            ("pareto set" if len(prob.objectives) > 1 else "optimum"): best if len(prob.objectives) > 1 else
            (best[0] if best else None),
            "results": str(s.out_dir / "results.parquet"), "pareto": str(s.out_dir / "pareto.parquet"),
