@@ -83,6 +83,9 @@ def test_differential_evolution_finds_the_constrained_minimum(tmp_path, toy, cap
     assert best["bowl"] == pytest.approx(1.405, abs=1e-5)
     assert best["plane"] >= 0.0
     assert [r["ball.wx0"] for r in rows(out / "pareto.parquet")] == [best["ball.wx0"]]
+    conv = rows(out / "convergence.parquet")  # one line a generation, the best so far never rising
+    assert [c["generation"] for c in conv] == list(range(1, 61))
+    assert np.all(np.diff([c["best:bowl"] for c in conv]) <= 0) and conv[-1]["best:bowl"] == best["bowl"]
     evals = rows(out / "results.parquet")
     assert len(evals) == summary["evaluations"] and 20 * 50 < len(evals) <= 20 * 60
     invalid = [r for r in evals if r["ball.wx0"] < -3.5]

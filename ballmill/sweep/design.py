@@ -75,10 +75,15 @@ def load(path_or_name: str, section: str) -> DesignStudy:
     StudyError names every problem with the file and key."""
     path = resolve_study(path_or_name)
     if path is None:
-        p = Path(path_or_name)
-        raise StudyError([f"{path_or_name}: no such study file (a .toml path or a name in "
-                          f"scenarios/studies/ with a scenario and [variables])" if not p.exists() else
-                          f"{path_or_name}: not a study file (it has no scenario)"])
+        from ..scenario import spec as _scen
+
+        try:
+            _scen.resolve(path_or_name)
+            what = "a scenario, not a study file"
+        except _scen.ScenarioError:
+            what = "no such study file" if not Path(path_or_name).exists() else "not a study file (no scenario)"
+        raise StudyError([f"{path_or_name}: {what} (expected a .toml path or a name in scenarios/studies/: "
+                          f"a file naming its scenario, with [variables] and [{section}])"])
     where = path.as_posix()
     doc = tomllib.loads(path.read_text())
     problems = []

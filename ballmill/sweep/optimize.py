@@ -344,7 +344,11 @@ def run(prob: Problem, out_dir, *, scheduler=None, workers=None, batch=None, bui
                 seen[r["point_id"]] = r
                 new.append(r)
         front[:] = _best(prob, sco, front + new)
-        history.append(_progress(prob, sco, list(seen.values()), generation, front))
+        line = _progress(prob, sco, list(seen.values()), generation, front)
+        if history and history[-1]["generation"] == generation:  # (scipy's first call: one design)
+            history[-1] = line
+        else:
+            history.append(line)
         return rows
 
     try:
@@ -437,10 +441,14 @@ def _de(prob, sco, xl, xu, evaluate) -> str:
         X = np.atleast_2d(np.asarray(X, dtype=float).T)  # (S, k)
         key = X.tobytes()
         if state["last"] is None or state["last"][0] != key:
-            if not all(tuple(x) in state.setdefault("asked", set()) for x in map(tuple, X)):
+            asked = state.setdefault("asked", set())
+            # a new generation: a population call (scipy probes the constraints with one design
+            # of the first population before it, and asks for the objective of the feasible
+            # designs of a generation after their constraints)
+            if len(X) > 1 and not all(tuple(x) in asked for x in X):
                 state["gen"] += 1
-            state["asked"].update(map(tuple, X))
-            state["last"] = (key, evaluate(X, state["gen"]))
+            asked.update(map(tuple, X))
+            state["last"] = (key, evaluate(X, max(1, state["gen"])))
         return state["last"][1]
 
     def f(x):
