@@ -239,14 +239,16 @@ def _optimize_process(study, out, env_extra):
                            "--batch", "1", "--quiet", "--no-plots"], capture_output=True, text=True, env=env)
 
 
-def test_a_killed_study_resumes_without_redoing_an_evaluation(tmp_path):
+def test_a_killed_study_resumes_without_redoing_an_evaluation(tmp_path, toy, monkeypatch, capsys):
     """A study killed (SIGKILL, no clean-up) when asked for its 31st evaluation, in the third
     generation of 12, then run again: the second run computes only what the first did not (no
     point in both logs), together they compute exactly the uninterrupted run's points, and the
     results (every evaluation, the Pareto set) are those of the uninterrupted run, bit for bit."""
     study = study_file(tmp_path, RESUME)
-    whole = _optimize_process(study, tmp_path / "whole", {"BALLMILL_TOY_LOG": str(tmp_path / "whole.log")})
-    assert whole.returncode == 0, whole.stderr
+    monkeypatch.setenv("BALLMILL_TOY_LOG", str(tmp_path / "whole.log"))  # the uninterrupted run, here
+    assert cli.main(["optimize", str(study), "--out", str(tmp_path / "whole"), "--in-process", "--batch", "1",
+                     "--quiet", "--no-plots"]) == 0
+    monkeypatch.delenv("BALLMILL_TOY_LOG")
     killed = _optimize_process(study, tmp_path / "b", {"BALLMILL_TOY_LOG": str(tmp_path / "b1.log"),
                                                        "BALLMILL_TOY_KILL_AFTER": "30"})
     assert killed.returncode == -9, killed.stderr
