@@ -190,7 +190,7 @@ class Session:
         self.units = {**self.setup.units, **{c: u for c, u in self.extra if u}}
         self.annotate = annotate or (lambda row: None)
         self.batch = batch
-        self.executor = _eng.Executor(scheduler, workers, self.setup.prepared)
+        self.executor = _eng.Executor(scheduler, workers, self.setup.prepared, keep=True)
         self.cache = dict(self.setup.done_rows)  # point id -> row
         self.order: dict[str, int] = {}  # point id -> evaluation number, in the order first asked
         self.new_rows: list[dict] = []
