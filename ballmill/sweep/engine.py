@@ -253,7 +253,10 @@ def _run_forked(prepared, custom, tasks: list, nworkers: int, take, pool=None) -
         take(*result)
         last = time.perf_counter()
 
-    calls = [dask.delayed(run_batch, pure=False)(prepared, custom, task) for task in tasks]
+    # the Prepared as one value of the graph, not traversed (a dataclass's fields would be, for every
+    # task: about 20 ms a task for the kernel's)
+    prep = dask.delayed(prepared, traverse=False)
+    calls = [dask.delayed(run_batch, pure=False)(prep, custom, task) for task in tasks]
     with dask.config.set({"multiprocessing.context": "fork"}), Callback(posttask=posttask):
         dask.compute(*calls, scheduler=dask.multiprocessing.get, num_workers=nworkers, chunksize=1,
                      **({"pool": pool} if pool is not None else {}))
