@@ -333,7 +333,7 @@ class Executor:
         """Stop the cluster or the kept workers (if any); the time its start and stop took [s]."""
         if self.pool is not None:
             k1 = time.perf_counter()
-            self.pool.shutdown(wait=True)
+            self.pool.shutdown(wait=True, cancel_futures=True)  # (after an interrupt: only the tasks running)
             self.pool = None
             self.split["cluster_close"] += time.perf_counter() - k1
         if self.client is not None:

@@ -70,7 +70,7 @@ from __future__ import annotations
 import json
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -305,6 +305,7 @@ class Result:
     algorithm: str
     message: str
     wall_s: float
+    plots: list = field(default_factory=list)
 
 
 def run(prob: Problem, out_dir, *, scheduler=None, workers=None, batch=None, build_dir=None, progress=True,
@@ -365,10 +366,11 @@ def run(prob: Problem, out_dir, *, scheduler=None, workers=None, batch=None, bui
     _write_rows(history, None, out_dir / "convergence.parquet")
     files = []
     if plots:
-        files = write_plots(prob, session, asked, best, history, out_dir)
-    res = Result(rows, best, history, session, prob.algorithm, message, time.perf_counter() - wall0)
-    res.plots = files
-    return res
+        try:
+            files = write_plots(prob, session, asked, best, history, out_dir)
+        except Exception as e:  # noqa: BLE001 - the results stand without their plots
+            session.log(f"plots not written: {type(e).__name__}: {e}")
+    return Result(rows, best, history, session, prob.algorithm, message, time.perf_counter() - wall0, files)
 
 
 def _progress(prob, sco, rows, generation, front: list) -> dict:
@@ -553,5 +555,5 @@ def summary(prob: Problem, res: Result) -> dict:
            ("pareto set" if len(prob.objectives) > 1 else "optimum"): best if len(prob.objectives) > 1 else
            (best[0] if best else None),
            "results": str(s.out_dir / "results.parquet"), "pareto": str(s.out_dir / "pareto.parquet"),
-           "plots": [str(p) for p in getattr(res, "plots", [])], "wall_s": round(res.wall_s, 3)}
+           "plots": [str(p) for p in res.plots], "wall_s": round(res.wall_s, 3)}
     return json.loads(json.dumps(out, default=str))

@@ -174,7 +174,10 @@ def run(an: Analysis, out_dir, *, scheduler=None, workers=None, batch=None, buil
     _eng._write(_eng._table(table, cols, {}), out_dir / "sobol.parquet")
     res = Result(session.rows, table, skipped, warnings, session, time.perf_counter() - wall0)
     if plots and table:
-        res.plots = [write_plot(an, session, table, out_dir)]
+        try:
+            res.plots = [write_plot(an, session, table, out_dir)]
+        except Exception as e:  # noqa: BLE001 - the results stand without their plot
+            session.log(f"plot not written: {type(e).__name__}: {e}")
     return res
 
 
