@@ -192,6 +192,82 @@ def _sweep(args) -> int:
     return 0
 
 
+def _design_options(p, what: str):
+    """What `ballmill optimize` and `ballmill sensitivity` accept besides their own options."""
+    p.add_argument("study", help="a study file (scenarios/studies/NAME.toml or a path) with [variables] and "
+                                 f"[{what}]")
+    p.add_argument("--out", help=f"output folder (default: out/{what}/STUDY); re-running resumes")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="a running Dask scheduler (tcp://host:8786), or local (a Dask LocalCluster); default: "
+                        "Dask's local processes scheduler, workers forked from this one")
+    p.add_argument("--workers", type=int, help="local worker processes (default: one per core)")
+    p.add_argument("--in-process", action="store_true", help="no Dask: compute the batches in this process")
+    p.add_argument("--batch", type=int, help="points per task (default: about 8 tasks per worker and batch)")
+    p.add_argument("--no-plots", action="store_true", help="write no PNGs")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--build-dir", help="where the FMUs are (co-simulated points only)")
+
+
+def _design_run(args, command: str, body) -> int:
+    """A design command's errors as `ballmill sweep` reports them: 2 for a bad study, 1 for a
+    scheduler that cannot be reached or an unwritable --out."""
+    from .sweep import spec
+    try:
+        return body()
+    except (spec.StudyError, ValueError) as e:
+        print(f"ballmill {command}: {e}", file=sys.stderr)
+        return 2
+    except OSError as e:
+        print(f"ballmill {command}: {type(e).__name__}: {e}", file=sys.stderr)
+        return 1
+
+
+def _design_kw(args) -> dict:
+    return dict(scheduler="in-process" if args.in_process else args.scheduler, workers=args.workers,
+                batch=args.batch, build_dir=Path(args.build_dir) if args.build_dir else None,
+                progress=not args.quiet, plots=not args.no_plots)
+
+
+def _optimize(args) -> int:
+    def body():
+        from .sweep import optimize
+        prob = optimize.load(args.study, population=args.population, generations=args.generations, seed=args.seed)
+        out = Path(args.out or Path("out") / "optimize" / prob.ds.study.name)
+        print(f"optimize {prob.ds.study.name}: {prob.algorithm}, {prob.population} x {prob.generations} designs "
+              f"over {', '.join(prob.ds.names)} -> {out}", file=sys.stderr)
+        res = optimize.run(prob, out, **_design_kw(args))
+        print(json.dumps(optimize.summary(prob, res), indent=2))
+        if not res.best:
+            print(f"ballmill optimize: no feasible design among {len(res.session.order)} evaluations "
+                  f"(see {res.session.out_dir / 'results.parquet'}: margin:* and violation)", file=sys.stderr)
+            return 1
+        return 0
+    return _design_run(args, "optimize", body)
+
+
+def _sensitivity(args) -> int:
+    def body():
+        from .sweep import sensitivity
+        an = sensitivity.load(args.study, N=args.N, seed=args.seed)
+        out = Path(args.out or Path("out") / "sensitivity" / an.ds.study.name)
+        n = an.N * (len(an.ds.names) + 2)
+        print(f"sensitivity {an.ds.study.name}: Sobol indices of {', '.join(an.indicators)} over "
+              f"{', '.join(an.ds.names)}, N = {an.N} ({n} evaluations) -> {out}", file=sys.stderr)
+        res = sensitivity.run(an, out, **_design_kw(args))
+        print(sensitivity.text_table(res))
+        s = res.session
+        print(f"{len(s.order)} samples ({s.computed} computed, {s.reused} already in the results), "
+              f"{res.wall_s:.1f} s; {out / 'sobol.parquet'}, {out / 'results.parquet'}"
+              + (f", {', '.join(map(str, res.plots))}" if res.plots else ""))
+        for w in res.warnings:
+            print(f"ballmill sensitivity: warning: {w}", file=sys.stderr)
+        if not res.table:
+            print("ballmill sensitivity: no indicator has indices (see the table above)", file=sys.stderr)
+            return 1
+        return 0
+    return _design_run(args, "sensitivity", body)
+
+
 def _steady(args) -> int:
     from .physics import Ball, ParameterError
     from .physics.steady import equilibrium, limits
@@ -276,6 +352,16 @@ def main(argv=None) -> int:
     w.add_argument("--no-plots", action="store_true", help="write no PNGs")
     w.add_argument("--quiet", action="store_true", help="no progress bar")
     w.add_argument("--build-dir", help="where the FMUs are (co-simulated points only)")
+    o = sub.add_parser("optimize", help="the design variables that minimise or maximise indicators under "
+                                        "constraints (NSGA-II or differential evolution, on Dask)")
+    _design_options(o, "optimize")
+    o.add_argument("--population", type=int, help="designs per generation (replaces the file's)")
+    o.add_argument("--generations", type=int, help="generations (replaces the file's)")
+    o.add_argument("--seed", type=int, help="the algorithm's seed (replaces the file's)")
+    v = sub.add_parser("sensitivity", help="Sobol indices of indicators over parameters (SALib, on Dask)")
+    _design_options(v, "sensitivity")
+    v.add_argument("--N", type=int, help="base sample, a power of 2 (replaces the file's)")
+    v.add_argument("--seed", type=int, help="the sample's and the bootstrap's seed (replaces the file's)")
     q = sub.add_parser("steady", help="the ball's relative equilibrium on the crank circle (quasi-static)")
     q.add_argument("--n0", type=float, default=60.0, help="crank speed [1/min] (default 60)")
     q.add_argument("--l", type=float, default=0.5, help="crank length [m] (default 0.5)")
@@ -291,7 +377,8 @@ def main(argv=None) -> int:
     if rest:
         parser.error(f"unrecognized arguments: {' '.join(rest)}")
     return {"build": _build, "run": _run, "export-ssp": _export_ssp, "sweep": _sweep,
-            "steady": _steady}[args.command](args)
+            "steady": _steady, "optimize": _optimize,
+            "sensitivity": _sensitivity}[args.command](args)
 
 
 def entry() -> None:

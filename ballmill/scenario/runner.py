@@ -676,6 +676,13 @@ def prepare(name_or_path: str, overrides=(), build_dir: Path | None = None, log=
     paths = {p.stem: p for p in fmus}
     for name in _build.model_names():  # and the others, not built for this run: the check names them
         paths.setdefault(name, _build.fmu_path(name, build_dir, flavour))
-    models = _Descriptions(paths)
-    sc = _spec.load(name_or_path, overrides, models, **check)
+    sc, models = load_built(name_or_path, overrides, paths, **check)
     return sc, models, paths
+
+
+def load_built(name_or_path: str, overrides, paths: dict, **check):
+    """(scenario, model descriptions) of a scenario whose FMUs `prepare` has built and checked
+    (``paths``: its model name -> FMU): the scenario and its overrides loaded and checked, no
+    build check (what a study's points repeat, prepare being once per study)."""
+    models = _Descriptions(paths)
+    return _spec.load(name_or_path, overrides, models, **check), models

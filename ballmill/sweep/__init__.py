@@ -15,7 +15,11 @@ Layers (each module's docstring has the details):
 * engine: batches on Dask (its local processes scheduler, workers forked from the
   command; a LocalCluster; a running cluster) or in this process, rounds, chains, resume,
   DIR/results.parquet, the plots (drawn in the command);
-* plots: curves, heat maps (invalid regions hatched), scatter plots.
+* plots: curves, heat maps (invalid regions hatched), scatter plots;
+* design: studies that choose their own points (bounds of design variables), evaluated
+  batch by batch through the engine's setup and executor, every evaluation in DIR and
+  read back on a rerun; optimize (`ballmill optimize`: NSGA-II, differential evolution)
+  and sensitivity (`ballmill sensitivity`: Sobol indices) on it.
 """
 from .engine import Outcome, columns, run_study
 from .spec import Indicator, Study, StudyError, build, load

@@ -43,6 +43,9 @@
   function of the rows, so a resumed study finds the same ones. A Prepared
   with ``write_outputs(study, rows, out_dir, plots, log)`` writes its own
   files beside results.parquet (the absorber's frf.csv and frf.png).
+* `setup` (the checks, the evaluator prepared once, DIR's rows so far) and `Executor` (the
+  scheduler, started once and kept for every batch) are what run_study is made of, and
+  what the design studies (`design.Session`: optimize, sensitivity) use for their batches.
 * The rows do not depend on the executor (tests check it): every point is
   computed by the same function from the same inputs, and the rows are sorted
   by point index before they are written.
@@ -213,7 +216,22 @@ def _can_fork() -> bool:
     return "fork" in multiprocessing.get_all_start_methods()
 
 
-def _run_forked(prepared, custom, tasks: list, nworkers: int, take) -> float:
+def _fork_pool(nworkers: int):
+    """The worker processes of Dask's processes scheduler, forked from this one, as dask.multiprocessing
+    makes them (its worker initialiser), to be kept for several batches (`Executor`)."""
+    import functools
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    import dask.multiprocessing
+
+    if os.environ.get("PYTHONHASHSEED") in (None, "0"):  # as dask.multiprocessing.get sets it for its pools
+        os.environ["PYTHONHASHSEED"] = "6640"
+    init = functools.partial(dask.multiprocessing.initialize_worker_process, user_initializer=None)
+    return ProcessPoolExecutor(nworkers, mp_context=multiprocessing.get_context("fork"), initializer=init)
+
+
+def _run_forked(prepared, custom, tasks: list, nworkers: int, take, pool=None) -> float:
     """run_batch of each task on Dask's local processes scheduler (dask.multiprocessing.get),
     its nworkers processes forked from this one: they inherit the imported modules (numpy, the
     kernel, ballmill), so they start in milliseconds where spawned ones import everything again.
@@ -222,7 +240,8 @@ def _run_forked(prepared, custom, tasks: list, nworkers: int, take) -> float:
     written and counted as they come. Returns the perf_counter time of the last result (then
     Dask stops the workers). The scheduler is passed as the function, not by its name
     "processes": dask.compute then does not look for a dask.distributed client, an import of
-    about 0.3 s of CPU."""
+    about 0.3 s of CPU. ``pool``: worker processes kept from an earlier batch (`_fork_pool`;
+    then Dask neither starts nor stops them)."""
     import dask
     import dask.multiprocessing
     from dask.callbacks import Callback
@@ -234,9 +253,13 @@ def _run_forked(prepared, custom, tasks: list, nworkers: int, take) -> float:
         take(*result)
         last = time.perf_counter()
 
-    calls = [dask.delayed(run_batch, pure=False)(prepared, custom, task) for task in tasks]
+    # the Prepared as one value of the graph, not traversed (a dataclass's fields would be, for every
+    # task: about 20 ms a task for the kernel's)
+    prep = dask.delayed(prepared, traverse=False)
+    calls = [dask.delayed(run_batch, pure=False)(prep, custom, task) for task in tasks]
     with dask.config.set({"multiprocessing.context": "fork"}), Callback(posttask=posttask):
-        dask.compute(*calls, scheduler=dask.multiprocessing.get, num_workers=nworkers, chunksize=1)
+        dask.compute(*calls, scheduler=dask.multiprocessing.get, num_workers=nworkers, chunksize=1,
+                     **({"pool": pool} if pool is not None else {}))
     return last
 
 
@@ -244,16 +267,109 @@ def _default_batch(n: int, workers: int) -> int:
     return max(1, min(250, math.ceil(n / (8 * max(1, workers)))))
 
 
-def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int | None = None,
-              batch: int | None = None, retry_failed: bool = False, progress: bool = True,
-              build_dir=None, plots: bool = True, log=None) -> Outcome:
-    log = log or (lambda m: print(m, file=sys.stderr))
-    wall0 = time.perf_counter()
+class Executor:
+    """Where the tasks of a study run (see the module docstring: ``scheduler`` None, "local",
+    an address or "in-process"), kept for as many batches as the study asks: a LocalCluster
+    or a scheduler's client is started once (`start`), its workers get the Prepared once
+    (scattered), and `close` stops it. The forked workers of the default are forked afresh
+    for each batch, or, with ``keep``, once at the first batch and kept until `close` (a
+    study of many small batches, an optimiser's generations: the fork and the stop of the
+    workers, about 0.1 s, once instead of once a batch). `run(tasks, custom, take)` runs run_batch on each task
+    and calls take(rows, split) here as each task ends; it returns the time from the first task
+    to the last result [s]."""
+
+    def __init__(self, scheduler: str | None, workers: int | None, prepared, keep: bool = False):
+        self.scheduler, self.workers, self.prepared = scheduler, workers, prepared
+        self.keep, self.pool = keep, None  # keep: the forked workers live from the first batch to close
+        self.forked = scheduler is None and _can_fork()  # Dask's processes scheduler, workers forked from here
+        self.nworkers = max(1, workers or os.cpu_count() or 1) if self.forked else 1
+        self.client = self.cluster = self._prep = None
+        self.name = "in-process" if scheduler == "in-process" else (
+            f"dask processes scheduler, {self.nworkers} worker process(es) forked from this one" if self.forked else "")
+        self.split = {"cluster_start": 0.0, "cluster_close": 0.0}
+
+    def start(self):
+        if self.scheduler == "in-process" or self.forked or self.client is not None:
+            return
+        from dask.distributed import Client, LocalCluster
+
+        k0 = time.perf_counter()
+        if self.scheduler in (None, "local"):
+            n = self.workers or os.cpu_count() or 1
+            self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                        dashboard_address=None, silence_logs=40)
+            self.client = Client(self.cluster)
+            self.name = f"dask LocalCluster, {n} worker process(es)"
+        else:
+            self.client = Client(self.scheduler)
+            self.name = f"dask scheduler {self.scheduler}"
+        self.split["cluster_start"] += time.perf_counter() - k0
+        self.nworkers = max(1, len(self.client.scheduler_info(n_workers=-1)["workers"]))
+        self.name += f" ({self.nworkers} worker(s) seen)"
+        self._prep = self.client.scatter(self.prepared, broadcast=True)
+
+    def run(self, tasks: list, custom, take) -> float:
+        self.start()
+        r0 = time.perf_counter()
+        if self.scheduler == "in-process":
+            for task in tasks:
+                take(*run_batch(self.prepared, custom, task))
+            return time.perf_counter() - r0
+        if self.forked:
+            if self.keep and self.pool is None:  # forked once, kept for every batch
+                self.pool = _fork_pool(self.nworkers)
+            last = _run_forked(self.prepared, custom, tasks, self.nworkers, take, self.pool)
+            self.split["cluster_close"] += time.perf_counter() - last
+            return last - r0
+        from dask.distributed import as_completed
+
+        futs = [self.client.submit(run_batch, self._prep, custom, task, pure=False) for task in tasks]
+        for fut in as_completed(futs):
+            take(*fut.result())
+            fut.release()
+        return time.perf_counter() - r0
+
+    def close(self) -> dict:
+        """Stop the cluster or the kept workers (if any); the time its start and stop took [s]."""
+        if self.pool is not None:
+            k1 = time.perf_counter()
+            self.pool.shutdown(wait=True, cancel_futures=True)  # (after an interrupt: only the tasks running)
+            self.pool = None
+            self.split["cluster_close"] += time.perf_counter() - k1
+        if self.client is not None:
+            k1 = time.perf_counter()
+            self.client.close()
+            if self.cluster is not None:
+                self.cluster.close()
+            self.client = self.cluster = None
+            self.split["cluster_close"] += time.perf_counter() - k1
+        return dict(self.split)
+
+
+@dataclass
+class Setup:
+    """A study made ready to compute points (`setup`): its scenario, evaluator and Prepared,
+    its context, the results' columns and units, and the rows DIR already holds."""
+
+    sc: object
+    ev: object
+    prepared: object
+    context: dict
+    chash: str
+    cols: list
+    units: dict
+    info_path: Path
+    done_rows: dict
+
+
+def setup(study: Study, out_dir: Path, build_dir=None, log=None, context: dict | None = None) -> Setup:
+    """The scenario checked (every point of the study, before any runs), the evaluator chosen
+    and prepared once, and DIR's rows so far by point id (results.parquet and parts/); a DIR
+    holding another study's results (another context: ``context`` adds to the study's own) is
+    refused."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    parts = out_dir / "parts"
-    results = out_dir / "results.parquet"
-
+    parts, results = out_dir / "parts", out_dir / "results.parquet"
     if study.case is not None:  # a built-in model case: its pseudo-scenario (instances, parameters)
         sc = _ev.CASES[study.case].scenario(study.set)
     else:  # checked as `ballmill run` checks it, with every point's values, before any point runs
@@ -272,24 +388,41 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
     except ValueError as e:
         raise StudyError([str(e)]) from None
     prepared = ev.prepare(sc, study, build_dir)
-    context = study.context(getattr(sc, "text", None) or sc.path.read_text(), ev.kind)
-    chash = context_hash(context)
+    ctx = study.context(getattr(sc, "text", None) or sc.path.read_text(), ev.kind)
+    if context:
+        ctx.update(context)
+    chash = context_hash(ctx)
     cols = columns(study, ev.indicators)
-
-    # what is done already
     info_path = out_dir / "study.json"
     done_rows: dict[str, dict] = {}
     if info_path.exists():
         old = json.loads(info_path.read_text())
         if old.get("context_hash") != chash:
             raise StudyError([f"{out_dir} holds the results of another study ({old.get('name')}, context "
-                              f"{old.get('context_hash')}; this one is {chash}: scenario, overrides, model or "
-                              f"indicators differ); use another --out or delete {out_dir}"])
+                              f"{old.get('context_hash')}; this one is {chash}: scenario, overrides, model, "
+                              f"indicators or settings differ); use another --out or delete {out_dir}"])
     sources = ([results] if results.exists() else []) + (sorted(parts.glob("part-*.parquet")) if parts.exists() else [])
     for src in sources:
         for r in read_rows(src):
             if r.get("point_id"):
                 done_rows[r["point_id"]] = r
+    units = {**{k: u for k, (u, _) in ev.indicators.items()}, **UNITS_META}
+    return Setup(sc, ev, prepared, ctx, chash, cols, units, info_path, done_rows)
+
+
+def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int | None = None,
+              batch: int | None = None, retry_failed: bool = False, progress: bool = True,
+              build_dir=None, plots: bool = True, log=None) -> Outcome:
+    log = log or (lambda m: print(m, file=sys.stderr))
+    wall0 = time.perf_counter()
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    parts = out_dir / "parts"
+    results = out_dir / "results.parquet"
+
+    st = setup(study, out_dir, build_dir, log)
+    ev, prepared, context, chash, cols, units = st.ev, st.prepared, st.context, st.chash, st.cols, st.units
+    info_path, done_rows = st.info_path, st.done_rows
     if retry_failed:
         done_rows = {k: r for k, r in done_rows.items() if r.get("status") == "ok"}
 
@@ -301,7 +434,6 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
         missing = {chain_key(p)[0] for _, _, p in todo}
         todo = [(i, point_id(p), p) for i, p in enumerate(points) if chain_key(p)[0] in missing]
     skipped = len(points) - len(todo)
-    units = {**{k: u for k, (u, _) in ev.indicators.items()}, **UNITS_META}
     info = {"name": study.name, "description": study.description, "context": context, "context_hash": chash,
             "evaluator": ev.kind, "model": prepared.model, "swept": study.swept, "points": len(points),
             "columns": cols, "units": units,
@@ -312,7 +444,7 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
     setup_s = time.perf_counter() - wall0
     new_rows: list[dict] = []
     split_total: dict = {}
-    executor, nb = "none", 0
+    nb = 0
     bar = _Bar(len(todo), progress)
     pending: list[dict] = []
     part_no = len(list(parts.glob("part-*.parquet"))) if parts.exists() else 0
@@ -346,66 +478,23 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
     sequential = bool(getattr(prepared, "sequential", False))
     chain_key = getattr(prepared, "chain_key", None)
     next_points = getattr(prepared, "next_points", None)
-    client = cluster = None
-    nworkers = 1
-    cluster_start = 0.0
-    forked = scheduler is None and _can_fork()  # Dask's processes scheduler, workers forked from here
-    if forked:
-        nworkers = max(1, workers or os.cpu_count() or 1)
+    ex = Executor(scheduler, workers, prepared)
 
     def tasks_of(todo_round):
         if chain_key is not None:
             return _chains(todo_round, chain_key)
         nb_ = len(todo_round) if sequential else (
-            batch or _default_batch(len(todo_round), nworkers))
+            batch or _default_batch(len(todo_round), ex.nworkers))
         return [todo_round[k:k + nb_] for k in range(0, len(todo_round), nb_)]
 
     try:
         rnd = 0
         while True:
             if todo:
+                ex.start()  # (a LocalCluster or a scheduler: once; the batch size for the workers seen)
                 tasks = tasks_of(todo)
                 nb = max(nb, max(len(t) for t in tasks))
-                if scheduler == "in-process":
-                    executor = "in-process"
-                    r0 = time.perf_counter()
-                    for task in tasks:
-                        take(*run_batch(prepared, study.indicators, task))
-                    run_s += time.perf_counter() - r0
-                elif forked:
-                    executor = f"dask processes scheduler, {nworkers} worker process(es) forked from this one"
-                    r0 = time.perf_counter()
-                    last = _run_forked(prepared, study.indicators, tasks, nworkers, take)
-                    run_s += last - r0
-                    split_total["cluster_close"] = split_total.get("cluster_close", 0.0) + time.perf_counter() - last
-                else:
-                    if client is None:
-                        from dask.distributed import Client, LocalCluster
-
-                        k0 = time.perf_counter()
-                        if scheduler in (None, "local"):
-                            n = workers or os.cpu_count() or 1
-                            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                                   dashboard_address=None, silence_logs=40)
-                            client = Client(cluster)
-                            executor = f"dask LocalCluster, {n} worker process(es)"
-                        else:
-                            client = Client(scheduler)
-                            executor = f"dask scheduler {scheduler}"
-                        cluster_start = time.perf_counter() - k0
-                        nworkers = max(1, len(client.scheduler_info(n_workers=-1)["workers"]))
-                        executor += f" ({nworkers} worker(s) seen)"
-                        prep = client.scatter(prepared, broadcast=True)
-                        tasks = tasks_of(todo)  # batch size for the workers seen
-                        nb = max(len(t) for t in tasks)
-                    from dask.distributed import as_completed
-
-                    r0 = time.perf_counter()
-                    futs = [client.submit(run_batch, prep, study.indicators, task, pure=False) for task in tasks]
-                    for fut in as_completed(futs):
-                        take(*fut.result())
-                        fut.release()
-                    run_s += time.perf_counter() - r0
+                run_s += ex.run(tasks, study.indicators, take)
             # refinement: the evaluator looks at every row so far and names the points to add
             # (each round one batch of tasks on the same executor); deterministic, so a resumed
             # study finds the same rounds and skips what it has
@@ -425,13 +514,9 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
             bar.total += len(todo)
             skipped += len(extra) - len(todo)
     finally:
-        if client is not None:
-            k1 = time.perf_counter()
-            client.close()
-            if cluster is not None:
-                cluster.close()
-            split_total["cluster_start"] = cluster_start
-            split_total["cluster_close"] = time.perf_counter() - k1
+        for k, v in ex.close().items():
+            split_total[k] = split_total.get(k, 0.0) + v
+    executor = ex.name or "none"
     compute_s = time.perf_counter() - c0
 
     # the results file: old rows (minus those recomputed) and the new ones, by point index

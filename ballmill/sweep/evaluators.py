@@ -417,7 +417,7 @@ class Cosim(Evaluator):
                     for n, i in sc.instances.items() if i.fmu}
         return CosimPrepared(path=str(sc.path), overrides=list(study.set), build_dir=build_dir, ball=ball,
                              drive=drive, defaults=defaults, step=sc.step, stop=study.stop,
-                             extra=tuple(i.variable for i in study.indicators))
+                             extra=tuple(i.variable for i in study.indicators), paths=dict(paths))
 
 
 BALL_NEEDED = ("N", "friction_ratio", "xP", "yP", "zP", "xC", "yC", "zC", "M_reaction", "coupling_error", "Ft",
@@ -457,6 +457,7 @@ class CosimPrepared(Prepared):
     stop: float | None = None
     extra: tuple = ()  # variables the study's own indicators read
     timing: dict = field(default_factory=lambda: {"integration": 0.0})
+    paths: dict = field(default_factory=dict)  # model name -> FMU, built and checked once by Cosim.prepare
 
     @property
     def model(self):
@@ -467,7 +468,10 @@ class CosimPrepared(Prepared):
 
         c0 = time.perf_counter()
         sets = self.overrides + [f"{k}={_toml(v)}" for k, v in params.items()]
-        sc, models, paths = runner.prepare(self.path, sets, self.build_dir, log=lambda m: None)
+        # the FMUs were built and checked by Cosim.prepare, once per study: a point loads the scenario
+        # with its values, checked against the model descriptions (parsed once per process), no build check
+        paths = self.paths
+        sc, models = runner.load_built(self.path, sets, paths)
         if self.stop is not None:
             sc.stop = self.stop
         _record_needed(sc, models, self.ball, self.drive, self.extra)

@@ -390,8 +390,10 @@ def load(name_or_path: str, *, set_=(), grid=None, sample=None, model=None, stop
     unknown = set(doc) - {"description", "scenario", "case", "mode", "stop", "set", "grid", "sample", "model",
                           "indicators"}
     if unknown:
+        design = " (a design study: run it with ballmill optimize or ballmill sensitivity)" \
+            if "variables" in unknown else ""
         raise StudyError([f"{where}: unknown key(s) {sorted(unknown)}; expected description, scenario (or case "
-                          f"and mode), stop, set, grid, sample, model, indicators"])
+                          f"and mode), stop, set, grid, sample, model, indicators{design}"])
     if "case" in doc and "scenario" in doc:
         raise StudyError([f"{where}: a study has a scenario or a case, not both"])
     scen = doc.get("scenario", doc.get("case"))
