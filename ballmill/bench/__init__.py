@@ -24,16 +24,12 @@ figures in benchmarks/figures/):
    without rotation pays through simulate_chamber;
 8. start-up (bench/startup.py): what `ballmill --help` and a warm `ballmill run
    fast_start` cost as whole processes, phase by phase, and the first run's build,
-<<<<<<< HEAD
    against the code before the start-up work in the same rounds;
 9. the hybrid ball (bench/hybrid.py): `simulate_hybrid` on the event-driven driver,
    a scene that stays rolling next to `simulate`, and scenes with slip, flight and
-   impacts: cost per simulated second, per event, and of locating the events.
-=======
-   against the code before the start-up work in the same rounds.
-9. design (bench/design.py): `ballmill optimize` (NSGA-II, 40 x 25) and `ballmill
+   impacts: cost per simulated second, per event, and of locating the events;
+10. design (bench/design.py): `ballmill optimize` (NSGA-II, 40 x 25) and `ballmill
    sensitivity` (Sobol, 5 parameters, N = 1024) as whole processes on the kernel evaluator.
->>>>>>> optim
 
 Speed is measured here, never asserted in tests. ``--quick`` runs a reduced
 grid (about a minute) and by default writes to benchmarks/_work/ so that it
@@ -82,21 +78,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--cc", default="gcc", help="C compiler for the compiled peer (default gcc)")
     p.add_argument("--no-compiled", action="store_true", help="skip the compiled (C) peer")
     p.add_argument("--debug", action="store_true", help="show the traceback when a benchmark fails")
-<<<<<<< HEAD
-    p.add_argument("--section", choices=("all", "studies", "absorber", "startup", "sweep-grid", "hybrid"),
-=======
-    p.add_argument("--section", choices=("all", "studies", "absorber", "startup", "sweep-grid", "design"),
->>>>>>> optim
+    p.add_argument("--section", choices=("all", "studies", "absorber", "startup", "sweep-grid", "hybrid",
+                                         "design"),
                    default="all",
                    help="'studies': run only the design-study section (ballmill/bench/studies.py), "
                         "'absorber': only the absorber co-simulation section (ballmill/bench/absorber.py), "
                         "'startup': only the command start-up section (ballmill/bench/startup.py), "
                         "'sweep-grid': only the 4000-point sweep command A/B (ballmill/bench/sweep_grid.py), "
-<<<<<<< HEAD
-                        "'hybrid': only the hybrid ball's costs on the event-driven driver (ballmill/bench/hybrid.py), and "
-=======
+                        "'hybrid': only the hybrid ball's costs on the event-driven driver (ballmill/bench/hybrid.py), "
                         "'design': only the optimize and sensitivity commands (ballmill/bench/design.py), and "
->>>>>>> optim
                         "splice it into the report (default: all sections)")
     p.add_argument("--baseline", metavar="REF",
                    help="sweep-grid: also time the command with the code of git revision REF (git archive of "
@@ -159,15 +149,12 @@ def main(argv=None) -> int:
             from . import sweep_grid  # the whole sweep command on the 4000-point grid, A/B
             sweep_grid.run_section(Path(out).resolve(), args.repeats or (3 if args.quick else 5), args.baseline,
                                    root, progress)
-<<<<<<< HEAD
         if args.section in ("all", "hybrid"):
             from . import hybrid  # the hybrid ball on the event-driven driver, next to the rolling scene
             hybrid.run_section(Path(out).resolve(), args.quick, progress)
-=======
         if args.section in ("all", "design"):
             from . import design  # NSGA-II 40 x 25 and Sobol N = 1024 over 5 parameters, whole commands
             design.run_section(Path(out).resolve(), args.repeats or (1 if args.quick else 3), progress)
->>>>>>> optim
     except KeyboardInterrupt:
         print("ballmill bench: interrupted", file=sys.stderr)
         return 130
