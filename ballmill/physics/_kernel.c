@@ -555,7 +555,8 @@ static void bm_ball_rhs_cached(const bm_problem *P, const void *ctx, double t, c
  * and the quadrature of the exact solution errs by O(h^6) only, so rho_k = e_{k+1} - e_k -
  * (the quadrature of J e) + O(h^6) = the error the step adds (RK4's O(h^5)). The estimate
  * accumulates the local errors' effect on the outputs without cancellation: the contact point
- * P = R n moves by R |rho_k's part across n|, N by |N(y_{k+1}) - N(y_{k+1} - rho_k)|; summed
+ * P = R n moves by R |rho_k's part across n|, N by |N(y_{k+1}) - N(y_{k+1} - rho_k)| (N in closed form,
+ * bm_normal_force); summed
  * over the steps (the error carried along the rolling ball adds up, as a phase error does).
  * docs/design.md's numerics section and tests/test_sweep_one_pass.py: on a grid of points it
  * stays within a stated factor of the error against a run at h/16. */
@@ -762,13 +763,15 @@ static inline double bm_initial_step_np(const bm_problem *P, bm_rhs_fn rhs, cons
 }
 
 /* ------------------------------------------------------------------- model.py */
-/* N of a state (outputs.py's N), for the estimate */
+/* N of a state for the estimate: m (d |n'|^2 - a.n - g n_z), outputs.py's N with n''.n = -|n'|^2
+ * (n a unit vector; the drag, along n', has no part along n), without the rest of the outputs */
 static double bm_normal_force(const bm_problem *P, bm_mcache *c, double t, const double *y)
 {
-    double m[6], o[BM_NOUT];
+    double m[6];
     bm_motion_cached(P, c, t, m);
-    bm_outputs(P, y, m[4], m[5], m[0], m[1], o);
-    return o[9];
+    double nx = y[0], ny = y[1], nz = y[2], wx = y[3], wy = y[4], wz = y[5], lam = P->o_lam;
+    double ndx = lam * (ny * wz - nz * wy), ndy = lam * (nz * wx - nx * wz), ndz = lam * (nx * wy - ny * wx);
+    return P->o_m * (P->o_d * (ndx * ndx + ndy * ndy + ndz * ndz) - m[4] * nx - m[5] * ny - P->o_g * nz);
 }
 
 /* simulate's loop from output point `start` (state y, step *h) over times[start..n-1]:
