@@ -129,7 +129,8 @@ def test_the_free_estimate_tracks_the_actual_error_within_its_stated_factor(tmp_
 def test_the_free_estimate_costs_no_second_run_and_leaves_the_indicators_as_they_are(tmp_path):
     """At a fixed h, every point's indicators are those of step doubling's full runs (the
     samples up to t_invalid are the same); the work is the one run's: 4 derivatives a step
-    plus one to end (step doubling: 1.5 times that)."""
+    plus one to end (step doubling: 1.5 times that); a run whose estimate passes a limit (it
+    will be redone at h / 2) ends there."""
     from ballmill.physics import fast
 
     one, rich = estimates(tmp_path, 0.01, "one-pass"), estimates(tmp_path, 0.01, "richardson")
@@ -141,3 +142,8 @@ def test_the_free_estimate_costs_no_second_run_and_leaves_the_indicators_as_they
     times = 0.01 * np.arange(1001)
     r = fast.study_run(model, crank, times, model.initial(0.0, 0.0, (0.0, 0.0, 0.0), t0=0.0), True, None)
     assert r.last == 1000 and r.err_P is not None and model.info.nfev == 4 * 1000 + 1
+    # a run to be redone at h / 2 ends where its estimate passes the limit, the samples so far the same
+    half = fast.study_run(model, crank, times, model.initial(0.0, 0.0, (0.0, 0.0, 0.0), t0=0.0), True, None,
+                          limit=r.err_P / 2)
+    assert half.exceeded and not half.failed and 100 < half.last < 1000 and r.err_P / 2 < half.err_P < r.err_P
+    assert np.array_equal(half.ys[:half.last + 1], r.ys[:half.last + 1])

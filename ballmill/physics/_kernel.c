@@ -782,7 +782,8 @@ static double bm_normal_force(const bm_problem *P, bm_mcache *c, double t, const
  * additions that leave every recorded sample as it is:
  *  - err (not NULL; a fixed-step run from start = 0): the run's error estimated from the
  *    run itself (bm_lerr), over the samples recorded: err[0] for the contact point [m],
- *    err[1] for N [N];
+ *    err[1] for N [N]; limit > 0: the run ends at the first sample where err[0] exceeds it
+ *    (its caller will redo the point with a smaller step: the rest would be wasted);
  *  - stop (stop != 0, with outs): after recording the first point where the model stops
  *    holding (not N > 0, or not friction_ratio <= mu: the rule of
  *    sweep.indicators.validity), the run ends there.
@@ -791,7 +792,7 @@ static double bm_normal_force(const bm_problem *P, bm_mcache *c, double t, const
  * motion comes from a cache of the last times asked (the same values: bm_motion_cached). */
 BM_EXPORT long long bm_simulate_study(const bm_problem *P, const double *times, long long n, long long start,
                                       int record_start, double *y, double *h, int stop, double mu, double *ys,
-                                      double *outs, double *err, bm_stats *total)
+                                      double *outs, double *err, double limit, bm_stats *total)
 {
     double m[6], f[BM_NY];
     bm_mcache cache = {{0}, {{0}}, 0, 0};
@@ -814,6 +815,10 @@ BM_EXPORT long long bm_simulate_study(const bm_problem *P, const double *times, 
             continue;
         }
         memcpy(ys + BM_NY * i, y, BM_NY * sizeof(double));
+        if (seen && limit > 0.0 && est.err_P > limit) {
+            last = i;
+            break;
+        }
         if (!outs) continue;
         double *o = outs + BM_NOUT * i;
         bm_motion_cached(P, &cache, times[i], m);
@@ -838,7 +843,7 @@ BM_EXPORT long long bm_simulate(const bm_problem *P, const double *times, long l
                                 int record_start, double *y, double *h, double *ys, double *outs,
                                 bm_stats *total)
 {
-    return bm_simulate_study(P, times, n, start, record_start, y, h, 0, 0.0, ys, outs, NULL, total);
+    return bm_simulate_study(P, times, n, start, record_start, y, h, 0, 0.0, ys, outs, NULL, 0.0, total);
 }
 
 /* BallModel.advance: one interval t -> t_end for the motion `motion` with the

@@ -174,7 +174,7 @@ def _open(path: Path, source: Path = SOURCE):
                                             _dp, _dp, _dp, _dp, ctypes.POINTER(_Stats)]),
         "bm_simulate_study": (ctypes.c_longlong, [P, _dp, ctypes.c_longlong, ctypes.c_longlong, ctypes.c_int,
                                                   _dp, _dp, ctypes.c_int, ctypes.c_double, _dp, _dp, _dp,
-                                                  ctypes.POINTER(_Stats)]),
+                                                  ctypes.c_double, ctypes.POINTER(_Stats)]),
         "bm_advance_interval": (ctypes.c_int, [ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p]),
         "bm_initial_step": (ctypes.c_double, [P, ctypes.c_double, _dp, ctypes.c_double]),
         "bm_eval_rhs": (None, [P, ctypes.c_double, _dp, _dp]),
@@ -438,9 +438,10 @@ class StudyRun:
     """A run of `study_run`: ``ys``, ``outs`` (rows 0..last are the run's), ``last``,
     ``stopped`` (the run ended at the first point where the model stops holding), ``failed``
     (the kernel could not do an interval: redo the point with `simulate`), ``err_P`` [m],
-    ``err_N`` [N] (the run's own error estimate over its samples, or None: not asked)."""
+    ``err_N`` [N] (the run's own error estimate over its samples, or None: not asked),
+    ``exceeded`` (the run ended where its contact-point estimate passed the limit asked)."""
 
-    __slots__ = ("times", "ys", "outs", "last", "stopped", "failed", "err_P", "err_N")
+    __slots__ = ("times", "ys", "outs", "last", "stopped", "failed", "err_P", "err_N", "exceeded")
 
 
 def study_problem(model) -> _Problem | None:
@@ -450,13 +451,15 @@ def study_problem(model) -> _Problem | None:
 
 
 def study_run(model, motion, times: np.ndarray, state, estimate: bool, stop_mu: float | None,
-              template: _Problem | None = None) -> StudyRun:
+              template: _Problem | None = None, limit: float | None = None) -> StudyRun:
     """`simulate`'s kernel loop over ``times`` for one point of a design study, in one kernel
     call (bm_simulate_study): the same samples as `simulate` (outputs included), and
     ``estimate`` (a fixed-step method): the run's global error estimated from its own states
     and derivatives (the local errors' effect on the contact point and on N, accumulated;
-    bm_lerr in _kernel.c); ``stop_mu``: end at the first sample where N > 0 and
-    friction_ratio <= stop_mu stop holding (None: run to the end). Call only when
+    bm_lerr in _kernel.c), and with ``limit`` [m] the run ends at the first sample where the
+    contact point's estimate exceeds it (a run to be redone with a smaller step); ``stop_mu``:
+    end at the first sample where N > 0 and friction_ratio <= stop_mu stop holding (None: run
+    to the end). Call only when
     `applicable` says ''. No Python fallback: a run the kernel cannot finish comes back with
     ``failed`` set, for the caller to redo with `simulate`. ``template``:
     `study_problem(model)`, made once for many runs (the motion is filled in here)."""
@@ -480,12 +483,13 @@ def study_run(model, motion, times: np.ndarray, state, estimate: bool, stop_mu: 
                                        h.ctypes.data_as(_dp), int(stop_mu is not None),
                                        stop_mu if stop_mu is not None else 0.0, r.ys.ctypes.data_as(_dp),
                                        r.outs.ctypes.data_as(_dp), err.ctypes.data_as(_dp) if estimate else None,
-                                       ctypes.byref(stats))
+                                       limit if estimate and limit is not None else 0.0, ctypes.byref(stats))
     r.last = int(last)
     o = r.outs[r.last]
     r.stopped = stop_mu is not None and r.last >= 0 and not (o[9] > 0.0 and o[18] <= stop_mu)
-    r.failed = r.last < n - 1 and not r.stopped
     r.err_P, r.err_N = (float(err[0]), float(err[1])) if estimate else (None, None)
+    r.exceeded = limit is not None and r.err_P is not None and r.err_P > limit
+    r.failed = r.last < n - 1 and not r.stopped and not r.exceeded
     info = model.info
     info.steps += stats.steps
     info.nfev += stats.nfev

@@ -273,8 +273,8 @@ class CrankPrepared(Prepared):
         """RK4 at h with the error the run estimates of itself (fast.study_run: the local errors'
         effect on the contact point and on N, accumulated over the samples the indicators
         read; no second run), ending at the first sample where the model stops holding; while
-        the contact point's estimate exceeds SAFETY * target, the run again at h / 2, at most
-        MAX_HALVINGS times. None when the kernel cannot do the point (then `_rk4` does it, and
+        the contact point's estimate exceeds SAFETY * target, the run again at h / 2 (the run
+        that exceeded it ends where it did), at most MAX_HALVINGS times. None when the kernel cannot do the point (then `_rk4` does it, and
         reports a failure as it always has)."""
         from ..physics import BallModel, fast
 
@@ -285,7 +285,7 @@ class CrankPrepared(Prepared):
         times = t0 + dt * np.arange(n_steps + 1)
         mu = ball.mu
 
-        def run(h):
+        def run(h, limit):
             key = (ball, h)
             if key not in self._models:  # the model and its kernel problem, once per ball and step
                 if len(self._models) > 64:
@@ -296,15 +296,17 @@ class CrankPrepared(Prepared):
             if template is None or fast._motion_params(crank)[0] is None:
                 return None
             state = model.initial(init[0], init[1], init[2:], t0=t0)
-            r = fast.study_run(model, crank, times, state, True, mu, template)
+            r = fast.study_run(model, crank, times, state, True, mu, template, limit)
             return None if r.failed else r
 
         h = self.h
         for halving in range(MAX_HALVINGS + 1):
-            r = run(h)
+            last = halving == MAX_HALVINGS
+            # a run whose estimate passes the target's share ends there: it is redone at h / 2
+            r = run(h, None if last else SAFETY * self.target)
             if r is None:
                 return None
-            if r.err_P <= SAFETY * self.target or halving == MAX_HALVINGS:
+            if not r.exceeded:
                 break
             h *= 0.5
         k = r.last + 1
