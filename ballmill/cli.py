@@ -339,8 +339,9 @@ def main(argv=None) -> int:
     w.add_argument("--target", type=float, help="RK4: estimated contact-point error to reach [m] (default 1e-5)")
     w.add_argument("--dt", type=float, help="output sampling for the indicators [s] (default 0.01)")
     w.add_argument("--error", choices=("one-pass", "richardson"),
-                   help="RK4's error estimate: the run at 2h in the same kernel pass, up to where the model "
-                        "stops holding (one-pass, default), or a second full run (richardson)")
+                   help="RK4's error estimate: the run's own, from its local errors, no second run, up to "
+                        "where the model stops holding (one-pass, default), or step doubling: a second full "
+                        "run at 2h (richardson)")
     w.add_argument("--scheduler", metavar="ADDRESS",
                    help="a running Dask scheduler (tcp://host:8786), or local (a Dask LocalCluster); default: "
                         "Dask's local processes scheduler, workers forked from this one (a LocalCluster "

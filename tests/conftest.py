@@ -6,8 +6,8 @@ temporary folder (never into the checkout's build/), with ``build_all(force=True
 ``built_fmus`` maps model name -> FMU path and is parametrised over the flavours
 (native: <dir>/<Model>.fmu, pythonfmu: <dir>/pythonfmu/<Model>.fmu), so that every
 FMU-level test runs on both; ``fmus_of(flavour)`` gives one flavour's map.
-``subplots_made``: the figures code under test makes with plt.subplots, in order, still
-readable after the code has saved and closed them.
+``subplots_made``: the figures code under test makes (ballmill.plotting.figures.subplots), in
+order, still readable after the code has saved them.
 
 The test process loads pythonfmu FMUs, whose library destructor can corrupt the heap at
 process exit (pythonfmu 0.7.0; see ``ballmill.cli.entry`` and docs/OTHER_TOOLS.md): after
@@ -29,21 +29,19 @@ FLAVOURS = ("native", "pythonfmu")
 
 @pytest.fixture
 def subplots_made(monkeypatch):
-    """The figures made through plt.subplots while the test runs, in order (plt.close stays
-    real: a closed figure can still be read); closed after the test."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    kept, subplots = [], plt.subplots
+    """The figures made through ballmill.plotting.figures.subplots (where every PNG's figure is
+    made) while the test runs, in order; still readable after they are saved."""
+    from ballmill.plotting import figures
+
+    kept, subplots = [], figures.subplots
 
     def recording(*a, **kw):
         fig, ax = subplots(*a, **kw)
         kept.append(fig)
         return fig, ax
-    monkeypatch.setattr(plt, "subplots", recording)
+    monkeypatch.setattr(figures, "subplots", recording)
     yield kept
-    for fig in kept:
-        plt.close(fig)
+
 
 @pytest.fixture(scope="session")
 def fmu_build_dir(tmp_path_factory) -> Path:

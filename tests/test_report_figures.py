@@ -254,3 +254,28 @@ def test_a_plot_legend_given_for_a_table_replaces_the_column_names(tmp_path, sub
     assert legend(subplots_made[0].axes[0]) == ["ground x [m/s2]", "ground y [m/s2]"]
     assert legend(subplots_made[1].axes[0]) == ["ground.ax", "ground.ay"]
     assert subplots_made[1].axes[0].get_ylabel() == "ground.ax, ground.ay"
+
+
+def test_sweep_map_hatches_exactly_the_cells_where_the_model_did_not_hold(tmp_path, subplots_made):
+    """On every map of a two-parameter grid the hatched area is the cells of the points that
+    failed or left the model's validity, no more and no fewer (runs of them along t0 and lone
+    cells alike), and each map's title and colour bar name its own indicator."""
+    from ballmill.sweep import plots
+    from ballmill.sweep.spec import build
+
+    t0s, n0s = [1.0, 2.0, 3.0, 4.0], [60, 70, 80]
+    bad = {(1.0, 70), (2.0, 70), (1.0, 80), (2.0, 80), (3.0, 80), (4.0, 60)}
+    study = build("fast_start", grid={"drive.t0": t0s, "drive.n0": n0s})
+    rows = [{"drive.t0": t0, "drive.n0": n0, "status": "failed" if (t0, n0) == (4.0, 60) else "ok",
+             "valid": (t0, n0) not in bad, "N_range_after": t0 * n0, "zP_max": t0 + n0}
+            for n0 in n0s for t0 in t0s]
+    files = plots.write(study, rows, tmp_path)
+    assert [f.name for f in files] == ["map_N_range_after.png", "map_zP_max.png"]
+    ax, cbar = subplots_made[-1].axes
+    paths = [a.get_path().transformed(a.get_patch_transform()) if hasattr(a, "get_patch_transform") else p
+             for a in [*ax.patches, *ax.collections] if a.get_hatch()
+             for p in (a.get_paths() if not hasattr(a, "get_patch_transform") else [None])]
+    assert paths
+    inside = {(t0, n0) for t0 in t0s for n0 in n0s if any(p.contains_point((t0, n0)) for p in paths)}
+    assert inside == bad
+    assert ax.get_title() == "zP_max (hatched: model not valid)" and "zP_max" in cbar.get_ylabel()

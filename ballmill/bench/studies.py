@@ -215,10 +215,10 @@ def report(data: dict) -> str:
              f"(ballmill/bench/studies.py). Each study runs as a fresh `python -m ballmill.cli sweep ... --quiet "
              f"--no-plots` process into an empty folder, so its wall time includes the interpreter, the imports, "
              f"the start and stop of the workers and writing results.parquet. The fast start: 10 s simulated, "
-             f"every point in the compiled kernel (RK4 from h = 0.01 s, halved per point until its Richardson "
-             f"estimate of the contact-point error is below 0.8 x 1e-5 m; outputs every 0.01 s), the indicators "
-             f"of `ballmill.sweep.indicators`, the run at 2h for the error estimate made in the same kernel pass, "
-             f"and each point ending where the model stops holding.")
+             f"every point in the compiled kernel (RK4 from h = 0.01 s, halved per point until the run's own "
+             f"estimate of the contact-point error is below 0.8 x 1e-5 m, no second run; outputs every 0.01 s), "
+             f"the indicators of `ballmill.sweep.indicators`, and each point ending where the model stops "
+             f"holding.")
     L.append("")
     n = m["points"]
     sustained = sp.get("sustained_points_per_s")

@@ -9,10 +9,10 @@ process into an empty folder, plots on, so that its wall time holds the interpre
 start, the imports, the workers' start, the points, results.parquet and the PNGs. The
 variants run interleaved, one of each per round, and the medians are reported:
 
-* "one-pass" (the default): RK4's run at 2h in the same kernel pass, each point ending
-  where the model stops holding, on Dask's local processes scheduler, its workers forked
-  from the command;
-* "--error richardson": the two separate full runs per point, the same executor;
+* "one-pass" (the default): RK4's run estimating its own error (no second run), each point
+  ending where the model stops holding, on Dask's local processes scheduler, its workers
+  forked from the command;
+* "--error richardson": step doubling, two separate full runs per point, the same executor;
 * "--error richardson --scheduler local": and a Dask LocalCluster of spawned workers;
 * with ``--baseline REF`` (several: comma-separated): the code of git revision REF
   (extracted with ``git archive`` and its kernel built beside it), the same command:

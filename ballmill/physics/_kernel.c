@@ -545,11 +545,152 @@ static int bm_project(const bm_problem *P, double *y)
     return 1;
 }
 
+/* The platform motion at the last few times asked, for bm_simulate_study: RK4 asks for the
+ * same time twice in a step (stages 2 and 3), and the outputs and the next step ask again for
+ * the time a step ends; a time met before (the same double) gets the state computed then,
+ * which is what computing it again would give. */
+#define BM_MCACHE 4
+typedef struct {
+    double t[BM_MCACHE], m[BM_MCACHE][6];
+    int n, next;
+} bm_mcache;
+
+static void bm_motion_cached(const bm_problem *P, bm_mcache *c, double t, double m[6])
+{
+    for (int k = 0; k < c->n; k++)
+        if (c->t[k] == t) {
+            memcpy(m, c->m[k], sizeof c->m[k]);
+            return;
+        }
+    bm_motion_state(P, t, m);
+    c->t[c->next] = t;
+    memcpy(c->m[c->next], m, sizeof c->m[c->next]);
+    c->next = (c->next + 1) % BM_MCACHE;
+    if (c->n < BM_MCACHE) c->n++;
+}
+
+/* bm_rhs with the motion from the cache ctx */
+static void bm_ball_rhs_cached(const bm_problem *P, const void *ctx, double t, const double *y, double *f)
+{
+    double m[6];
+    bm_motion_cached(P, (bm_mcache *)ctx, t, m);
+    bm_derivative(P, y, m[4], m[5], f);
+}
+
+/* The global error of a fixed-step run, estimated from the run itself (no second run, no
+ * extra stage): bm_advance_seen shows it every state the run accepts with its derivative
+ * (t_k, y_k, f_k = f(t_k, y_k), which the next step computes anyway). The residual of the
+ * run's states against a quadrature of order 5 of their own derivatives,
+ *     rho_k = y_{k+1} - y_k - h sum_j w_j f_j   (j over 5 consecutive states, Newton-Cotes
+ *                                                weights of the interval [t_k, t_k+1]; after the
+ *                                                first four intervals, the Adams-Moulton formula),
+ * is the step's local error to O(h^6): the run's global error e_k = y_k - y(t_k) is smooth,
+ * and the quadrature of the exact solution errs by O(h^6) only, so rho_k = e_{k+1} - e_k -
+ * (the quadrature of J e) + O(h^6) = the error the step adds (RK4's O(h^5)). The estimate
+ * accumulates the local errors' effect on the outputs without cancellation: the contact point
+ * P = R n moves by R |rho_k's part across n|, N by |N(y_{k+1}) - N(y_{k+1} - rho_k)| (N in closed form,
+ * bm_normal_force); summed
+ * over the steps (the error carried along the rolling ball adds up, as a phase error does).
+ * docs/design.md's numerics section and tests/test_sweep_one_pass.py: on a grid of points it
+ * stays within a stated factor of the error against a run at h/16. */
+#define BM_LE_N 5
+typedef struct {
+    const bm_problem *P;
+    bm_mcache *cache; /* the run's platform motion (for N) */
+    int k;            /* states held (the last BM_LE_N, oldest first) */
+    int started;      /* the first four intervals are done */
+    double t[BM_LE_N], y[BM_LE_N][BM_NY], f[BM_LE_N][BM_NY];
+    double err_P, err_N; /* accumulated [m], [N] */
+} bm_lerr;
+
+/* Newton-Cotes weights of the interval [t_i, t_i+1] of m equidistant states (m = 2..5), over a
+ * common denominator: bm_le_w[m - 2][i][j] / bm_le_den[m - 2]; five states after the first
+ * four intervals (the last row: Adams-Moulton), fewer only for a run that ends before
+ * (a residual of lower order: a larger estimate) */
+static const double bm_le_w[4][4][BM_LE_N] = {
+    {{1.0, 1.0}},
+    {{5.0, 8.0, -1.0}, {-1.0, 8.0, 5.0}},
+    {{9.0, 19.0, -5.0, 1.0}, {-1.0, 13.0, 13.0, -1.0}, {1.0, -5.0, 19.0, 9.0}},
+    {{251.0, 646.0, -264.0, 106.0, -19.0}, {-19.0, 346.0, 456.0, -74.0, 11.0},
+     {11.0, -74.0, 456.0, 346.0, -19.0}, {-19.0, 106.0, -264.0, 646.0, 251.0}}};
+static const double bm_le_den[4] = {2.0, 12.0, 24.0, 720.0};
+
+static double bm_normal_force(const bm_problem *P, bm_mcache *c, double t, const double *y);
+
+/* the residual of the interval i -> i + 1 of the m states held, added to the estimate */
+static void bm_lerr_interval(bm_lerr *E, int i, int m)
+{
+    const bm_problem *P = E->P;
+    const double *w = bm_le_w[m - 2][i], den = bm_le_den[m - 2];
+    double h = (E->t[m - 1] - E->t[0]) / (m - 1), rho[BM_NY], yb[BM_NY];
+    const double *y1 = E->y[i + 1];
+    for (int q = 0; q < BM_NY; q++) {
+        double s = 0.0;
+        for (int j = 0; j < m; j++) s += w[j] * E->f[j][q];
+        rho[q] = y1[q] - E->y[i][q] - h * (s / den);
+        yb[q] = y1[q] - rho[q];
+    }
+    double rn = rho[0] * y1[0] + rho[1] * y1[1] + rho[2] * y1[2];
+    double tx = rho[0] - rn * y1[0], ty = rho[1] - rn * y1[1], tz = rho[2] - rn * y1[2];
+    E->err_P += P->o_R * sqrt(tx * tx + ty * ty + tz * tz);
+    E->err_N += fabs(bm_normal_force(P, E->cache, E->t[i + 1], y1) - bm_normal_force(P, E->cache, E->t[i + 1], yb));
+}
+
+/* the run ended: intervals not yet estimated (a run of fewer than five states) with the states
+ * there are (a run that made no step has no error) */
+static void bm_lerr_end(bm_lerr *E)
+{
+    if (!E->started && E->k >= 2) {
+        for (int i = 0; i < E->k - 1; i++) bm_lerr_interval(E, i, E->k);
+        E->started = 1;
+    }
+}
+
+/* a state the run accepted, with its derivative; states not equally spaced (a step that
+ * changed) start the history afresh, keeping what is accumulated */
+static void bm_lerr_see(bm_lerr *E, double t, const double *y, const double *f)
+{
+    if (E->k >= 2) {
+        double h0 = E->t[1] - E->t[0], h1 = t - E->t[E->k - 1];
+        if (!(fabs(h1 - h0) <= 1e-9 * fabs(h0))) {
+            E->k = 0;
+            E->started = 0;
+        }
+    }
+    if (E->k == BM_LE_N) {
+        memmove(E->t, E->t + 1, (BM_LE_N - 1) * sizeof E->t[0]);
+        memmove(E->y, E->y + 1, (BM_LE_N - 1) * sizeof E->y[0]);
+        memmove(E->f, E->f + 1, (BM_LE_N - 1) * sizeof E->f[0]);
+        E->k--;
+    }
+    E->t[E->k] = t;
+    memcpy(E->y[E->k], y, sizeof E->y[0]);
+    memcpy(E->f[E->k], f, sizeof E->f[0]);
+    E->k++;
+    if (E->k < BM_LE_N) return;
+    if (!E->started) {
+        for (int i = 0; i < BM_LE_N - 1; i++) bm_lerr_interval(E, i, BM_LE_N);
+        E->started = 1;
+    } else {
+        bm_lerr_interval(E, BM_LE_N - 2, BM_LE_N);
+    }
+}
+
 /* Integrator.advance (the small-system path) from t to t_end. y and *h are
  * updated only on success (return 1); 0: Python must do this interval (it
  * fails there, or needs the initial step). */
+static int bm_advance_seen(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, const void *ctx, double t,
+                           double *y_io, double t_end, double *h_io, bm_stats *st, bm_lerr *seen);
+
 static int bm_advance(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, const void *ctx, double t,
                       double *y_io, double t_end, double *h_io, bm_stats *st)
+{
+    return bm_advance_seen(P, T, rhs, ctx, t, y_io, t_end, h_io, st, NULL);
+}
+
+/* bm_advance, showing `seen` (when not NULL) every state a fixed-step run starts a step from */
+static int bm_advance_seen(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, const void *ctx, double t,
+                           double *y_io, double t_end, double *h_io, bm_stats *st, bm_lerr *seen)
 {
     double K[(BM_NS_MAX + 1) * BM_NYMAX], y[BM_NYMAX], ynew[BM_NYMAX];
     size_t bytes = (size_t)P->ny * sizeof(double);
@@ -571,6 +712,7 @@ static int bm_advance(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, const
                 rhs(P, ctx, ti, y, K);
                 st->nfev++;
             }
+            if (seen) bm_lerr_see(seen, ti, y, K);
             bm_stages(P, T, rhs, ctx, ti, y, hh, K, ynew);
             st->nfev += ns - 1;
             if (!bm_all_finite(ynew, P->ny)) return 0;
@@ -654,124 +796,87 @@ static inline double bm_initial_step_np(const bm_problem *P, bm_rhs_fn rhs, cons
 }
 
 /* ------------------------------------------------------------------- model.py */
+/* N of a state for the estimate: m (d |n'|^2 - a.n - g n_z), outputs.py's N with n''.n = -|n'|^2
+ * (n a unit vector; the drag, along n', has no part along n), without the rest of the outputs */
+static double bm_normal_force(const bm_problem *P, bm_mcache *c, double t, const double *y)
+{
+    double m[6];
+    bm_motion_cached(P, c, t, m);
+    double nx = y[0], ny = y[1], nz = y[2], wx = y[3], wy = y[4], wz = y[5], lam = P->o_lam;
+    double ndx = lam * (ny * wz - nz * wy), ndy = lam * (nz * wx - nx * wz), ndz = lam * (nx * wy - ny * wx);
+    return P->o_m * (P->o_d * (ndx * ndx + ndy * ndy + ndz * ndz) - m[4] * nx - m[5] * ny - P->o_g * nz);
+}
+
 /* simulate's loop from output point `start` (state y, step *h) over times[start..n-1]:
- * records ys[i] (and the outputs outs[i] unless outs is NULL) for every point
- * reached (point `start` itself only if record_start), adds the work of the
- * completed intervals to *total and returns the index of the last point
- * reached; y and *h are then the state there. */
+ * records ys[i] (and the outputs outs[i] unless outs is NULL) for every point reached
+ * (point `start` itself only if record_start), adds the work of the completed intervals
+ * to *total and returns the index of the last point reached; y and *h are then the state
+ * there. For a point of a design study (ballmill.sweep's crank-kernel evaluator) two
+ * additions that leave every recorded sample as it is:
+ *  - err (not NULL; a fixed-step run from start = 0): the run's error estimated from the
+ *    run itself (bm_lerr), over the samples recorded: err[0] for the contact point [m],
+ *    err[1] for N [N]; limit > 0: the run ends at the first sample where err[0] exceeds it
+ *    (its caller will redo the point with a smaller step: the rest would be wasted);
+ *  - stop (stop != 0, with outs): after recording the first point where the model stops
+ *    holding (not N > 0, or not friction_ratio <= mu: the rule of
+ *    sweep.indicators.validity), the run ends there.
+ * Below n - 1 without a stop, the run could not do the next interval: the caller redoes
+ * the point on the ordinary path, which reports that failure as Python does. The platform
+ * motion comes from a cache of the last times asked (the same values: bm_motion_cached). */
+BM_EXPORT long long bm_simulate_study(const bm_problem *P, const double *times, long long n, long long start,
+                                      int record_start, double *y, double *h, int stop, double mu, double *ys,
+                                      double *outs, double *err, double limit, bm_stats *total)
+{
+    double m[6], f[BM_NY];
+    bm_mcache cache = {{0}, {{0}}, 0, 0};
+    bm_lerr est = {P, &cache, 0, 0, {0}, {{0}}, {{0}}, 0.0, 0.0};
+    bm_lerr *seen = err && !P->adaptive && P->ny == BM_NY ? &est : NULL;
+    bm_tab T;
+    bm_tab_make(P, &T);
+    long long i = start, last = n - 1;
+    for (; i < n; i++) {
+        if (i > start) {
+            bm_stats st = {0, 0, 0};
+            if (!bm_advance_seen(P, &T, bm_ball_rhs_cached, &cache, times[i - 1], y, times[i], h, &st, seen)) {
+                last = i - 1;
+                break;
+            }
+            total->steps += st.steps;
+            total->rejected += st.rejected;
+            total->nfev += st.nfev;
+        } else if (!record_start) {
+            continue;
+        }
+        memcpy(ys + BM_NY * i, y, BM_NY * sizeof(double));
+        if (seen && limit > 0.0 && est.err_P > limit) {
+            last = i;
+            break;
+        }
+        if (!outs) continue;
+        double *o = outs + BM_NOUT * i;
+        bm_motion_cached(P, &cache, times[i], m);
+        bm_outputs(P, y, m[4], m[5], m[0], m[1], o);
+        if (stop && !(o[9] > 0.0 && o[18] <= mu)) {
+            last = i;
+            break;
+        }
+    }
+    if (seen) { /* the last state reached, seen with its derivative: the last interval's residual */
+        bm_ball_rhs_cached(P, &cache, times[last], y, f);
+        total->nfev++;
+        bm_lerr_see(seen, times[last], y, f);
+        bm_lerr_end(seen);
+        err[0] = est.err_P;
+        err[1] = est.err_N;
+    }
+    return last;
+}
+
 BM_EXPORT long long bm_simulate(const bm_problem *P, const double *times, long long n, long long start,
                                 int record_start, double *y, double *h, double *ys, double *outs,
                                 bm_stats *total)
 {
-    double m[6];
-    bm_tab T;
-    bm_tab_make(P, &T);
-    for (long long i = start; i < n; i++) {
-        if (i > start) {
-            bm_stats st = {0, 0, 0};
-            if (!bm_advance(P, &T, bm_ball_rhs, NULL, times[i - 1], y, times[i], h, &st)) return i - 1;
-            total->steps += st.steps;
-            total->rejected += st.rejected;
-            total->nfev += st.nfev;
-        } else if (!record_start) {
-            continue;
-        }
-        memcpy(ys + BM_NY * i, y, BM_NY * sizeof(double));
-        if (outs) {
-            bm_motion_state(P, times[i], m);
-            bm_outputs(P, y, m[4], m[5], m[0], m[1], outs + BM_NOUT * i);
-        }
-    }
-    return n - 1;
-}
-
-/* One point of a design study (ballmill.sweep's crank-kernel evaluator): bm_simulate's
- * loop over times[start..n-1] from the state y (point `start` recorded only if record_start),
- * with two additions that leave every recorded sample as bm_simulate records it:
- *  - a coarse run in lockstep (Pc != NULL: P's problem with twice its step; its state yc at
- *    times[start], start even): advanced over every other output point (times[i - 2] ->
- *    times[i], i even), which is the run bm_simulate makes over times[::2], and compared with
- *    this run there: err[0] = the largest |contact point - the coarse one's| [m], err[1] = the
- *    largest |N - the coarse one's| [N] (the outputs' fields 0..2 and 9);
- *  - stop (stop != 0): after recording the first point where the model stops holding
- *    (not N > 0, or not friction_ratio <= mu: the rule of sweep.indicators.validity), the
- *    run ends there.
- * Returns the last point recorded; below n - 1 without a stop, the run (or the coarse one,
- * then err[2] = 1) could not do the next interval: the caller redoes the point on the
- * ordinary path, which reports that failure as Python does. */
-/* The platform motion at the last few times asked, for bm_simulate_study: RK4 asks for the
- * same time twice in a step (stages 2 and 3), and the outputs and the next step ask again for
- * the time a step ends; a time met before (the same double) gets the state computed then,
- * which is what computing it again would give. */
-#define BM_MCACHE 4
-typedef struct {
-    double t[BM_MCACHE], m[BM_MCACHE][6];
-    int n, next;
-} bm_mcache;
-
-static void bm_motion_cached(const bm_problem *P, bm_mcache *c, double t, double m[6])
-{
-    for (int k = 0; k < c->n; k++)
-        if (c->t[k] == t) {
-            memcpy(m, c->m[k], sizeof c->m[k]);
-            return;
-        }
-    bm_motion_state(P, t, m);
-    c->t[c->next] = t;
-    memcpy(c->m[c->next], m, sizeof c->m[c->next]);
-    c->next = (c->next + 1) % BM_MCACHE;
-    if (c->n < BM_MCACHE) c->n++;
-}
-
-/* bm_rhs with the motion from the cache ctx */
-static void bm_ball_rhs_cached(const bm_problem *P, const void *ctx, double t, const double *y, double *f)
-{
-    double m[6];
-    bm_motion_cached(P, (bm_mcache *)ctx, t, m);
-    bm_derivative(P, y, m[4], m[5], f);
-}
-
-BM_EXPORT long long bm_simulate_study(const bm_problem *P, const bm_problem *Pc, const double *times, long long n,
-                                      long long start, int record_start, double *y, double *h, double *yc,
-                                      int stop, double mu, double *ys, double *outs, double *err,
-                                      bm_stats *total)
-{
-    double m[6], oc[BM_NOUT], hc = Pc ? Pc->h_fixed : 0.0;
-    bm_mcache cache = {{0}, {{0}}, 0, 0}, cache_c = {{0}, {{0}}, 0, 0}; /* the fine and the coarse run's */
-    bm_tab T, Tc;
-    bm_tab_make(P, &T);
-    if (Pc) bm_tab_make(Pc, &Tc);
-    for (long long i = start; i < n; i++) {
-        if (i > start) {
-            bm_stats st = {0, 0, 0};
-            if (!bm_advance(P, &T, bm_ball_rhs_cached, &cache, times[i - 1], y, times[i], h, &st)) return i - 1;
-            total->steps += st.steps;
-            total->rejected += st.rejected;
-            total->nfev += st.nfev;
-        } else if (!record_start) {
-            continue;
-        }
-        double *o = outs + BM_NOUT * i;
-        memcpy(ys + BM_NY * i, y, BM_NY * sizeof(double));
-        bm_motion_cached(P, &cache, times[i], m);
-        bm_outputs(P, y, m[4], m[5], m[0], m[1], o);
-        if (Pc && (i - start) % 2 == 0) {
-            if (i > start) {
-                bm_stats sc = {0, 0, 0};
-                if (!bm_advance(Pc, &Tc, bm_ball_rhs_cached, &cache_c, times[i - 2], yc, times[i], &hc, &sc)) {
-                    err[2] = 1.0;
-                    return i - 1;
-                }
-            }
-            bm_outputs(Pc, yc, m[4], m[5], m[0], m[1], oc);
-            double dx = o[0] - oc[0], dy = o[1] - oc[1], dz = o[2] - oc[2];
-            double dP = sqrt(dx * dx + dy * dy + dz * dz), dN = fabs(o[9] - oc[9]);
-            if (!isnan(err[0]) && !(dP <= err[0])) err[0] = dP; /* numpy's max: a NaN stays */
-            if (!isnan(err[1]) && !(dN <= err[1])) err[1] = dN;
-        }
-        if (stop && !(o[9] > 0.0 && o[18] <= mu)) return i;
-    }
-    return n - 1;
+    return bm_simulate_study(P, times, n, start, record_start, y, h, 0, 0.0, ys, outs, NULL, 0.0, total);
 }
 
 /* BallModel.advance: one interval t -> t_end for the motion `motion` with the

@@ -174,9 +174,9 @@ def _open(path: Path, source: Path = SOURCE):
     _declare(lib, {
         "bm_simulate": (ctypes.c_longlong, [P, _dp, ctypes.c_longlong, ctypes.c_longlong, ctypes.c_int,
                                             _dp, _dp, _dp, _dp, ctypes.POINTER(_Stats)]),
-        "bm_simulate_study": (ctypes.c_longlong, [P, P, _dp, ctypes.c_longlong, ctypes.c_longlong, ctypes.c_int,
-                                                  _dp, _dp, _dp, ctypes.c_int, ctypes.c_double, _dp, _dp, _dp,
-                                                  ctypes.POINTER(_Stats)]),
+        "bm_simulate_study": (ctypes.c_longlong, [P, _dp, ctypes.c_longlong, ctypes.c_longlong, ctypes.c_int,
+                                                  _dp, _dp, ctypes.c_int, ctypes.c_double, _dp, _dp, _dp,
+                                                  ctypes.c_double, ctypes.POINTER(_Stats)]),
         "bm_advance_interval": (ctypes.c_int, [ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p]),
         "bm_initial_step": (ctypes.c_double, [P, ctypes.c_double, _dp, ctypes.c_double]),
         "bm_eval_rhs": (None, [P, ctypes.c_double, _dp, _dp]),
@@ -443,14 +443,13 @@ def run_grid(kernel_simulate, P, nout: int, model, f, record_python, times: np.n
 
 
 class StudyRun:
-    """A run of `study_run` (or its continuation): ``ys``, ``outs`` (rows 0..last are the
-    run's), ``last``, ``stopped`` (the run ended at the first point where the model stops
-    holding), ``failed`` (the kernel could not do an interval: redo the point with
-    `simulate`), ``err_P``, ``err_N`` (against the lockstep coarse run, or None), and
-    what a continuation needs (``y``, ``h``)."""
+    """A run of `study_run`: ``ys``, ``outs`` (rows 0..last are the run's), ``last``,
+    ``stopped`` (the run ended at the first point where the model stops holding), ``failed``
+    (the kernel could not do an interval: redo the point with `simulate`), ``err_P`` [m],
+    ``err_N`` [N] (the run's own error estimate over its samples, or None: not asked),
+    ``exceeded`` (the run ended where its contact-point estimate passed the limit asked)."""
 
-    __slots__ = ("times", "ys", "outs", "last", "stopped", "failed", "err_P", "err_N", "y", "h", "P",
-                 "stop_mu")
+    __slots__ = ("times", "ys", "outs", "last", "stopped", "failed", "err_P", "err_N", "exceeded")
 
 
 def study_problem(model) -> _Problem | None:
@@ -459,15 +458,18 @@ def study_problem(model) -> _Problem | None:
     return None if _model_reason(model) else _problem(model, None)
 
 
-def study_run(model, motion, times: np.ndarray, state, coarse: bool, stop_mu: float | None,
-              template: _Problem | None = None) -> StudyRun:
+def study_run(model, motion, times: np.ndarray, state, estimate: bool, stop_mu: float | None,
+              template: _Problem | None = None, limit: float | None = None) -> StudyRun:
     """`simulate`'s kernel loop over ``times`` for one point of a design study, in one kernel
     call (bm_simulate_study): the same samples as `simulate` (outputs included), and
-    ``coarse``: the same run at twice the step (RK4's h_fixed) in lockstep over every other
-    sample, compared there (the largest contact-point and N differences); ``stop_mu``: end
-    at the first sample where N > 0 and friction_ratio <= stop_mu stop holding (None: run to
-    the end). Call only when `applicable` says ''. No Python fallback: a run the kernel cannot
-    finish comes back with ``failed`` set, for the caller to redo with `simulate`. ``template``:
+    ``estimate`` (a fixed-step method): the run's global error estimated from its own states
+    and derivatives (the local errors' effect on the contact point and on N, accumulated;
+    bm_lerr in _kernel.c), and with ``limit`` [m] the run ends at the first sample where the
+    contact point's estimate exceeds it (a run to be redone with a smaller step); ``stop_mu``:
+    end at the first sample where N > 0 and friction_ratio <= stop_mu stop holding (None: run
+    to the end). Call only when
+    `applicable` says ''. No Python fallback: a run the kernel cannot finish comes back with
+    ``failed`` set, for the caller to redo with `simulate`. ``template``:
     `study_problem(model)`, made once for many runs (the motion is filled in here)."""
     if template is None:
         P = _problem(model, motion)
@@ -477,54 +479,29 @@ def study_run(model, motion, times: np.ndarray, state, coarse: bool, stop_mu: fl
         P.motion = kind
         for i, v in enumerate(mp):
             P.mp[i] = v
-    Pc = None
-    if coarse:
-        Pc = _Problem.from_buffer_copy(P)
-        Pc.h_fixed = 2.0 * P.h_fixed
     r = StudyRun()
     n = len(times)
     r.times = times = np.ascontiguousarray(times, dtype=float)
     r.ys, r.outs = np.empty((n, NY)), np.empty((n, NOUT))
-    r.y = np.array(state.y, dtype=float)
-    yc = r.y.copy()
-    r.h = np.array([state.h if state.h is not None else math.nan])
-    err = np.zeros(3)
+    y = np.array(state.y, dtype=float)
+    h = np.array([state.h if state.h is not None else math.nan])
+    err = np.zeros(2)
     stats = _Stats()
-    r.P, r.stop_mu = P, stop_mu
-    last = _kernel().bm_simulate_study(ctypes.byref(P), ctypes.byref(Pc) if Pc is not None else None,
-                                       times.ctypes.data_as(_dp), n, 0, 1, r.y.ctypes.data_as(_dp),
-                                       r.h.ctypes.data_as(_dp), yc.ctypes.data_as(_dp), int(stop_mu is not None),
+    last = _kernel().bm_simulate_study(ctypes.byref(P), times.ctypes.data_as(_dp), n, 0, 1, y.ctypes.data_as(_dp),
+                                       h.ctypes.data_as(_dp), int(stop_mu is not None),
                                        stop_mu if stop_mu is not None else 0.0, r.ys.ctypes.data_as(_dp),
-                                       r.outs.ctypes.data_as(_dp), err.ctypes.data_as(_dp), ctypes.byref(stats))
-    _study_end(r, last, n, stop_mu)
-    r.failed = r.failed or err[2] != 0.0
-    r.err_P, r.err_N = (float(err[0]), float(err[1])) if coarse else (None, None)
+                                       r.outs.ctypes.data_as(_dp), err.ctypes.data_as(_dp) if estimate else None,
+                                       limit if estimate and limit is not None else 0.0, ctypes.byref(stats))
+    r.last = int(last)
+    o = r.outs[r.last]
+    r.stopped = stop_mu is not None and r.last >= 0 and not (o[9] > 0.0 and o[18] <= stop_mu)
+    r.err_P, r.err_N = (float(err[0]), float(err[1])) if estimate else (None, None)
+    r.exceeded = limit is not None and r.err_P is not None and r.err_P > limit
+    r.failed = r.last < n - 1 and not r.stopped and not r.exceeded
     info = model.info
     info.steps += stats.steps
     info.nfev += stats.nfev
     return r
-
-
-def _study_end(r: StudyRun, last: int, n: int, stop_mu):
-    r.last = int(last)
-    o = r.outs[r.last]
-    r.stopped = stop_mu is not None and r.last >= 0 and not (o[9] > 0.0 and o[18] <= stop_mu)
-    r.failed = r.last < n - 1 and not r.stopped
-
-
-def study_continue(r: StudyRun, upto: int) -> None:
-    """Carry a stopped `study_run` on to sample ``upto`` (recording every sample, no stop, no
-    coarse run): what a comparison with a finer run that held longer needs."""
-    if upto <= r.last:
-        return
-    err = np.zeros(3)
-    stats = _Stats()
-    last = _kernel().bm_simulate_study(ctypes.byref(r.P), None, r.times.ctypes.data_as(_dp), upto + 1, r.last, 0,
-                                       r.y.ctypes.data_as(_dp), r.h.ctypes.data_as(_dp), None, 0, 0.0,
-                                       r.ys.ctypes.data_as(_dp), r.outs.ctypes.data_as(_dp),
-                                       err.ctypes.data_as(_dp), ctypes.byref(stats))
-    r.last = int(last)
-    r.failed = r.last < upto
 
 
 # ----------------------------------------------------------------------------

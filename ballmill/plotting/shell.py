@@ -78,18 +78,20 @@ def draw_hemispheres(axes, u, t, t_fail=None, t_end=None, fail_label="rolling fa
     """Draw the path u(t) on a pair of matplotlib axes (lower, upper hemisphere), coloured by
     time from 0 to t_end (default t[-1]); samples after t_fail (the model's first failure)
     in grey, the failure point marked. Returns the colour scale (a ScalarMappable)."""
-    import matplotlib.pyplot as plt
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import Normalize
+    from matplotlib.patches import Circle
 
     t = np.asarray(t, float)
     t_end = float(t[-1]) if t_end is None else t_end
     valid = np.ones(len(t), dtype=bool) if t_fail is None else t <= t_fail
-    norm = plt.Normalize(0, t_end)
+    norm = Normalize(0, t_end)
     for ax, upper in zip(axes, (False, True)):
         sel = (u[:, 2] >= 0) if upper else (u[:, 2] < 0)
         x, y = hemisphere_xy(u, upper)
-        ax.add_patch(plt.Circle((0, 0), math.sqrt(2.0), fill=False, color="0.4", lw=1.0))
+        ax.add_patch(Circle((0, 0), math.sqrt(2.0), fill=False, color="0.4", lw=1.0))
         for zc in (0.5, 0.866):  # 30 and 60 degrees from the equator
-            ax.add_patch(plt.Circle((0, 0), math.sqrt(2.0 * (1.0 - zc)), fill=False, color="0.85", lw=0.6, ls="--"))
+            ax.add_patch(Circle((0, 0), math.sqrt(2.0 * (1.0 - zc)), fill=False, color="0.85", lw=0.6, ls="--"))
         if (~valid).any():
             ax.scatter(x[sel & ~valid], y[sel & ~valid], s=0.6, color="0.72", lw=0)
             ax.plot([], [], "o", color="0.72", ms=4, label=f"after {fail_label} (not physical)")
@@ -107,7 +109,7 @@ def draw_hemispheres(axes, u, t, t_fail=None, t_end=None, fail_label="rolling fa
                      fontsize=9)
         if ax.get_legend_handles_labels()[0]:
             ax.legend(loc="lower left", fontsize=7, framealpha=0.9)
-    return plt.cm.ScalarMappable(cmap="viridis", norm=norm)
+    return ScalarMappable(cmap="viridis", norm=norm)
 
 
 CAPTION = ("equal-area projection of each hemisphere; centre = bottom resp. top, circle = equator, "

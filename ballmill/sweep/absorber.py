@@ -458,15 +458,13 @@ def plot_frf(prepared: AbsorberPrepared, study, table: list[dict], path: Path) -
     combination of the other swept parameters): the bare structure and the linear theory
     as curves, the simulated points as markers, points where the ball slips or leaves the
     wall marked."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from ..plotting import figures as plt
 
     groups: dict = {}
     for d in table:
         groups.setdefault(tuple((k, d[k]) for k in prepared.others), []).append(d)
     n = len(groups)
-    fig, axes = plt.subplots(n, 1, figsize=(9, 4.6 * n), squeeze=False)
+    fig, axes = plt.subplots(n, 1, figsize=(9, 4.6 * n), squeeze=False, layout="tight")
     style = {"steady": ("o", "tab:blue", "with ball, steady states"),
              "up": ("^", "tab:blue", "with ball, sweep up"), "down": ("v", "tab:orange", "with ball, sweep down")}
     for ax, (key, ds) in zip(axes[:, 0], groups.items()):
@@ -526,10 +524,7 @@ def plot_frf(prepared: AbsorberPrepared, study, table: list[dict], path: Path) -
 
     fig.suptitle(textwrap.fill(f"{study.name}: {study.description}" if study.description else study.name, 100),
                  fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return plt.save(fig, path)
 
 
 register_case("absorber", _Case)

@@ -9,19 +9,22 @@ the cheapest faithful evaluator: they are tried in the order of ORDER.
   a BallInShell instance its platform motion) runs monolithically in the
   compiled kernel: `ballmill.physics.simulate` with CrankStartup, no FMU, no
   communication step. The study's model settings (RK4, h, dt, target_P) set
-  the integration; the error of each point is estimated by step doubling (the
-  same run at 2h, sampled every 2 dt; Richardson: |P_h - P_2h| / (2^4 - 1) for
-  RK4's order 4) for the contact point and N, and h is halved for the points
-  whose estimate exceeds 0.8 x target_P (the previous run serving as the coarse
-  one), so every point gets the cheapest step that meets the target. By default
-  (model.error = "one-pass") the run at 2h is made in the same kernel pass as the
-  run at h, in lockstep over every other sample (only its contact point and N,
-  compared in C: no second simulate, no second output series), and the run ends
-  at the first sample where the model stops holding (N > 0 and |F_t| <= mu N:
-  `indicators.validity`), since no indicator reads past it: the indicators are
-  those of the full run bit for bit, and the estimate covers the samples they
-  read (up to t_invalid). model.error = "richardson" keeps the two separate full
-  runs of before (the same estimate for a point that stays valid).
+  the integration; the error of each point is estimated for the contact point
+  and N, and h is halved for the points whose estimate exceeds 0.8 x target_P,
+  so every point gets the cheapest step that meets the target. By default
+  (model.error = "one-pass") the run estimates its own error in the same kernel
+  pass, without a second run or an extra stage: each step's local error is the
+  residual of the run's states against a 5th-order quadrature of the derivatives
+  the run computes anyway, and its effect on the contact point and on N is
+  summed over the steps (fast.study_run, bm_lerr in _kernel.c; within a stated
+  factor of the error against a run at h/16: tests/test_sweep_one_pass.py); the
+  run ends at the first sample where the model stops holding (N > 0 and |F_t| <=
+  mu N: `indicators.validity`), since no indicator reads past it: the indicators
+  are those of the full run bit for bit, and the estimate covers the samples
+  they read (up to t_invalid). model.error = "richardson": step doubling instead
+  (the same run at 2h, sampled every 2 dt, a second full run; |P_h - P_2h| /
+  (2^4 - 1) for RK4's order 4; on halving, the previous run serves as the
+  coarse one).
 * "cosim": anything else (the induction motor, CSV sources): the scenario
   through the fmpy co-simulation master, exactly as `ballmill run` does; its
   error is the ball FMU's own estimate, the largest `coupling_error`.
@@ -165,12 +168,12 @@ MOTION = ("x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O")
 SAFETY = 0.8  # RK4: halve h while the estimated contact-point error exceeds SAFETY * target
 MAX_HALVINGS = 4
 LAW_CODES = {1: "quadratic", 2: "scurve", 3: "linear", 4: "quintic"}  # MotorStartup's law parameter
-# how RK4's error is estimated (model.error): the run at 2h in the same kernel pass, stopping where the
-# model stops holding (default), or as a second full run
+# how RK4's error is estimated (model.error): from the run itself, stopping where the model stops
+# holding (default), or by step doubling (Richardson: a second full run at 2h)
 ERROR_METHODS = ("one-pass", "richardson")
 RICHARDSON = "Richardson: RK4 at h and 2h, |difference| / 15 (order 4)"
-ONE_PASS = ("Richardson: RK4 at h and 2h in one kernel pass, |difference| / 15 (order 4), "
-            "over the samples the indicators read")
+ONE_PASS = ("the run's own: its local errors (residual against a 5th-order quadrature of its derivatives) "
+            "carried to the contact point and N and summed, over the samples the indicators read")
 
 
 class CrankKernel(Evaluator):
@@ -275,10 +278,12 @@ class CrankPrepared(Prepared):
         return ball, crank, init, j_total, values, defaults
 
     def _rk4_one_pass(self, ball, crank, init):
-        """`_rk4`'s result (the same h, the same samples, the same estimate for a point that
-        stays valid) with the run at 2h in the same kernel pass (fast.study_run), ending at the
-        first sample where the model stops holding; None when the kernel cannot do the point
-        (then `_rk4` does it, and reports a failure as it always has)."""
+        """RK4 at h with the error the run estimates of itself (fast.study_run: the local errors'
+        effect on the contact point and on N, accumulated over the samples the indicators
+        read; no second run), ending at the first sample where the model stops holding; while
+        the contact point's estimate exceeds SAFETY * target, the run again at h / 2 (the run
+        that exceeded it ends where it did), at most MAX_HALVINGS times. None when the kernel cannot do the point (then `_rk4` does it, and
+        reports a failure as it always has)."""
         from ..physics import BallModel, fast
 
         t0, t_end, dt = self.sc.start, self.sc.stop, self.dt
@@ -288,7 +293,7 @@ class CrankPrepared(Prepared):
         times = t0 + dt * np.arange(n_steps + 1)
         mu = ball.mu
 
-        def run(h, coarse):
+        def run(h, limit):
             key = (ball, h)
             if key not in self._models:  # the model and its kernel problem, once per ball and step
                 if len(self._models) > 64:
@@ -299,36 +304,27 @@ class CrankPrepared(Prepared):
             if template is None or fast._motion_params(crank)[0] is None:
                 return None
             state = model.initial(init[0], init[1], init[2:], t0=t0)
-            r = fast.study_run(model, crank, times, state, coarse, mu, template)
+            r = fast.study_run(model, crank, times, state, True, mu, template, limit)
             return None if r.failed else r
 
         h = self.h
-        r = run(h, True)
-        if r is None:
-            return None
-        err_P, err_N = r.err_P * (1.0 / 15.0), r.err_N * (1.0 / 15.0)
-        for _ in range(MAX_HALVINGS):
-            if err_P <= SAFETY * self.target or h <= self.h / 2 ** MAX_HALVINGS:
-                break
-            prev, h = r, 0.5 * h
-            r = run(h, False)
+        for halving in range(MAX_HALVINGS + 1):
+            last = halving == MAX_HALVINGS
+            # a run whose estimate passes the target's share ends there: it is redone at h / 2
+            r = run(h, None if last else SAFETY * self.target)
             if r is None:
                 return None
-            fast.study_continue(prev, r.last)  # the coarse run to where this one ends
-            if prev.failed:
-                return None
-            k = r.last + 1
-            f, c = r.outs[:k], prev.outs[:k]
-            dP = np.sqrt((f[:, 0] - c[:, 0]) ** 2 + (f[:, 1] - c[:, 1]) ** 2 + (f[:, 2] - c[:, 2]) ** 2)
-            err_P = float(dP.max()) * (1.0 / 15.0)
-            err_N = float(np.abs(f[:, 9] - c[:, 9]).max()) * (1.0 / 15.0)
+            if not r.exceeded:
+                break
+            h *= 0.5
         k = r.last + 1
         from ..physics.model import Trajectory
         from ..physics.outputs import Outputs
 
         outs = r.outs[:k]
         traj = Trajectory(times[:k], r.ys[:k], {name: outs[:, j] for j, name in enumerate(Outputs._fields)})
-        return traj, {"model": self.model_at(h), "error_P_m": err_P, "error_N_N": err_N, "error_method": ONE_PASS}
+        return traj, {"model": self.model_at(h), "error_P_m": r.err_P, "error_N_N": r.err_N,
+                      "error_method": ONE_PASS}
 
     def _rk4(self, ball, crank, init):
         """RK4 at h with its error estimated by step doubling (Richardson, order 4: |P_h - P_2h| / 15,

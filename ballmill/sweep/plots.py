@@ -49,9 +49,7 @@ def _parameter_label(fmus: dict, name: str, width=None) -> str:
 
 
 def write(study, rows: list[dict], out_dir: Path) -> list[Path]:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from ..plotting import figures as plt  # Figure objects on Agg canvases, drawn once each
 
     swept = study.swept
     main = [m for m in MAIN if any(r.get(m) is not None for r in rows)] + \
@@ -74,7 +72,7 @@ def write(study, rows: list[dict], out_dir: Path) -> list[Path]:
         n = len(main)
         cols = 2 if n > 1 else 1
         fig, axes = plt.subplots((n + cols - 1) // cols, cols, figsize=(5.2 * cols, 2.8 * ((n + cols - 1) // cols)),
-                                 squeeze=False)
+                                 squeeze=False, dpi=100, layout="tight")
         for ax, m in zip(axes.flat, main):
             y = np.array([_num(r.get(m)) for r in rows])
             ax.plot(x[order], y[order], "o-", ms=3, lw=1.2)
@@ -89,50 +87,36 @@ def write(study, rows: list[dict], out_dir: Path) -> list[Path]:
         for ax in list(axes.flat)[n:]:
             ax.set_visible(False)
         fig.suptitle(title, fontsize=10)
-        fig.tight_layout()
-        path = out_dir / "curves.png"
-        fig.savefig(path, dpi=100)
-        plt.close(fig)
-        return [path]
+        return [plt.save(fig, out_dir / "curves.png")]
     if study.sample is None and len(swept) == 2:
         px, py = swept
         xs, ys = study.grid[px], study.grid[py]
-        index = {(repr(r[px]), repr(r[py])): r for r in rows}
-        for m in main:
-            Z = np.full((len(ys), len(xs)), np.nan)
-            bad = np.zeros_like(Z, dtype=bool)
-            for i, yv in enumerate(ys):
-                for j, xv in enumerate(xs):
-                    r = index.get((repr(xv), repr(yv)))
-                    if r is None:
-                        continue
-                    Z[i, j] = _num(r.get(m))
-                    bad[i, j] = not (r.get("status") == "ok" and bool(r.get("valid")))
-            fig, ax = plt.subplots(figsize=(6.4, 4.8))
-            xe, ye = _edges(np.array(xs, float)), _edges(np.array(ys, float))
-            mesh = ax.pcolormesh(xe, ye, np.ma.masked_invalid(Z), shading="flat", cmap="viridis")
-            fig.colorbar(mesh, ax=ax, label=_label(m, width=45))
-            if bad.any():  # the invalid cells, hatched, as one collection of rectangles
-                from matplotlib.collections import PolyCollection
+        Z, bad = _grid_values(rows, main, px, py, xs, ys)
+        xe, ye = _edges(np.array(xs, float)), _edges(np.array(ys, float))
+        hatched = _runs(bad, xe, ye)
+        # one figure for every map: the axes, their ticks and labels and the title are the same,
+        # laid out and measured once; each map changes the colours, the colour bar and its label
+        fig, ax = plt.subplots(figsize=(6.4, 4.8), dpi=100, layout="tight")
+        mesh = ax.pcolormesh(xe, ye, np.ma.masked_invalid(Z[main[0]]), shading="flat", cmap="viridis")
+        bar = fig.colorbar(mesh, ax=ax)
+        if hatched is not None:  # the invalid cells, hatched, as one path
+            from matplotlib.patches import PathPatch
 
-                i, j = np.nonzero(bad)
-                cells = np.stack([np.stack([xe[j], ye[i]], 1), np.stack([xe[j + 1], ye[i]], 1),
-                                  np.stack([xe[j + 1], ye[i + 1]], 1), np.stack([xe[j], ye[i + 1]], 1)], 1)
-                ax.add_collection(PolyCollection(cells, facecolors="none", edgecolors="red", hatch="xx",
-                                                 linewidths=0.0))
-            ax.set_xlabel(_parameter_label(fmus, px, width=60))
-            ax.set_ylabel(_parameter_label(fmus, py, width=45))
-            ax.set_title(f"{m}" + (" (hatched: model not valid)" if bad.any() else ""), fontsize=10)
-            fig.suptitle(title, fontsize=9)
-            fig.tight_layout()
-            path = out_dir / f"map_{m}.png"
-            fig.savefig(path, dpi=100)
-            plt.close(fig)
-            files.append(path)
+            ax.add_patch(PathPatch(hatched, facecolor="none", edgecolor="red", hatch="xx", lw=0.0))
+        ax.set_xlabel(_parameter_label(fmus, px, width=60))
+        ax.set_ylabel(_parameter_label(fmus, py, width=45))
+        fig.suptitle(title, fontsize=9)
+        for m in main:
+            mesh.set_array(np.ma.masked_invalid(Z[m]))
+            mesh.autoscale()
+            bar.set_label(_label(m, width=45))
+            ax.set_title(f"{m}" + (" (hatched: model not valid)" if hatched is not None else ""), fontsize=10)
+            files.append(plt.save(fig, out_dir / f"map_{m}.png"))
         return files
+
     # a sample, or more than two parameters: scatter
     n, k = len(main), len(swept)
-    fig, axes = plt.subplots(n, k, figsize=(3.6 * k, 2.4 * n), squeeze=False)
+    fig, axes = plt.subplots(n, k, figsize=(3.6 * k, 2.4 * n), squeeze=False, dpi=90, layout="tight")
     for a, m in enumerate(main):
         y = np.array([_num(r.get(m)) for r in rows])
         for b, p in enumerate(swept):
@@ -148,11 +132,43 @@ def write(study, rows: list[dict], out_dir: Path) -> list[Path]:
                 ax.set_ylabel(_label(m, width=30), fontsize=7)
             ax.grid(alpha=0.3)
     fig.suptitle(title + "  (red x: model not valid)", fontsize=10)
-    fig.tight_layout()
-    path = out_dir / "scatter.png"
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-    return [path]
+    return [plt.save(fig, out_dir / "scatter.png")]
+
+
+def _grid_values(rows, main, px, py, xs, ys):
+    """({indicator: values on the grid, rows along ys, columns along xs; NaN where no row or
+    no value}, the cells where the model did not hold or the point failed), in one pass over
+    the rows (a grid value is matched by its repr, as the study lists it)."""
+    col = {repr(v): j for j, v in enumerate(xs)}
+    row = {repr(v): i for i, v in enumerate(ys)}
+    Z = {m: np.full((len(ys), len(xs)), np.nan) for m in main}
+    bad = np.zeros((len(ys), len(xs)), dtype=bool)
+    for r in rows:
+        j, i = col.get(repr(r.get(px))), row.get(repr(r.get(py)))
+        if i is None or j is None:
+            continue
+        for m in main:
+            Z[m][i, j] = _num(r.get(m))
+        bad[i, j] = not (r.get("status") == "ok" and bool(r.get("valid")))
+    return Z, bad
+
+
+def _runs(bad: np.ndarray, xe: np.ndarray, ye: np.ndarray):
+    """The cells marked in ``bad`` (rows along y, columns along x; edges xe, ye) as one
+    matplotlib Path: a closed rectangle per run of adjacent marked cells in a row. Hatched as
+    one path, it covers the cells' area with one pattern, drawn once (a collection of the
+    cells draws the pattern once per cell). None when no cell is marked."""
+    from matplotlib.path import Path as MPath
+
+    if not bad.any():
+        return None
+    verts = []
+    for i in np.flatnonzero(bad.any(axis=1)):
+        d = np.diff(np.concatenate([[0], bad[i].astype(np.int8), [0]]))
+        for j0, j1 in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)):
+            verts += [(xe[j0], ye[i]), (xe[j1], ye[i]), (xe[j1], ye[i + 1]), (xe[j0], ye[i + 1]), (xe[j0], ye[i])]
+    codes = np.tile([MPath.MOVETO, MPath.LINETO, MPath.LINETO, MPath.LINETO, MPath.CLOSEPOLY], len(verts) // 5)
+    return MPath(np.array(verts, float), codes)
 
 
 def _edges(v: np.ndarray) -> np.ndarray:

@@ -24,9 +24,9 @@ command-line options; both become a `Study`:
     h = 0.01                                # RK4 first step [s] (tolerance = 1e-8 for DOP853/RK45)
     target_P = 1e-5                         # RK4: h is halved until the contact point's estimated
                                             # error is below this [m]
-    error = "one-pass"                      # RK4's estimate: the run at 2h in the same kernel pass,
+    error = "one-pass"                      # RK4's estimate: from the run itself, in the same pass,
                                             # to where the model stops holding; or "richardson"
-                                            # (a second full run)
+                                            # (step doubling: a second full run at 2h)
     dt = 0.01                               # sampling of the outputs the indicators read [s]
 
     [[indicators]]                          # extra indicators on any recorded variable
