@@ -482,10 +482,9 @@ def _label(session, name, width=None):
 
 
 def write_plots(prob, session, rows, best, history, out_dir: Path) -> list[Path]:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     import textwrap
+
+    from ..plotting import figures
 
     files = []
     objs = [o.indicator for o in prob.objectives]
@@ -493,7 +492,7 @@ def write_plots(prob, session, rows, best, history, out_dir: Path) -> list[Path]
                           else session.study.name, 80)
     if len(objs) >= 2:
         pairs = [(i, j) for i in range(len(objs)) for j in range(i + 1, len(objs))]
-        fig, axes = plt.subplots(1, len(pairs), figsize=(6.0 * len(pairs), 5.0), squeeze=False)
+        fig, axes = figures.subplots(1, len(pairs), figsize=(6.0 * len(pairs), 5.0), squeeze=False, layout="tight")
         for ax, (i, j) in zip(axes.flat, pairs):
             a, b = objs[i], objs[j]
             feas = [r for r in rows if r.get("feasible")]
@@ -514,13 +513,11 @@ def write_plots(prob, session, rows, best, history, out_dir: Path) -> list[Path]
             ax.legend(fontsize=8)
             ax.grid(alpha=0.3)
         fig.suptitle(title, fontsize=10)
-        fig.tight_layout()
         path = out_dir / "pareto.png"
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
+        figures.save(fig, path)
         files.append(path)
     if history:
-        fig, axes = plt.subplots(len(objs), 1, figsize=(7.0, 3.0 * len(objs) + 0.6), squeeze=False)
+        fig, axes = figures.subplots(len(objs), 1, figsize=(7.0, 3.0 * len(objs) + 0.6), squeeze=False, layout="tight")
         gens = [h["generation"] for h in history]
         for ax, o in zip(axes.flat, prob.objectives):
             y = [np.nan if h[f"best:{o.indicator}"] is None else h[f"best:{o.indicator}"] for h in history]
@@ -531,10 +528,8 @@ def write_plots(prob, session, rows, best, history, out_dir: Path) -> list[Path]
             ax.grid(alpha=0.3)
             ax.legend(fontsize=8)
         fig.suptitle(title, fontsize=10)
-        fig.tight_layout()
         path = out_dir / "convergence.png"
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
+        figures.save(fig, path)
         files.append(path)
     return files
 

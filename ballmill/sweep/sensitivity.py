@@ -182,16 +182,15 @@ def run(an: Analysis, out_dir, *, scheduler=None, workers=None, batch=None, buil
 
 
 def write_plot(an: Analysis, session, table: list, out_dir: Path) -> Path:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     import textwrap
+
+    from ..plotting import figures
 
     from .optimize import _label
 
     names = [n for n in an.indicators if any(t["indicator"] == n for t in table)]
-    fig, axes = plt.subplots(len(names), 1, figsize=(max(6.0, 1.3 * len(an.ds.names) + 2.5), 3.2 * len(names) + 0.8),
-                             squeeze=False)
+    fig, axes = figures.subplots(len(names), 1, figsize=(max(6.0, 1.3 * len(an.ds.names) + 2.5), 3.2 * len(names) + 0.8),
+                             squeeze=False, layout="tight")
     x = np.arange(len(an.ds.names))
     for ax, name in zip(axes.flat, names):
         rows = [t for t in table if t["indicator"] == name]
@@ -209,10 +208,8 @@ def write_plot(an: Analysis, session, table: list, out_dir: Path) -> Path:
     study = session.study
     fig.suptitle(textwrap.fill(f"{study.name}: {study.description}" if study.description else study.name, 80),
                  fontsize=10)
-    fig.tight_layout()
     path = out_dir / "sobol.png"
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    figures.save(fig, path)
     return path
 
 
