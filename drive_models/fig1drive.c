@@ -182,5 +182,5 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
 const fmu_model FMU_MODEL = {
     FMU_IDENTIFIER, FMU_GUID, FMU_N_VARS, FMU_VARIABLES,
     sizeof(fig1_drive), offsetof(fig1_drive, unused),
-    setup, step, NULL, NULL, /* no dynamic state to check, no feedthrough */
+    setup, step, NULL, NULL, NULL, /* no dynamic state to check, no feedthrough, no Model Exchange yet */
 };

@@ -509,5 +509,5 @@ static fmi2Status check(fmu_instance *fi, const void *data, const double *v)
 const fmu_model FMU_MODEL = {
     FMU_IDENTIFIER, FMU_GUID, FMU_N_VARS, FMU_VARIABLES,
     sizeof(induction_motor), offsetof(induction_motor, z),
-    setup, step, check, NULL,
+    setup, step, check, NULL, NULL, /* no Model Exchange yet */
 };

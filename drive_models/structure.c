@@ -342,5 +342,5 @@ static fmi2Status inputs_set(fmu_instance *fi, void *data, double *v, double t)
 const fmu_model FMU_MODEL = {
     FMU_IDENTIFIER, FMU_GUID, FMU_N_VARS, FMU_VARIABLES,
     sizeof(structure), offsetof(structure, z),
-    setup, step, check, inputs_set,
+    setup, step, check, inputs_set, NULL, /* no Model Exchange yet */
 };

@@ -50,6 +50,7 @@ UNITS = {
     "Wb": {"kg": 1, "m": 2, "s": -2, "A": -1},
     "N.s/m": {"kg": 1, "s": -1},
     "Hz/s": {"s": -2},
+    "1/s": {"s": -1},
 }
 
 LOG_CATEGORIES = {
@@ -60,7 +61,7 @@ LOG_CATEGORIES = {
     "logAll": "All messages.",
 }
 
-CAUSALITIES = ("parameter", "input", "output")
+CAUSALITIES = ("parameter", "input", "output", "local")  # local: Model Exchange's states and derivatives
 _TYPES = {float: "Real", int: "Integer", bool: "Boolean"}
 
 
@@ -140,6 +141,8 @@ class Interface:
     default_experiment: tuple = (0.0, 10.0, 2e-3)
     log_categories: dict = field(default_factory=lambda: dict(LOG_CATEGORIES))
     rules: tuple = ()  # Rule: what the parameters must meet together, in the FMU's order of checking
+    # Model Exchange (native flavour only): its continuous states and event indicators; None: co-simulation only
+    model_exchange: ModelExchange | None = None
 
     def __post_init__(self):
         names = [v.name for v in self.variables]
@@ -170,6 +173,37 @@ class Interface:
 
     def of(self, causality: str) -> list[Variable]:
         return [v for v in self.variables if v.causality == causality]
+
+    @property
+    def native_variables(self) -> tuple:
+        """The native FMU's variables: ``variables`` (both flavours, the same value references),
+        then Model Exchange's continuous states and their derivatives (local; value references
+        after every declared one, so that the co-simulation interface keeps its numbers)."""
+        return self.variables + (self.model_exchange.variables() if self.model_exchange else ())
+
+
+@dataclass(frozen=True)
+class ModelExchange:
+    """What a model gives an FMI Model Exchange importer: its continuous states
+    (``states``: (name, unit, description, nominal) rows; each becomes a local variable with
+    its derivative ``der(name)``), its event indicators (``indicators``: one description a
+    row, in the order the FMU returns them) and what its Model Exchange supports
+    (``notes``: the configurations it refuses, with why; for docs/fmus.md)."""
+
+    states: tuple = ()
+    indicators: tuple = ()
+    notes: str = ""
+
+    def variables(self) -> tuple:
+        rows = [Variable(name, "local", 0.0, desc, unit=unit) for name, unit, desc, _ in self.states]
+        rows += [Variable(f"der({name})", "local", 0.0, f"Time derivative of {name}",
+                          unit=DERIVATIVE_UNITS[unit]) for name, unit, _, _ in self.states]
+        return tuple(rows)
+
+
+# unit of a state -> unit of its time derivative
+DERIVATIVE_UNITS = {"1": "1/s", "rad": "rad/s", "rad/s": "rad/s2", "m": "m/s", "m/s": "m/s2", "Wb": "V",
+                    "J": "W"}
 
 
 def _interface(name, description, rows, **kw) -> Interface:
@@ -217,7 +251,10 @@ MOTOR_STARTUP = _interface(
         ("law", "parameter", 1, "Shape of the speed rise to n0 in t0: 1 = quadratic (the paper's), "
          "2 = S-curve (cubic smoothstep, zero acceleration at both ends), 3 = linear (constant "
          "acceleration), 4 = quintic (zero acceleration and jerk at both ends)", dict(min=1, max=4)),
-    ], rules=_STARTUP_RULES)
+    ], rules=_STARTUP_RULES,
+    model_exchange=ModelExchange(notes="no continuous states: the crank angle is a function of time; time "
+                                 "events at t = 0 and t = t0, where the speed rise starts and ends (the "
+                                 "acceleration or the jerk jumps there)"))
 
 
 def _motor(name):
@@ -617,7 +654,26 @@ BALL_IN_SHELL = _interface(
            dict(unit=_MOTION_INPUT_TEXT[name][1])) for name in BALL_MOTION_INPUTS],
         *[(name, "output", 0.0, desc, dict(unit=unit, **(_feed if name in BALL_FEEDTHROUGH else _out)))
           for name, unit, desc in BALL_MOTION_OUTPUTS],
-    ], rules=_BALL_RULES)
+    ], rules=_BALL_RULES,
+    model_exchange=ModelExchange(
+        states=(("n_x", "1", "Contact direction n (unit vector from the chamber centre to the contact "
+                 "point), x; the vector formulation's state", 1.0),
+                ("n_y", "1", "Contact direction n, y", 1.0),
+                ("n_z", "1", "Contact direction n, z", 1.0),
+                ("w_x", "rad/s", "Ball angular velocity x (the state of the output wx)", 1.0),
+                ("w_y", "rad/s", "Ball angular velocity y", 1.0),
+                ("w_z", "rad/s", "Ball angular velocity z", 1.0)),
+        indicators=("N: the normal force; it crosses 0 from above where the ball loses contact",
+                    "mu N - Ft: crosses 0 from above where the rolling ball would begin to slip"),
+        notes="vector formulation (formulation = 1), motion = 1, input_mode 1 or 4: the platform "
+              "acceleration ax1O, ay1O and position x1O, y1O are read directly at every call (no "
+              "reconstruction: the importer supplies them); input_mode 2 (positions alone, "
+              "differentiated by a fit) and 3 (inputs held over a communication step) are "
+              "co-simulation rules and are refused, as are formulation = 2 and motion = 2; "
+              "integrator, tolerance, h_fixed, max_step, corrector, input_tol and coupling_warn "
+              "belong to co-simulation's internal integration and are not used (coupling_error "
+              "stays 0: there is no coupling error). valid and t_invalid latch at the state event "
+              "where an indicator crosses 0"))
 
 # ----------------------------------------------------------------------------- the structure
 # A linear structure per horizontal axis carrying the ball's cavity (ballmill.absorber.structure,

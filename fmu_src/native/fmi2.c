@@ -1,4 +1,5 @@
-/* fmu_src/native/fmi2.c: the FMI 2.0 co-simulation plumbing of every native ballmill FMU.
+/* fmu_src/native/fmi2.c: the FMI 2.0 plumbing (co-simulation and Model Exchange) of every
+ * native ballmill FMU.
  *
  * Written once for all models (fmu_model.h is the contract): the fmi2 functions, one
  * state machine that checks every call against the instance's state, logging,
@@ -23,6 +24,19 @@
  *   - fmi2Discard from a step leaves the instance in stepComplete at the last good
  *     state, so that a master may retry (with other inputs or a shorter step) or
  *     restore an FMU state.
+ *
+ * Model Exchange (models with an fmu_me; FMI 2.0 section 3.2.3 for the allowed calls): the
+ * continuous states and their derivatives are variables (value references after the declared
+ * ones); the outputs, derivatives and event indicators are evaluated lazily, once per change
+ * of time, states or inputs, from the inputs as set (no reconstruction);
+ *   - fmi2SetTime before the last accepted time (initialisation, the last completed
+ *     integrator step or event) or not finite, fmi2SetContinuousStates with a non-finite
+ *     value or outside continuous-time mode: fmi2Error naming the value, state kept;
+ *   - an evaluation the model refuses (an unusable input) or that gives a non-finite
+ *     output or derivative: fmi2Error naming it, the last good values kept;
+ *   - fmi2NewDiscreteStates runs the model's event update (the validity latch, the next
+ *     time event); with no event pending it changes nothing;
+ *   - reading a state or derivative in co-simulation: fmi2Error (they are Model Exchange's).
  */
 #include <math.h>
 #include <stdarg.h>
@@ -41,7 +55,9 @@ typedef enum {
     S_STEP_FAILED = 8,
     S_TERMINATED = 16,
     S_ERROR = 32,
-    S_FATAL = 64
+    S_FATAL = 64,
+    S_EVENT = 128, /* Model Exchange: event mode */
+    S_CONT = 256   /* Model Exchange: continuous-time mode */
 } fmu_state;
 
 struct fmu_instance {
@@ -58,6 +74,11 @@ struct fmu_instance {
     double call_t, call_h; /* the arguments of the fmi2DoStep being run */
     fmu_setup_kind_t setup_kind; /* why setup runs (fmu_setup_kind) */
     unsigned char *data_work;
+    /* Model Exchange */
+    int me;              /* instantiated as Model Exchange */
+    int dirty;           /* time, states or inputs changed since the last evaluation */
+    double t_accepted;   /* the last accepted time: fmi2SetTime may not go before it */
+    double *z, *z_work;  /* event indicators of the last evaluation */
 };
 
 static const char *state_name(fmu_state s)
@@ -69,12 +90,16 @@ static const char *state_name(fmu_state s)
     case S_STEP_FAILED: return "stepFailed";
     case S_TERMINATED: return "terminated";
     case S_ERROR: return "error";
+    case S_EVENT: return "eventMode";
+    case S_CONT: return "continuousTimeMode";
     default: return "fatal";
     }
 }
 
 /* ------------------------------------------------------------------ logging */
 const char *fmu_instance_name(const fmu_instance *fi) { return fi->name; }
+
+int fmu_is_me(const fmu_instance *fi) { return fi->me; }
 
 fmu_setup_kind_t fmu_setup_kind(const fmu_instance *fi) { return fi->setup_kind; }
 
@@ -149,8 +174,9 @@ static int allowed(fmu_instance *fi, const char *function, int states)
  * most T_REL max(1 s, |t_c|) (a master's own time arithmetic; slave.T_REL) */
 #define T_REL 1e-13
 
-#define ANY_STATE (S_INSTANTIATED | S_INIT | S_STEP_COMPLETE | S_STEP_FAILED | S_TERMINATED | S_ERROR)
-#define READABLE (S_INIT | S_STEP_COMPLETE | S_STEP_FAILED | S_TERMINATED | S_ERROR)
+#define ANY_STATE (S_INSTANTIATED | S_INIT | S_STEP_COMPLETE | S_STEP_FAILED | S_TERMINATED | S_ERROR | S_EVENT | S_CONT)
+#define READABLE (S_INIT | S_STEP_COMPLETE | S_STEP_FAILED | S_TERMINATED | S_ERROR | S_EVENT | S_CONT)
+#define ME_RUNNING (S_EVENT | S_CONT | S_TERMINATED) /* Model Exchange after initialisation */
 
 /* ------------------------------------------------------------------ set up */
 static void start_values(fmu_instance *fi)
@@ -241,6 +267,47 @@ static fmi2Status build(fmu_instance *fi, fmu_setup_kind_t kind)
     return s;
 }
 
+/* Model Exchange: the outputs, derivatives and event indicators at the instance's time from
+ * the states and inputs in v, when one of them changed since the last evaluation; on the work
+ * copy, committed when the model accepts it and every output and derivative is finite */
+static fmi2Status me_evaluate(fmu_instance *fi, const char *function)
+{
+    const fmu_me *me = FMU_MODEL.me;
+    if (!fi->dirty) return fmi2OK;
+    size_t nv = (size_t)FMU_MODEL.n_vars * sizeof(double);
+    memcpy(fi->v_work, fi->v, nv);
+    if (me->eval(fi, fi->data, fi->v_work, fi->t, fi->z_work) > fmi2Warning) {
+        fmu_log(fi, fmi2Error, "%s '%s': %s: the model could not be evaluated at t = %.17g s (see the message "
+                "before); last good values kept", FMU_MODEL.identifier, fi->name, function, fi->t);
+        return fmi2Error;
+    }
+    for (int i = 0; i < FMU_MODEL.n_vars; i++) {
+        const fmu_variable *var = &FMU_MODEL.vars[i];
+        if ((var->causality != FMU_OUTPUT && var->causality != FMU_LOCAL) || isfinite(fi->v_work[i])) continue;
+        char a[32], b[32];
+        fmu_log(fi, fmi2Error, "%s '%s': %s: %s would be %s at t = %s s from the states and inputs set; refused, "
+                "last good values kept", FMU_MODEL.identifier, fi->name, function, var->name,
+                fmu_repr(fi->v_work[i], a), fmu_repr(fi->t, b));
+        return fmi2Error;
+    }
+    for (int i = 0; i < me->n_indicators; i++)
+        if (!isfinite(fi->z_work[i])) {
+            char a[32], b[32];
+            fmu_log(fi, fmi2Error, "%s '%s': %s: event indicator %d would be %s at t = %s s; refused, last good "
+                    "values kept", FMU_MODEL.identifier, fi->name, function, i, fmu_repr(fi->z_work[i], a),
+                    fmu_repr(fi->t, b));
+            return fmi2Error;
+        }
+    double *tv = fi->v;
+    fi->v = fi->v_work;
+    fi->v_work = tv;
+    double *tz = fi->z;
+    fi->z = fi->z_work;
+    fi->z_work = tz;
+    fi->dirty = 0;
+    return fmi2OK;
+}
+
 /* ------------------------------------------------------------------ life cycle */
 const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
 const char *fmi2GetVersion(void) { return fmi2Version; }
@@ -253,6 +320,8 @@ static void free_instance(fmu_instance *fi)
     free(fi->data);
     free(fi->v_work);
     free(fi->data_work);
+    free(fi->z);
+    free(fi->z_work);
     free(fi);
 }
 
@@ -270,9 +339,10 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         fmu_log(&tmp, fmi2Error, "%s: fmi2Instantiate: the instance name must not be empty", FMU_MODEL.identifier);
         return NULL;
     }
-    if (fmuType != fmi2CoSimulation) {
-        fmu_log(&tmp, fmi2Error, "%s '%s': fmi2Instantiate: only co-simulation is supported (fmuType = %d)",
-                FMU_MODEL.identifier, instanceName, (int)fmuType);
+    if (fmuType != fmi2CoSimulation && !(fmuType == fmi2ModelExchange && FMU_MODEL.me)) {
+        fmu_log(&tmp, fmi2Error, "%s '%s': fmi2Instantiate: fmuType = %d refused: this FMU supports %s",
+                FMU_MODEL.identifier, instanceName, (int)fmuType,
+                FMU_MODEL.me ? "fmi2ModelExchange (0) and fmi2CoSimulation (1)" : "only fmi2CoSimulation (1)");
         return NULL;
     }
     if (!fmuGUID || strcmp(fmuGUID, FMU_MODEL.guid) != 0) {
@@ -288,8 +358,11 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         fi->v_work = calloc(nv, sizeof(double));
         fi->data = calloc(1, FMU_MODEL.data_size);
         fi->data_work = calloc(1, FMU_MODEL.data_size);
+        size_t nz = FMU_MODEL.me && FMU_MODEL.me->n_indicators > 0 ? (size_t)FMU_MODEL.me->n_indicators : 1;
+        fi->z = calloc(nz, sizeof(double));
+        fi->z_work = calloc(nz, sizeof(double));
     }
-    if (!fi || !fi->name || !fi->v || !fi->v_work || !fi->data || !fi->data_work) {
+    if (!fi || !fi->name || !fi->v || !fi->v_work || !fi->data || !fi->data_work || !fi->z || !fi->z_work) {
         free_instance(fi);
         fmu_log(&tmp, fmi2Fatal, "%s '%s': fmi2Instantiate: out of memory", FMU_MODEL.identifier, instanceName);
         return NULL;
@@ -299,6 +372,8 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     fi->env = tmp.env;
     fi->logging_on = loggingOn ? 1 : 0;
     fi->state = S_INSTANTIATED;
+    fi->me = fmuType == fmi2ModelExchange;
+    fi->dirty = 1;
     start_values(fi);
     return fi;
 }
@@ -353,6 +428,19 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c)
     if (!allowed(fi, "fmi2ExitInitializationMode", S_INIT)) return fmi2Error;
     fmi2Status s = build(fi, FMU_SETUP_START);
     if (s > fmi2Warning) return fmi2Error; /* stays in initialisation mode: fix the parameters and retry */
+    if (fi->me) {
+        /* Model Exchange: the model's start state (after its check of what it supports) */
+        size_t nv = (size_t)FMU_MODEL.n_vars * sizeof(double);
+        memcpy(fi->v_work, fi->v, nv);
+        fmi2Status m = FMU_MODEL.me->start(fi, fi->data, fi->v_work, fi->t);
+        if (m > fmi2Warning) return fmi2Error;
+        memcpy(fi->v, fi->v_work, nv);
+        fi->dirty = 1;
+        if (me_evaluate(fi, "fmi2ExitInitializationMode") != fmi2OK) return fmi2Error;
+        fi->t_accepted = fi->t;
+        fi->state = S_EVENT; /* FMI 2.0: initialisation ends in event mode */
+        return m > s ? m : s;
+    }
     fi->state = S_STEP_COMPLETE;
     return s;
 }
@@ -360,7 +448,7 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c)
 fmi2Status fmi2Terminate(fmi2Component c)
 {
     fmu_instance *fi = c;
-    if (!allowed(fi, "fmi2Terminate", S_STEP_COMPLETE | S_STEP_FAILED)) return fmi2Error;
+    if (!allowed(fi, "fmi2Terminate", S_STEP_COMPLETE | S_STEP_FAILED | S_EVENT | S_CONT)) return fmi2Error;
     fi->state = S_TERMINATED;
     return fmi2OK;
 }
@@ -371,7 +459,8 @@ fmi2Status fmi2Reset(fmi2Component c)
     if (!allowed(fi, "fmi2Reset", ANY_STATE)) return fmi2Error;
     fi->state = S_INSTANTIATED;
     fi->built = 0;
-    fi->t_start = fi->t = 0.0;
+    fi->t_start = fi->t = fi->t_accepted = 0.0;
+    fi->dirty = 1;
     start_values(fi);
     memset(fi->data, 0, FMU_MODEL.data_size);
     memset(fi->data_work, 0, FMU_MODEL.data_size);
@@ -407,8 +496,18 @@ static fmi2Status get_values(fmu_instance *fi, const char *function, const fmi2V
     if (nvr && (!vr || !out)) return fmi2Error;
     for (size_t i = 0; i < nvr; i++)
         if (check_vr(fi, function, vr[i], type) != fmi2OK) return fmi2Error;
+    for (size_t i = 0; i < nvr; i++) {
+        const fmu_variable *var = &FMU_MODEL.vars[vr[i]];
+        if (var->causality != FMU_LOCAL || (fi->me && (fi->state & ME_RUNNING))) continue;
+        fmu_log(fi, fmi2Error, "%s '%s': %s: %s is a Model Exchange variable (a continuous state or its "
+                "derivative): %s", FMU_MODEL.identifier, fi->name, function, var->name,
+                fi->me ? "it is known from fmi2ExitInitializationMode on"
+                       : "co-simulation does not compute it; read the outputs");
+        return fmi2Error;
+    }
     if (fi->state == S_INIT && build(fi, FMU_SETUP_PREVIEW) > fmi2Warning) /* outputs consistent with the inputs set so far */
         return fmi2Error;
+    if (fi->me && (fi->state & ME_RUNNING) && me_evaluate(fi, function) != fmi2OK) return fmi2Error;
     for (size_t i = 0; i < nvr; i++) out[i] = fi->v[vr[i]];
     return fmi2OK;
 }
@@ -425,6 +524,9 @@ static fmi2Status settable(fmu_instance *fi, const char *function, fmi2ValueRefe
     if (var->causality == FMU_OUTPUT)
         snprintf(why, sizeof why, "%s is an output and cannot be set (got %s = %s%s%s)", var->name, var->name,
                  value_text(var, x, a), sep, unit);
+    else if (var->causality == FMU_LOCAL)
+        snprintf(why, sizeof why, "%s is a Model Exchange state or derivative: set the states with "
+                 "fmi2SetContinuousStates (got %s = %s%s%s)", var->name, var->name, value_text(var, x, a), sep, unit);
     else if (var->causality == FMU_PARAMETER && !var->tunable && initialised)
         snprintf(why, sizeof why, "parameter %s is fixed: it can be set only before fmi2ExitInitializationMode "
                  "(fmi2Reset, then set it); %s = %s%s%s refused, %s keeps %s%s%s", var->name, var->name,
@@ -442,7 +544,7 @@ static fmi2Status settable(fmu_instance *fi, const char *function, fmi2ValueRefe
 static fmi2Status set_values(fmu_instance *fi, const char *function, const fmi2ValueReference vr[],
                              size_t nvr, fmu_type type, const double *in)
 {
-    if (!allowed(fi, function, S_INSTANTIATED | S_INIT | S_STEP_COMPLETE)) return fmi2Error;
+    if (!allowed(fi, function, S_INSTANTIATED | S_INIT | S_STEP_COMPLETE | S_EVENT | S_CONT)) return fmi2Error;
     if (nvr && (!vr || !in)) return fmi2Error;
     for (size_t i = 0; i < nvr; i++) /* all or nothing */
         if (check_vr(fi, function, vr[i], type) != fmi2OK || settable(fi, function, vr[i], in[i]) != fmi2OK)
@@ -451,6 +553,10 @@ static fmi2Status set_values(fmu_instance *fi, const char *function, const fmi2V
     for (size_t i = 0; i < nvr; i++) {
         fi->v[vr[i]] = in[i];
         input |= FMU_MODEL.vars[vr[i]].causality == FMU_INPUT;
+    }
+    if (fi->me) { /* Model Exchange: the next read evaluates at the inputs set */
+        fi->dirty = 1;
+        return fmi2OK;
     }
     /* direct feedthrough: outputs that depend on the inputs follow them between steps (in
      * initialisation mode every read rebuilds them anyway) */
@@ -694,7 +800,8 @@ fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2Stri
 /* The layout, checksum and check of a state are fmu_state.c's; here: which instance states
  * a state may carry, and what the fmi2 calls do with one. */
 #define FMI_VERSION 2u
-#define STATE_PHASES (S_INSTANTIATED | S_INIT | S_STEP_COMPLETE | S_STEP_FAILED | S_TERMINATED)
+/* the instance states an FMU state may carry: those of the instance's interface */
+#define STATE_PHASES (S_INSTANTIATED | S_INIT | S_TERMINATED | (fi->me ? S_EVENT | S_CONT : S_STEP_COMPLETE | S_STEP_FAILED))
 
 fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state)
 {
@@ -749,7 +856,8 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state)
     fi->state = (fmu_state)h.phase;
     fi->built = h.built;
     fi->t_start = h.t_start;
-    fi->t = h.t;
+    fi->t = fi->t_accepted = h.t;
+    fi->dirty = 1;
     return fmi2OK;
 refused:
     memcpy(fi->data_work, fi->data, FMU_MODEL.data_size); /* keep the copies equal */
@@ -813,5 +921,180 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedSta
     if (!b) return fmi2Error;
     memcpy(b, serializedState, size);
     *state = b;
+    return fmi2OK;
+}
+
+/* ------------------------------------------------------------------ Model Exchange */
+static int me_instance(fmu_instance *fi, const char *function)
+{
+    if (!fi) return 0;
+    if (fi->me) return 1;
+    fmu_log(fi, fmi2Error, "%s '%s': %s is a Model Exchange function; this instance is co-simulation",
+            FMU_MODEL.identifier, fi->name, function);
+    return 0;
+}
+
+/* nx must be the model's number of states (nz its number of event indicators) */
+static int count_is(fmu_instance *fi, const char *function, const char *what, size_t n, int expected)
+{
+    if (n == (size_t)expected) return 1;
+    fmu_log(fi, fmi2Error, "%s '%s': %s: %s = %zu refused: this FMU has %d", FMU_MODEL.identifier, fi->name,
+            function, what, n, expected);
+    return 0;
+}
+
+fmi2Status fmi2EnterEventMode(fmi2Component c)
+{
+    fmu_instance *fi = c;
+    if (!me_instance(fi, "fmi2EnterEventMode") || !allowed(fi, "fmi2EnterEventMode", S_CONT)) return fmi2Error;
+    fi->state = S_EVENT;
+    return fmi2OK;
+}
+
+fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *info)
+{
+    fmu_instance *fi = c;
+    if (!me_instance(fi, "fmi2NewDiscreteStates") || !allowed(fi, "fmi2NewDiscreteStates", S_EVENT) || !info)
+        return fmi2Error;
+    if (me_evaluate(fi, "fmi2NewDiscreteStates") != fmi2OK) return fmi2Error;
+    size_t nv = (size_t)FMU_MODEL.n_vars * sizeof(double);
+    memcpy(fi->v_work, fi->v, nv);
+    fmu_event ev = {0, 0, 0, 0.0};
+    fmi2Status s = FMU_MODEL.me->event(fi, fi->data, fi->v_work, fi->t, &ev);
+    if (s > fmi2Warning) return fmi2Error;
+    double *tv = fi->v;
+    fi->v = fi->v_work;
+    fi->v_work = tv;
+    if (ev.states_changed) fi->dirty = 1;
+    fi->t_accepted = fi->t;
+    info->newDiscreteStatesNeeded = fmi2False; /* one update settles every event of these models */
+    info->terminateSimulation = ev.terminate ? fmi2True : fmi2False;
+    info->nominalsOfContinuousStatesChanged = fmi2False;
+    info->valuesOfContinuousStatesChanged = ev.states_changed ? fmi2True : fmi2False;
+    info->nextEventTimeDefined = ev.next_time_defined ? fmi2True : fmi2False;
+    info->nextEventTime = ev.next_time_defined ? ev.next_time : 0.0;
+    return s;
+}
+
+fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c)
+{
+    fmu_instance *fi = c;
+    if (!me_instance(fi, "fmi2EnterContinuousTimeMode") || !allowed(fi, "fmi2EnterContinuousTimeMode", S_EVENT))
+        return fmi2Error;
+    fi->state = S_CONT;
+    return fmi2OK;
+}
+
+fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean noSetFMUStatePriorToCurrentPoint,
+                                       fmi2Boolean *enterEventMode, fmi2Boolean *terminateSimulation)
+{
+    fmu_instance *fi = c;
+    (void)noSetFMUStatePriorToCurrentPoint;
+    if (!me_instance(fi, "fmi2CompletedIntegratorStep") || !allowed(fi, "fmi2CompletedIntegratorStep", S_CONT))
+        return fmi2Error;
+    fi->t_accepted = fi->t;
+    if (enterEventMode) *enterEventMode = fmi2False; /* every event is a state or time event */
+    if (terminateSimulation) *terminateSimulation = fmi2False;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetTime(fmi2Component c, fmi2Real time)
+{
+    fmu_instance *fi = c;
+    char a[32], b[32], d[32];
+    if (!me_instance(fi, "fmi2SetTime") || !allowed(fi, "fmi2SetTime", S_EVENT | S_CONT)) return fmi2Error;
+    if (!isfinite(time)) {
+        fmu_log(fi, fmi2Error, "%s '%s': fmi2SetTime: time = %s s refused: it must be finite; time stays %s s",
+                FMU_MODEL.identifier, fi->name, fmu_repr(time, a), fmu_repr(fi->t, b));
+        return fmi2Error;
+    }
+    if (time < fi->t_accepted - T_REL * fmax(1.0, fabs(fi->t_accepted))) {
+        fmu_log(fi, fmi2Error, "%s '%s': fmi2SetTime: time = %s s refused: it is before the last accepted time "
+                "%s s (the end of initialisation, the last completed integrator step or event); time stays %s s "
+                "(restore an FMU state to go back)", FMU_MODEL.identifier, fi->name, fmu_repr(time, a),
+                fmu_repr(fi->t_accepted, b), fmu_repr(fi->t, d));
+        return fmi2Error;
+    }
+    if (time != fi->t) fi->dirty = 1;
+    fi->t = time;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t nx)
+{
+    fmu_instance *fi = c;
+    const fmu_me *me = FMU_MODEL.me;
+    if (!me_instance(fi, "fmi2SetContinuousStates")) return fmi2Error;
+    if (fi->state == S_EVENT) {
+        fmu_log(fi, fmi2Error, "%s '%s': fmi2SetContinuousStates is not allowed in state eventMode: the states "
+                "are set in continuousTimeMode (in event mode only the FMU's event update changes them); "
+                "states unchanged", FMU_MODEL.identifier, fi->name);
+        return fmi2Error;
+    }
+    if (!allowed(fi, "fmi2SetContinuousStates", S_CONT)) return fmi2Error;
+    if (!count_is(fi, "fmi2SetContinuousStates", "nx", nx, me->n_states)) return fmi2Error;
+    if (nx && !x) return fmi2Error;
+    for (size_t i = 0; i < nx; i++)
+        if (!isfinite(x[i])) {
+            char a[32], b[32], d[32];
+            const fmu_variable *var = &FMU_MODEL.vars[me->state_vr[i]];
+            fmu_log(fi, fmi2Error, "%s '%s': fmi2SetContinuousStates: %s = %s%s%s refused at t = %s s: every "
+                    "continuous state must be finite; states unchanged (%s keeps %s)", FMU_MODEL.identifier,
+                    fi->name, var->name, fmu_repr(x[i], a), *unit_text(var) ? " " : "", unit_text(var),
+                    fmu_repr(fi->t, b), var->name, fmu_repr(fi->v[me->state_vr[i]], d));
+            return fmi2Error;
+        }
+    for (size_t i = 0; i < nx; i++) {
+        if (fi->v[me->state_vr[i]] != x[i]) fi->dirty = 1;
+        fi->v[me->state_vr[i]] = x[i];
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetContinuousStates(fmi2Component c, fmi2Real x[], size_t nx)
+{
+    fmu_instance *fi = c;
+    const fmu_me *me = FMU_MODEL.me;
+    if (!me_instance(fi, "fmi2GetContinuousStates") || !allowed(fi, "fmi2GetContinuousStates", ME_RUNNING))
+        return fmi2Error;
+    if (!count_is(fi, "fmi2GetContinuousStates", "nx", nx, me->n_states) || (nx && !x)) return fmi2Error;
+    for (size_t i = 0; i < nx; i++) x[i] = fi->v[me->state_vr[i]];
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real derivatives[], size_t nx)
+{
+    fmu_instance *fi = c;
+    const fmu_me *me = FMU_MODEL.me;
+    if (!me_instance(fi, "fmi2GetDerivatives") || !allowed(fi, "fmi2GetDerivatives", ME_RUNNING)) return fmi2Error;
+    if (!count_is(fi, "fmi2GetDerivatives", "nx", nx, me->n_states) || (nx && !derivatives)) return fmi2Error;
+    if (me_evaluate(fi, "fmi2GetDerivatives") != fmi2OK) return fmi2Error;
+    for (size_t i = 0; i < nx; i++) derivatives[i] = fi->v[me->der_vr[i]];
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real eventIndicators[], size_t ni)
+{
+    fmu_instance *fi = c;
+    const fmu_me *me = FMU_MODEL.me;
+    if (!me_instance(fi, "fmi2GetEventIndicators") || !allowed(fi, "fmi2GetEventIndicators", ME_RUNNING))
+        return fmi2Error;
+    if (!count_is(fi, "fmi2GetEventIndicators", "ni", ni, me->n_indicators) || (ni && !eventIndicators))
+        return fmi2Error;
+    if (me_evaluate(fi, "fmi2GetEventIndicators") != fmi2OK) return fmi2Error;
+    for (size_t i = 0; i < ni; i++) eventIndicators[i] = fi->z[i];
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetNominalsOfContinuousStates(fmi2Component c, fmi2Real x_nominal[], size_t nx)
+{
+    fmu_instance *fi = c;
+    const fmu_me *me = FMU_MODEL.me;
+    if (!me_instance(fi, "fmi2GetNominalsOfContinuousStates") ||
+        !allowed(fi, "fmi2GetNominalsOfContinuousStates", ANY_STATE))
+        return fmi2Error;
+    if (!count_is(fi, "fmi2GetNominalsOfContinuousStates", "nx", nx, me->n_states) || (nx && !x_nominal))
+        return fmi2Error;
+    for (size_t i = 0; i < nx; i++) x_nominal[i] = me->nominal[i];
     return fmi2OK;
 }

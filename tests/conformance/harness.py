@@ -1,5 +1,6 @@
-"""An FMU instance driven through the FMI 2.0 API only (fmpy's FMU2Slave): every call
-returns its status, and the instance's log is collected as (status, message)."""
+"""An FMU instance driven through the FMI 2.0 API only (fmpy's FMU2Slave, or FMU2Model for
+Model Exchange: ``interface="me"``): every call returns its status, and the instance's log
+is collected as (status, message)."""
 from __future__ import annotations
 
 import ctypes
@@ -8,7 +9,7 @@ import shutil
 
 from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
-from fmpy.fmi2 import (FMU2Slave, calloc, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+from fmpy.fmi2 import (FMU2Model, FMU2Slave, calloc, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                        fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, free)
 from fmpy.logging import addLoggerProxy
 
@@ -16,8 +17,9 @@ OK = 0
 
 
 class Fmu:
-    def __init__(self, path, name, **parameters):
+    def __init__(self, path, name, interface="cs", **parameters):
         self.md = read_model_description(str(path))
+        self.interface = interface
         self.unzipdir = extract(str(path))
         self.vars = {v.name: v for v in self.md.modelVariables}
         self.log: list[tuple[int, str]] = []
@@ -27,8 +29,9 @@ class Fmu:
         self.callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
         self.callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
         addLoggerProxy(ctypes.byref(self.callbacks))
-        self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.unzipdir,
-                             modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
+        kind = FMU2Model if interface == "me" else FMU2Slave
+        self.fmu = kind(guid=self.md.guid, unzipDirectory=self.unzipdir,
+                        modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
         self.fmu.instantiate(callbacks=self.callbacks, loggingOn=True)
         self.time = 0.0
         for k, v in parameters.items():
@@ -86,6 +89,10 @@ class Fmu:
             return st
         st, _ = self._status(self.fmu.exitInitializationMode)
         return st
+
+    def call(self, name, *args):
+        """(status, result) of the FMI call `name` (fmpy's method name) on the instance."""
+        return self._status(getattr(self.fmu, name), *args)
 
     def step(self, h, t=None) -> int:
         t = self.time if t is None else t
