@@ -24,7 +24,10 @@ figures in benchmarks/figures/):
    without rotation pays through simulate_chamber;
 8. start-up (bench/startup.py): what `ballmill --help` and a warm `ballmill run
    fast_start` cost as whole processes, phase by phase, and the first run's build,
-   against the code before the start-up work in the same rounds.
+   against the code before the start-up work in the same rounds;
+9. Model Exchange (bench/model_exchange.py): the coupled fast start through
+   `ballmill run --interface me` next to co-simulation, and one ME derivative call
+   of BallInShell against the compiled kernel's right-hand side.
 
 Speed is measured here, never asserted in tests. ``--quick`` runs a reduced
 grid (about a minute) and by default writes to benchmarks/_work/ so that it
@@ -73,11 +76,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--cc", default="gcc", help="C compiler for the compiled peer (default gcc)")
     p.add_argument("--no-compiled", action="store_true", help="skip the compiled (C) peer")
     p.add_argument("--debug", action="store_true", help="show the traceback when a benchmark fails")
-    p.add_argument("--section", choices=("all", "studies", "absorber", "startup", "sweep-grid"), default="all",
+    p.add_argument("--section", choices=("all", "studies", "absorber", "startup", "sweep-grid", "me"), default="all",
                    help="'studies': run only the design-study section (ballmill/bench/studies.py), "
                         "'absorber': only the absorber co-simulation section (ballmill/bench/absorber.py), "
                         "'startup': only the command start-up section (ballmill/bench/startup.py), "
                         "'sweep-grid': only the 4000-point sweep command A/B (ballmill/bench/sweep_grid.py), and "
+                        "'me': only the Model Exchange section (ballmill/bench/model_exchange.py: the coupled "
+                        "fast start through --interface me against co-simulation, one ME derivative call against "
+                        "the kernel's right-hand side), "
                         "splice it into the report (default: all sections)")
     p.add_argument("--baseline", metavar="REF",
                    help="sweep-grid: also time the command with the code of git revision REF (git archive of "
@@ -140,6 +146,9 @@ def main(argv=None) -> int:
             from . import sweep_grid  # the whole sweep command on the 4000-point grid, A/B
             sweep_grid.run_section(Path(out).resolve(), args.repeats or (3 if args.quick else 5), args.baseline,
                                    root, progress)
+        if args.section in ("all", "me"):
+            from . import model_exchange  # the coupled fast start as one ODE, likewise
+            model_exchange.run_section(Path(out).resolve(), args.quick, args.repeats, progress)
     except KeyboardInterrupt:
         print("ballmill bench: interrupted", file=sys.stderr)
         return 130
