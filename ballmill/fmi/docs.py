@@ -61,12 +61,12 @@ def model_exchange_table(interface: Interface) -> list[str]:
     lines = [f"Model Exchange (native flavour): {_count(len(me.states), 'continuous state')}, "
              f"{_count(len(me.indicators), 'event indicator')}; " + _cell(me.notes) + ".", ""]
     if me.states:
-        lines += ["| vr | state | unit | nominal | vr of its derivative | description |",
-                  "| ---: | --- | --- | ---: | ---: | --- |"]
+        lines += ["| state | vr | unit | nominal | its derivative (vr) | description |",
+                  "| --- | ---: | --- | ---: | --- | --- |"]
         n = len(me.states)
         for k, (name, unit, desc, nominal) in enumerate(me.states):
-            lines.append(f"| {first + k} | `{name}` | {_cell(unit)} | {_cell(nominal)} | {first + n + k} "
-                         f"(`der({name})`) | {_cell(desc)} |")
+            lines.append(f"| `{name}` | {first + k} | {_cell(unit)} | {_cell(nominal)} | `der({name})` "
+                         f"({first + n + k}) | {_cell(desc)} |")
         lines.append("")
     for k, text in enumerate(me.indicators):
         lines.append(f"- event indicator {k}: {_cell(text)}")
