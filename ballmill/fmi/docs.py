@@ -68,8 +68,8 @@ def model_exchange_table(interface: Interface) -> list[str]:
             lines.append(f"| `{name}` | {first + k} | {_cell(unit)} | {_cell(nominal)} | `der({name})` "
                          f"({first + n + k}) | {_cell(desc)} |")
         lines.append("")
-    for k, text in enumerate(me.indicators):
-        lines.append(f"- event indicator {k}: {_cell(text)}")
+    for k, (name, unit, text) in enumerate(me.indicators):
+        lines.append(f"- event indicator {k}: `{name}` (vr {first + 2 * len(me.states) + k}, {unit}): {_cell(text)}")
     for outs, ins in me.direct:
         lines.append(f"- in Model Exchange {', '.join(f'`{o}`' for o in outs)} depend directly on "
                      f"{', '.join(f'`{i}`' for i in ins)} (not declared in ModelStructure/Outputs, which is "

@@ -186,8 +186,9 @@ class Interface:
 class ModelExchange:
     """What a model gives an FMI Model Exchange importer: its continuous states
     (``states``: (name, unit, description, nominal) rows; each becomes a local variable with
-    its derivative ``der(name)``), its event indicators (``indicators``: one description a
-    row, in the order the FMU returns them) and what its Model Exchange supports
+    its derivative ``der(name)``), its event indicators (``indicators``: (name, unit,
+    description) rows in the order the FMU returns them; each a local variable too, which FMI
+    3.0's ModelStructure/EventIndicator names) and what its Model Exchange supports
     (``notes``: the configurations it refuses, with why; for docs/fmus.md)."""
 
     states: tuple = ()
@@ -206,6 +207,8 @@ class ModelExchange:
         rows = [Variable(name, "local", 0.0, desc, unit=unit) for name, unit, desc, _ in self.states]
         rows += [Variable(f"der({name})", "local", 0.0, f"Time derivative of {name}",
                           unit=DERIVATIVE_UNITS[unit]) for name, unit, _, _ in self.states]
+        rows += [Variable(name, "local", 0.0, f"Event indicator: {desc}", unit=unit)
+                 for name, unit, desc in self.indicators]
         return tuple(rows)
 
 
@@ -687,8 +690,10 @@ BALL_IN_SHELL = _interface(
                 ("w_x", "rad/s", "Ball angular velocity x (the state of the output wx)", 1.0),
                 ("w_y", "rad/s", "Ball angular velocity y", 1.0),
                 ("w_z", "rad/s", "Ball angular velocity z", 1.0)),
-        indicators=("N: the normal force; it crosses 0 from above where the ball loses contact",
-                    "mu N - Ft: crosses 0 from above where the rolling ball would begin to slip"),
+        indicators=(("z_contact", "N", "N, the normal force; it crosses 0 from above where the ball loses "
+                     "contact"),
+                    ("z_rolling", "N", "mu N - Ft; it crosses 0 from above where the rolling ball would begin "
+                     "to slip")),
         notes="vector formulation (formulation = 1), motion = 1, input_mode 1 or 4: the platform "
               "acceleration ax1O, ay1O and position x1O, y1O are read directly at every call (no "
               "reconstruction: the importer supplies them); input_mode 2 (positions alone, "
