@@ -186,18 +186,29 @@ class Interface:
 class ModelExchange:
     """What a model gives an FMI Model Exchange importer: its continuous states
     (``states``: (name, unit, description, nominal) rows; each becomes a local variable with
-    its derivative ``der(name)``), its event indicators (``indicators``: one description a
-    row, in the order the FMU returns them) and what its Model Exchange supports
+    its derivative ``der(name)``), its event indicators (``indicators``: (name, unit,
+    description) rows in the order the FMU returns them; each a local variable too, which FMI
+    3.0's ModelStructure/EventIndicator names) and what its Model Exchange supports
     (``notes``: the configurations it refuses, with why; for docs/fmus.md)."""
 
     states: tuple = ()
     indicators: tuple = ()
     notes: str = ""
+    # outputs that depend directly on inputs in Model Exchange only ((output names, input names)
+    # rows): co-simulation integrates over the step in between, so its ModelStructure/Outputs
+    # (the archive's one, read by co-simulation masters to find algebraic loops) does not list
+    # them; an ME importer that sorts its equations must add them
+    direct: tuple = ()
+
+    def direct_inputs(self, output: str) -> tuple:
+        return tuple(i for outs, ins in self.direct if output in outs for i in ins)
 
     def variables(self) -> tuple:
         rows = [Variable(name, "local", 0.0, desc, unit=unit) for name, unit, desc, _ in self.states]
         rows += [Variable(f"der({name})", "local", 0.0, f"Time derivative of {name}",
                           unit=DERIVATIVE_UNITS[unit]) for name, unit, _, _ in self.states]
+        rows += [Variable(name, "local", 0.0, f"Event indicator: {desc}", unit=unit)
+                 for name, unit, desc in self.indicators]
         return tuple(rows)
 
 
@@ -358,7 +369,19 @@ INDUCTION_MOTOR = _interface(
          dict(unit="J")),
         ("E_drive", "output", 0.0, "Kinetic energy of rotor, gear, cranks and platform 1/2 J_total psi'^2",
          dict(unit="J")),
-    ], rules=_INDUCTION_RULES)
+    ], rules=_INDUCTION_RULES,
+    model_exchange=ModelExchange(
+        states=(("s_psi", "rad", "Crank angle psi (the state behind the output psi)", 1.0),
+                ("s_psi_dot", "rad/s", "Crank angular speed psi' (the state behind the output psi_dot)", 1.0),
+                ("s_flux_sd", "Wb", "Stator flux linkage, d axis (dq model; stays 0 with Kloss)", 1.0),
+                ("s_flux_sq", "Wb", "Stator flux linkage, q axis (dq model; stays 0 with Kloss)", 1.0),
+                ("s_flux_rd", "Wb", "Rotor flux linkage, d axis (dq model; stays 0 with Kloss)", 1.0),
+                ("s_flux_rq", "Wb", "Rotor flux linkage, q axis (dq model; stays 0 with Kloss)", 1.0),
+                ("s_W_motor", "J", "Mechanical work of the motor since the start (the output W_motor)", 1.0)),
+        direct=((("psi_ddot", "ax1O", "ay1O"), ("M_reaction",)),),
+        notes="M_reaction is read as set at every call (M_input, tolerance: co-simulation's); time "
+              "events at t = 0 (the supply is switched on) and, with a voltage or frequency ramp, at "
+              "t = ramp_time (the ramp ends: the supply's slope jumps)"))
 
 # ----------------------------------------------------------------------------- the Fig. 1 machine
 _WRENCH = ("Fx", "Fy", "Fz", "MO1x", "MO1y", "MO1z")
@@ -437,7 +460,11 @@ FIG1_DRIVE = _interface(
          dict(unit="N.m", depends=_WRENCH)),
         ("P_frame", "output", 0.0, "Power the frame drive must supply: T_frame phi'", dict(unit="W", depends=_WRENCH)),
         ("P_crank", "output", 0.0, "Power the crank drive must supply: T_crank psi'", dict(unit="W", depends=_WRENCH)),
-    ])
+    ],
+    model_exchange=ModelExchange(
+        direct=((("M_frame", "M_crank", "T_frame", "T_crank", "P_frame", "P_crank"), _WRENCH),),
+        notes="no continuous states: the frame and crank angles are functions of time; time events at "
+              "t = 0, t0 (the cranks' rise ends) and t0_frame (the frame's, frame_law 1..4)"))
 
 # ----------------------------------------------------------------------------- the ball
 BALL_INPUTS = ("x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O")
@@ -663,8 +690,10 @@ BALL_IN_SHELL = _interface(
                 ("w_x", "rad/s", "Ball angular velocity x (the state of the output wx)", 1.0),
                 ("w_y", "rad/s", "Ball angular velocity y", 1.0),
                 ("w_z", "rad/s", "Ball angular velocity z", 1.0)),
-        indicators=("N: the normal force; it crosses 0 from above where the ball loses contact",
-                    "mu N - Ft: crosses 0 from above where the rolling ball would begin to slip"),
+        indicators=(("z_contact", "N", "N, the normal force; it crosses 0 from above where the ball loses "
+                     "contact"),
+                    ("z_rolling", "N", "mu N - Ft; it crosses 0 from above where the rolling ball would begin "
+                     "to slip")),
         notes="vector formulation (formulation = 1), motion = 1, input_mode 1 or 4: the platform "
               "acceleration ax1O, ay1O and position x1O, y1O are read directly at every call (no "
               "reconstruction: the importer supplies them); input_mode 2 (positions alone, "
@@ -783,7 +812,20 @@ STRUCTURE = _interface(
          "of sum phi q' F_ball (relative to the ground)", dict(unit="J")),
     ],
     default_experiment=(0.0, 60.0, 2e-3),
-)
+    model_exchange=ModelExchange(
+        states=tuple(
+            [(f"s_q_{a}{j}", "m", f"Modal coordinate of mode {j} of axis {a} (stays 0 for a mode beyond "
+              f"n_{a})", 1.0) for a in AXES for j in range(1, STRUCTURE_MODES + 1)]
+            + [(f"s_qd_{a}{j}", "m/s", f"Modal velocity of mode {j} of axis {a}", 1.0)
+               for a in AXES for j in range(1, STRUCTURE_MODES + 1)]
+            + [row for a in AXES for row in ((f"s_{a}g", "m", f"Ground displacement {a}", 1.0),
+                                               (f"s_v{a}g", "m/s", f"Ground velocity {a}", 1.0))]
+            + [(f"s_{w}", "J", f"The work integral {w}", 1.0) for w in ("W_exc", "W_damp", "W_ball")]),
+        notes="Fx_ball, Fy_ball, ag_x, ag_y are read as set at every call (h_max, input_order: "
+              "co-simulation's). With BallInShell the coupling is an algebraic loop: ax1O, ay1O "
+              "depend directly on Fx_ball, Fy_ball (ModelStructure/Outputs) and BallInShell's Fx, Fy "
+              "on ax1O, ay1O; an importer solves it (the loop is linear: both sides are affine in "
+              "the other's output) or breaks it"))
 
 INTERFACES = {i.name: i for i in (BALL_IN_SHELL, MOTOR_STARTUP, INDUCTION_MOTOR, FIG1_DRIVE, STRUCTURE)}
 

@@ -52,6 +52,9 @@ MODEL_HEADERS = {
     "InductionMotor": [ROOT / "drive_models" / "crank_kinematics.h"],
 }
 FMI_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
+# FMI 3.0 archives (build/fmi3/): fmi3.c over the same plumbing; the model API keeps FMI 2.0's
+# status type, so its headers come along
+FMI3_HEADERS = ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")
 CFLAGS = ["-O2", "-Wall", "-Wextra", "-ffp-contract=off", "-fno-fast-math", "-fPIC", "-fvisibility=hidden"]
 
 
@@ -69,17 +72,20 @@ def fmi_headers_dir() -> Path:
     return Path(fmpy.__file__).parent / "c-code"
 
 
-def source_files(name: str, model_source: Path | None = None) -> list[Path]:
-    """Every file a native FMU is built from (its sources/ folder, less the generated headers)."""
+def source_files(name: str, model_source: Path | None = None, fmi: int = 2) -> list[Path]:
+    """Every file a native FMU of FMI version `fmi` is built from (its sources/ folder, less the
+    generated headers)."""
     hdr = fmi_headers_dir()
-    return ([PLUMBING / "fmi2.c", PLUMBING / "fmu_state.c", PLUMBING / "fmu_model.h", PLUMBING / "fmu_state.h",
+    return ([PLUMBING / f"fmi{fmi}.c", PLUMBING / "fmu_instance.c", PLUMBING / "fmu_state.c",
+             PLUMBING / "fmu_model.h", PLUMBING / "fmu_instance.h", PLUMBING / "fmu_state.h",
              model_source or MODEL_SOURCES[name], KERNEL]
-            + MODEL_HEADERS.get(name, []) + [hdr / h for h in FMI_HEADERS])
+            + MODEL_HEADERS.get(name, []) + [hdr / h for h in FMI_HEADERS]
+            + ([hdr / h for h in FMI3_HEADERS] if fmi == 3 else []))
 
 
-def compiled_units(name: str, model_source: Path | None = None) -> list[str]:
+def compiled_units(name: str, model_source: Path | None = None, fmi: int = 2) -> list[str]:
     """The files a compiler compiles (SourceFiles); the kernel is #included by the models that use it."""
-    return ["fmi2.c", "fmu_state.c", (model_source or MODEL_SOURCES[name]).name]
+    return [f"fmi{fmi}.c", "fmu_instance.c", "fmu_state.c", (model_source or MODEL_SOURCES[name]).name]
 
 
 def guid(interface: Interface, sources: list[Path]) -> str:
@@ -145,6 +151,11 @@ def interface_header(interface: Interface, guid_: str) -> str:
                       + ", ".join(_c_double(row[3]) for row in me.states) + "};"]
         else:
             lines += ["#define FMU_STATE_VRS NULL", "#define FMU_DERIVATIVE_VRS NULL", "#define FMU_STATE_NOMINALS NULL"]
+        if me.indicators:
+            lines.append("static const int FMU_INDICATOR_VRS[FMU_N_INDICATORS] = {"
+                         + ", ".join(f"VR_{c_name(row[0])}" for row in me.indicators) + "};")
+        else:
+            lines.append("#define FMU_INDICATOR_VRS NULL")
         lines.append("")
     lines += ["#endif", ""]
     return "\n".join(lines)
@@ -265,11 +276,104 @@ def model_description(interface: Interface, guid_: str, sources: list[str]) -> s
     for v in outputs:
         SubElement(init, "Unknown", index=str(index[v.name]),
                    dependencies=" ".join(str(index[d]) for d in v.depends))
-    for v in variables:
-        if v.causality == "local":
+    for v in variables:  # the states and their derivatives (not the event indicators)
+        if v.causality == "local" and (v.name in states or v.name.startswith("der(")):
             SubElement(init, "Unknown", index=str(index[v.name]))
     if not len(init):
         structure.remove(init)
+    indent(root, "  ")
+    return '<?xml version="1.0" encoding="UTF-8"?>\n' + tostring(root, encoding="unicode") + "\n"
+
+
+FMI3_TYPES = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean"}
+
+
+def model_description_fmi3(interface: Interface, token: str) -> str:
+    """modelDescription.xml of the FMI 3.0 archive: the same variables (value references, units,
+    bounds, descriptions) and structure as the FMI 2.0 one, in FMI 3.0's schema; co-simulation
+    with event mode, and Model Exchange when the interface declares it."""
+    me = interface.model_exchange
+    variables = interface.native_variables
+    root = Element("fmiModelDescription", dict(
+        fmiVersion="3.0", modelName=interface.name, instantiationToken=token, description=interface.description,
+        author="ballmill", license="MIT", generationTool=GENERATION_TOOL, variableNamingConvention="structured"))
+    common = dict(modelIdentifier=interface.name, needsExecutionTool="false",
+                  canBeInstantiatedOnlyOncePerProcess="false", canGetAndSetFMUState="true",
+                  canSerializeFMUState="true", providesDirectionalDerivatives="false",
+                  providesAdjointDerivatives="false", providesPerElementDependencies="false")
+    if me is not None:
+        SubElement(root, "ModelExchange", dict(common, needsCompletedIntegratorStep="false"))
+    SubElement(root, "CoSimulation", dict(
+        common, canHandleVariableCommunicationStepSize="true", maxOutputDerivativeOrder="0",
+        providesIntermediateUpdate="false", mightReturnEarlyFromDoStep="false",
+        canReturnEarlyAfterIntermediateUpdate="false", hasEventMode="true",
+        providesEvaluateDiscreteStates="false"))
+    units = SubElement(root, "UnitDefinitions")
+    for u in sorted({v.unit for v in variables if v.unit}):
+        spec = dict(UNITS[u])
+        factor = spec.pop("factor", None)
+        attrs = {k: str(x) for k, x in spec.items()}
+        if factor is not None:
+            attrs["factor"] = repr(factor)
+        SubElement(SubElement(units, "Unit", name=u), "BaseUnit", attrs)
+    cats = SubElement(root, "LogCategories")
+    for name, desc in interface.log_categories.items():
+        SubElement(cats, "Category", name=name, description=desc)
+    start, stop, step = interface.default_experiment
+    SubElement(root, "DefaultExperiment", startTime=repr(float(start)), stopTime=repr(float(stop)),
+               stepSize=repr(float(step)))
+    mv = SubElement(root, "ModelVariables")
+    states = [row[0] for row in me.states] if me else []
+    indicators = [row[0] for row in me.indicators] if me else []
+    vr_of = {v.name: vr for vr, v in enumerate(variables)}
+    for vr, v in enumerate(variables):
+        attrs = dict(name=v.name, valueReference=str(vr), description=v.description,
+                     causality=v.causality, variability=v.fmi_variability)
+        if v.causality in ("output", "local"):
+            attrs["initial"] = "calculated"
+        else:
+            attrs["start"] = _number(v.start, v.type)
+        if v.unit and v.type == "Real":
+            attrs["unit"] = v.unit
+        for key in ("min", "max"):
+            x = getattr(v, key)
+            if x is not None:
+                attrs[key] = _number(x, v.type) if v.type == "Integer" else repr(float(x))
+        if v.name.startswith("der(") and v.name[4:-1] in states:
+            attrs["derivative"] = str(vr_of[v.name[4:-1]])
+        if v.name in states:
+            attrs["nominal"] = repr(float(me.states[states.index(v.name)][3]))
+        SubElement(mv, FMI3_TYPES[v.type], attrs)
+    # FMI 3.0 declares the independent variable; its value reference follows every variable's
+    # (the FMU has no value for it: time is the importer's)
+    SubElement(mv, "Float64", dict(name="time", valueReference=str(len(variables)), causality="independent",
+                                   variability="continuous", unit="s", description="Simulation time"))
+    structure = SubElement(root, "ModelStructure")
+    state_deps = [str(vr_of[n]) for n in states]
+    outputs = [v for v in variables if v.causality == "output"]
+    for v in outputs:  # as the FMI 2.0 archive's (co-simulation's direct dependencies, the states)
+        deps = [str(vr_of[d]) for d in v.feedthrough] + (state_deps if v.fmi_variability == "continuous" else [])
+        SubElement(structure, "Output", valueReference=str(vr_of[v.name]), dependencies=" ".join(deps))
+    for n in states:
+        SubElement(structure, "ContinuousStateDerivative", valueReference=str(vr_of[f"der({n})"]))
+    for v in outputs:
+        SubElement(structure, "InitialUnknown", valueReference=str(vr_of[v.name]),
+                   dependencies=" ".join(str(vr_of[d]) for d in v.depends))
+    for v in variables:
+        if v.causality == "local" and (v.name in states or v.name.startswith("der(")):
+            SubElement(structure, "InitialUnknown", valueReference=str(vr_of[v.name]))
+    for n in indicators:
+        SubElement(structure, "EventIndicator", valueReference=str(vr_of[n]))
+    indent(root, "  ")
+    return '<?xml version="1.0" encoding="UTF-8"?>\n' + tostring(root, encoding="unicode") + "\n"
+
+
+def build_description_fmi3(name: str, units: list[str]) -> str:
+    """sources/buildDescription.xml: how to compile the FMI 3.0 archive's sources."""
+    root = Element("fmiBuildDescription", fmiVersion="3.0")
+    files = SubElement(SubElement(root, "BuildConfiguration", modelIdentifier=name), "SourceFileSet")
+    for unit in units:
+        SubElement(files, "SourceFile", name=unit)
     indent(root, "  ")
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + tostring(root, encoding="unicode") + "\n"
 
@@ -304,6 +408,13 @@ def platform_dir() -> str:
     raise NativeBuildError(f"unsupported platform {sys.platform} {machine}")
 
 
+def platform_dir_fmi3() -> str:
+    """FMI 3.0's platform tuple (binaries/x86_64-linux)."""
+    machine = {"amd64": "x86_64", "arm64": "aarch64"}.get(platform.machine().lower(), platform.machine().lower())
+    system = {"linux": "linux", "darwin": "darwin", "win32": "windows"}.get(sys.platform, sys.platform)
+    return f"{machine}-{system}"
+
+
 def shared_suffix() -> str:
     return {"win32": ".dll", "darwin": ".dylib"}.get(sys.platform, ".so")
 
@@ -319,34 +430,38 @@ def compile_binary(sources_dir: Path, units: list[str], out: Path, extra_flags=(
 
 
 def stage_sources(name: str, dest: Path, interface: Interface | None = None,
-                  model_source: Path | None = None) -> tuple[str, list[str]]:
+                  model_source: Path | None = None, fmi: int = 2) -> tuple[str, list[str]]:
     """Copy the sources of model `name` and its generated headers into dest; (guid, units)."""
     interface = interface or INTERFACES[name]
-    files = source_files(name, model_source)
+    files = source_files(name, model_source, fmi)
     g = guid(interface, files)
     dest.mkdir(parents=True, exist_ok=True)
     for f in files:
         shutil.copy2(f, dest / f.name)
     (dest / f"{name}_interface.h").write_text(interface_header(interface, g))
     (dest / "bm_tableaus.h").write_text(tableau_header())
-    return g, compiled_units(name, model_source)
+    return g, compiled_units(name, model_source, fmi)
 
 
 def build_native(name: str, out_dir: Path, interface: Interface | None = None,
-                 model_source: Path | None = None) -> Path:
-    """Build build/<name>.fmu (native): sources, binary for this platform, model description.
-    ``interface``/``model_source``: another model than the project's (the benchmark's
-    do-nothing FMU)."""
+                 model_source: Path | None = None, fmi: int = 2) -> Path:
+    """Build build/<name>.fmu (native; ``fmi=3``: the FMI 3.0 archive, for build/fmi3/): sources,
+    binary for this platform, model description. ``interface``/``model_source``: another model
+    than the project's (the benchmark's do-nothing FMU)."""
     interface = interface or INTERFACES[name]
     out_dir.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="ballmill_native_") as tmp:
         tmp = Path(tmp)
         src = tmp / "sources"
-        g, units = stage_sources(name, src, interface, model_source)
-        bindir = tmp / "binaries" / platform_dir()
+        g, units = stage_sources(name, src, interface, model_source, fmi)
+        bindir = tmp / "binaries" / (platform_dir() if fmi == 2 else platform_dir_fmi3())
         bindir.mkdir(parents=True)
         compile_binary(src, units, bindir / f"{name}{shared_suffix()}")
-        (tmp / "modelDescription.xml").write_text(model_description(interface, g, units))
+        if fmi == 2:
+            (tmp / "modelDescription.xml").write_text(model_description(interface, g, units))
+        else:
+            (tmp / "modelDescription.xml").write_text(model_description_fmi3(interface, g))
+            (src / "buildDescription.xml").write_text(build_description_fmi3(interface.name, units))
         target = out_dir / f"{name}.fmu"
         partial = target.with_suffix(".fmu.part")
         with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
@@ -370,10 +485,10 @@ def is_native(fmu: Path) -> bool:
 
 
 def build_inputs(name: str) -> list[Path]:
-    """Every file the native FMU of model `name` is made from: its sources, and the Python
-    that generates its model description and headers."""
-    return source_files(name) + [Path(__file__), PACKAGE_DIR / "fmi" / "interface.py",
-                                 PACKAGE_DIR / "physics" / "integrators.py"]
+    """Every file the native FMUs of model `name` (FMI 2.0 and 3.0) are made from: their sources,
+    and the Python that generates their model descriptions and headers."""
+    return source_files(name, fmi=3) + [PLUMBING / "fmi2.c", Path(__file__), PACKAGE_DIR / "fmi" / "interface.py",
+                                        PACKAGE_DIR / "physics" / "integrators.py"]
 
 
 def newest_source_mtime(name: str) -> float:

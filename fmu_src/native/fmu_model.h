@@ -54,6 +54,7 @@ typedef struct {
     int n_states, n_indicators;
     const int *state_vr, *der_vr; /* n_states each */
     const double *nominal;        /* n_states */
+    const int *indicator_vr;      /* n_indicators: the variables that show the event indicators */
     /* after setup (FMU_SETUP_START) at fmi2ExitInitializationMode: refuse (fmi2Error after
      * fmu_log said why) a configuration Model Exchange does not support; write the start
      * state into v at state_vr */
