@@ -5,8 +5,8 @@ layout of one model folder of the FMI Cross-Check repository, github.com/modelic
 fmus/2.0/cs/<platform>/<tool>/<version>/<Model>/, without the FMU itself):
 
 * ``<Model>_in.csv``: the input signals, for every model (all five have inputs): the first
-  column the time, then the inputs that the experiment moves, by their names in
-  modelDescription.xml (the others keep their start values). The rows are the
+  column the time, then every input by its name in modelDescription.xml (those the
+  experiment does not move at their start values). The rows are the
   communication points of the experiment, so that the cross-check's linear interpolation
   between rows hands the FMU exactly these values at every communication point;
   an experiment that keeps every input at its start value has two rows (start and stop);
@@ -143,10 +143,12 @@ def write(name: str, fmu: Path, base: Path) -> list[Path]:
             raise CrossCheckError(f"{name}: the cross-check names {v!r}, which {fmu} does not declare")
     in_csv, opt, ref_csv = files(name, base)
     in_csv.parent.mkdir(parents=True, exist_ok=True)
-    if moved:
-        _write_csv(in_csv, ["time", *moved], np.column_stack([grid, *moved.values()]))
-    else:  # every input at its start value
-        ins = [v for v in md.modelVariables if v.causality == "input"]
+    ins = [v for v in md.modelVariables if v.causality == "input"]
+    if moved:  # every input, those the experiment does not move at their start values
+        _write_csv(in_csv, ["time", *(v.name for v in ins)],
+                   np.column_stack([grid, *(moved[v.name] if v.name in moved else np.full(grid.size, float(v.start))
+                                           for v in ins)]))
+    else:  # every input at its start value: two rows
         _write_csv(in_csv, ["time", *(v.name for v in ins)],
                    [[t, *(float(v.start) for v in ins)] for t in (start, stop)])
     header, data = read_csv(in_csv)  # what an importer reads: the master runs on exactly that
