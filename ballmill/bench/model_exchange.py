@@ -132,9 +132,10 @@ def measure_calls(repeats: int, progress=print) -> list[tuple[str, float]]:
         fmu_dx = np.array(dx[:])
         P = fast.problem(model, crank)
         f = np.empty(6)
-        rhs, Pref, yp, fp = fast._kernel().bm_eval_rhs, ctypes.byref(P), y.ctypes.data_as(fast._dp), \
-            f.ctypes.data_as(fast._dp)
-        rhs(Pref, t, yp, fp)
+        # called as the FMU's functions are: the bare C function, no argtypes, ready ctypes arguments
+        rhs = ctypes.CFUNCTYPE(None)(ctypes.cast(fast._kernel().bm_eval_rhs, ctypes.c_void_p).value)
+        Pref, yp, fp = ctypes.byref(P), y.ctypes.data_as(fast._dp), f.ctypes.data_as(fast._dp)
+        rhs(Pref, now, yp, fp)
         if not np.allclose(fmu_dx, f, rtol=1e-12, atol=1e-12):  # the same function, or the timing means nothing
             raise RuntimeError(f"the FMU's derivatives {fmu_dx} differ from the kernel's {f}")
         cases = [
@@ -142,7 +143,7 @@ def measure_calls(repeats: int, progress=print) -> list[tuple[str, float]]:
             ("BallInShell ME: fmi2SetTime + fmi2SetContinuousStates + fmi2SetReal (6 inputs) + "
              "fmi2GetDerivatives", full_evaluation),
             ("compiled kernel: bm_eval_rhs (crank acceleration + vector derivative)",
-             lambda: rhs(Pref, t, yp, fp)),
+             lambda: rhs(Pref, now, yp, fp)),
         ]
         return [(name, per_call_us(fn, repeats)[0]) for name, fn in cases]
     finally:
