@@ -2,7 +2,8 @@
 
     ballmill build [--force]                 build and validate every FMU, both flavours: native
                                              (C) in build/, pythonfmu in build/pythonfmu/
-    ballmill run SCENARIO [--out DIR] [--set inst.param=value ...] [--flavour pythonfmu] [--quiet]
+    ballmill run SCENARIO [--out DIR] [--set inst.param=value ...] [--flavour pythonfmu]
+                 [--interface cs|me] [--quiet]
                                              exit status: 0 ran and stayed valid, 1 an FMU stopped
                                              the run, 2 bad scenario or value (every problem listed
                                              before anything runs), 3 ran but the ball model's
@@ -81,14 +82,14 @@ def _run(args) -> int:
     try:
         sc, models, paths = runner.prepare(args.scenario, args.set or (),
                                            Path(args.build_dir) if args.build_dir else None,
-                                           log=say, flavour=args.flavour)
+                                           log=say, flavour=args.flavour, interface=args.interface)
     except (ScenarioError, BuildError) as e:
         print(f"ballmill run: {e}", file=sys.stderr)
         return 2
     _phases("prepare")  # the build check, the scenario and the model descriptions it uses
     out = Path(args.out or Path("out") / sc.name)
     say(f"running {sc.name}: {sc.description}")
-    res = runner.run(sc, models, paths, progress=not args.quiet, echo=not args.quiet)
+    res = runner.run(sc, models, paths, progress=not args.quiet, echo=not args.quiet, interface=args.interface)
     _phases("run")
     _phases.extra.update(init_s=res.init_time, wall_s=res.wall_time)  # FMU load + initialisation, of the run
     bare = None
@@ -97,7 +98,7 @@ def _run(args) -> int:
         ball = report._ball_instance(res)
         say(f"running {sc.name} again without {ball!r}: the bare structure")
         bare = runner.run(runner.without(sc, ball, [(structure, v) for v in report.STRUCTURE_RECORD]),
-                          models, paths, progress=not args.quiet, echo=not args.quiet)
+                          models, paths, progress=not args.quiet, echo=not args.quiet, interface=args.interface)
     if bare is not None:
         _phases("bare run")
     summary = report.write_all(res, models, out, bare)
@@ -316,6 +317,11 @@ def main(argv=None) -> int:
     r.add_argument("--flavour", choices=("native", "pythonfmu"), default="native",
                    help="which FMUs to run: native (C, build/, the default) or pythonfmu (the Python "
                         "reference, build/pythonfmu/)")
+    r.add_argument("--interface", choices=("cs", "me"), default="cs",
+                   help="cs: co-simulation, the FMUs stepped on the communication grid (default); me: "
+                        "Model Exchange, every FMU's continuous states integrated together as one ODE "
+                        "(scipy, [master] solver/rtol/atol) with time and state events, recorded on the "
+                        "same grid (native FMUs only: pythonfmu has no Model Exchange)")
     e = sub.add_parser("export-ssp", help="write a scenario as an SSP package (.ssp) for other FMI tools")
     _scenario_arguments(e)
     e.add_argument("out", help="the .ssp file to write")

@@ -179,8 +179,54 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
     return fmi2OK;
 }
 
+/* ===================================================================== Model Exchange
+ * No continuous states: publish's outputs at the time the importer sets, from the wrench as
+ * set; the laws' kinks (t = 0, the cranks' t0, the frame's t0_frame) are time events. */
+static fmi2Status me_start(fmu_instance *fi, void *data, double *v, double t)
+{
+    (void)fi;
+    (void)data;
+    (void)v;
+    (void)t;
+    return fmi2OK;
+}
+
+static fmi2Status me_eval(fmu_instance *fi, void *data, double *v, double t, double *z)
+{
+    const char *name;
+    double value;
+    (void)z;
+    if (bad_wrench(v, &name, &value)) {
+        char a[32], b[32];
+        fmu_log(fi, fmi2Error, "Fig1Drive '%s': input %s must be finite, got %s %s at t = %s s",
+                fmu_instance_name(fi), name, fmu_repr(value, a), unit_of(name), fmu_repr(t, b));
+        return fmi2Error;
+    }
+    publish(data, v, t);
+    return fmi2OK;
+}
+
+static fmi2Status me_event(fmu_instance *fi, void *data, double *v, double t, fmu_event *ev)
+{
+    const fig1_drive *m = data;
+    double kinks[3] = {0.0, m->t0, m->frame_law != FRAME_CONSTANT ? m->t0_frame : -INFINITY};
+    (void)fi;
+    (void)v;
+    for (int i = 0; i < 3; i++)
+        if (kinks[i] > t && (!ev->next_time_defined || kinks[i] < ev->next_time)) {
+            ev->next_time_defined = 1;
+            ev->next_time = kinks[i];
+        }
+    return fmi2OK;
+}
+
+static const fmu_me ME = {
+    FMU_N_STATES, FMU_N_INDICATORS, FMU_STATE_VRS, FMU_DERIVATIVE_VRS, FMU_STATE_NOMINALS, FMU_INDICATOR_VRS,
+    me_start, me_eval, me_event,
+};
+
 const fmu_model FMU_MODEL = {
     FMU_IDENTIFIER, FMU_GUID, FMU_N_VARS, FMU_VARIABLES,
     sizeof(fig1_drive), offsetof(fig1_drive, unused),
-    setup, step, NULL, NULL, /* no dynamic state to check, no feedthrough */
+    setup, step, NULL, NULL, &ME, /* no dynamic state to check, no feedthrough */
 };

@@ -506,8 +506,74 @@ static fmi2Status check(fmu_instance *fi, const void *data, const double *v)
     return fmi2Error;
 }
 
+/* ===================================================================== Model Exchange
+ * The importer integrates z (the states s_psi .. s_W_motor; with Kloss the four fluxes are
+ * not used: their derivatives are 0) with M_reaction as set at every call (held at that
+ * instant: drive_rhs with no slope); time events where the supply is switched on (t = 0) and
+ * where a ramp ends (t = ramp_time). */
+static const int ME_X[7] = {VR_s_psi, VR_s_psi_dot, VR_s_flux_sd, VR_s_flux_sq, VR_s_flux_rd, VR_s_flux_rq,
+                            VR_s_W_motor};
+static const int ME_DX[7] = {VR_der_s_psi, VR_der_s_psi_dot, VR_der_s_flux_sd, VR_der_s_flux_sq,
+                             VR_der_s_flux_rd, VR_der_s_flux_rq, VR_der_s_W_motor};
+
+/* the index in z of ME state k (Kloss: psi, psi', W; dq: all seven), or -1 when unused */
+static int me_index(const induction_motor *m, int k)
+{
+    if (m->dq || k < 2) return k;
+    return k == 6 ? 2 : -1;
+}
+
+static fmi2Status me_start(fmu_instance *fi, void *data, double *v, double t)
+{
+    const induction_motor *m = data;
+    (void)fi;
+    (void)t;
+    for (int k = 0; k < 7; k++) v[ME_X[k]] = me_index(m, k) < 0 ? 0.0 : m->z[me_index(m, k)];
+    return fmi2OK;
+}
+
+static fmi2Status me_eval(fmu_instance *fi, void *data, double *v, double t, double *zi)
+{
+    induction_motor *m = data;
+    double dz[NZ_MAX];
+    (void)zi;
+    if (!isfinite(v[VR_M_reaction])) {
+        char a[32], b[32];
+        fmu_log(fi, fmi2Error, "InductionMotor '%s': input M_reaction must be finite, got %s N.m at t = %s s",
+                fmu_instance_name(fi), fmu_repr(v[VR_M_reaction], a), fmu_repr(t, b));
+        return fmi2Error;
+    }
+    for (int k = 0; k < 7; k++)
+        if (me_index(m, k) >= 0) m->z[me_index(m, k)] = v[ME_X[k]];
+    load_ctx L = make_load(m, 0, NAN, NAN, t, v[VR_M_reaction]);
+    drive_rhs(&m->P, &L, t, m->z, dz);
+    for (int k = 0; k < 7; k++) v[ME_DX[k]] = me_index(m, k) < 0 ? 0.0 : dz[me_index(m, k)];
+    publish(m, &L, t, v);
+    return fmi2OK;
+}
+
+static fmi2Status me_event(fmu_instance *fi, void *data, double *v, double t, fmu_event *ev)
+{
+    const induction_motor *m = data;
+    (void)fi;
+    (void)v;
+    if (t < 0.0) {
+        ev->next_time_defined = 1;
+        ev->next_time = 0.0;
+    } else if (m->start != 1 && t < m->ramp_time) {
+        ev->next_time_defined = 1;
+        ev->next_time = m->ramp_time;
+    }
+    return fmi2OK;
+}
+
+static const fmu_me ME = {
+    FMU_N_STATES, FMU_N_INDICATORS, FMU_STATE_VRS, FMU_DERIVATIVE_VRS, FMU_STATE_NOMINALS, FMU_INDICATOR_VRS,
+    me_start, me_eval, me_event,
+};
+
 const fmu_model FMU_MODEL = {
     FMU_IDENTIFIER, FMU_GUID, FMU_N_VARS, FMU_VARIABLES,
     sizeof(induction_motor), offsetof(induction_motor, z),
-    setup, step, check, NULL,
+    setup, step, check, NULL, &ME,
 };

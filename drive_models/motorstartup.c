@@ -111,8 +111,55 @@ static fmi2Status inputs_set(fmu_instance *fi, void *data, double *v, double t)
     return fmi2OK;
 }
 
+/* ===================================================================== Model Exchange
+ * No continuous states: the outputs are publish's at the time the importer sets, from the
+ * input M_reaction as set; the law's kinks (t = 0 where the rise starts, t = t0 where it
+ * ends: the acceleration or the jerk jumps) are time events. */
+static fmi2Status me_start(fmu_instance *fi, void *data, double *v, double t)
+{
+    (void)fi;
+    (void)data;
+    (void)v;
+    (void)t;
+    return fmi2OK;
+}
+
+static fmi2Status me_eval(fmu_instance *fi, void *data, double *v, double t, double *z)
+{
+    (void)z;
+    if (!isfinite(v[VR_M_reaction])) {
+        char a[32], b[32];
+        fmu_log(fi, fmi2Error, "MotorStartup '%s': input M_reaction must be finite, got %s N.m at t = %s s",
+                fmu_instance_name(fi), fmu_repr(v[VR_M_reaction], a), fmu_repr(t, b));
+        return fmi2Error;
+    }
+    publish(data, v, t);
+    return fmi2OK;
+}
+
+static fmi2Status me_event(fmu_instance *fi, void *data, double *v, double t, fmu_event *ev)
+{
+    const motor_startup *m = data;
+    (void)fi;
+    (void)v;
+    if (t < 0.0) {
+        ev->next_time_defined = 1;
+        ev->next_time = 0.0;
+    } else if (t < m->t0) {
+        ev->next_time_defined = 1;
+        ev->next_time = m->t0;
+    }
+    return fmi2OK;
+}
+
+static const fmu_me ME = {
+    FMU_N_STATES, FMU_N_INDICATORS, FMU_STATE_VRS, FMU_DERIVATIVE_VRS, FMU_STATE_NOMINALS, FMU_INDICATOR_VRS,
+    me_start, me_eval, me_event,
+};
+
 const fmu_model FMU_MODEL = {
     FMU_IDENTIFIER, FMU_GUID, FMU_N_VARS, FMU_VARIABLES,
     sizeof(motor_startup), offsetof(motor_startup, unused),
     setup, step, NULL, inputs_set, /* no dynamic state to check */
+    &ME,
 };

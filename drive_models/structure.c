@@ -339,8 +339,73 @@ static fmi2Status inputs_set(fmu_instance *fi, void *data, double *v, double t)
     return fmi2OK;
 }
 
+/* ===================================================================== Model Exchange
+ * The importer integrates the 19 states s_q_x1 .. s_W_ball (interface.py: every mode's q, then
+ * every mode's q', the ground's motion, the work integrals; a mode beyond n_x or n_y stays 0)
+ * with the inputs as set at every call. No events. With BallInShell the coupling is an
+ * algebraic loop through ax1O, ay1O <- Fx_ball, Fy_ball (declared in ModelStructure/Outputs). */
+#define ME_N (4 * MAXM + NEXTRA)
+
+/* the index in z of ME state k, or -1 for a mode the structure does not have */
+static int me_index(const structure *s, int k)
+{
+    if (k >= 4 * MAXM) return s->ns + (k - 4 * MAXM);
+    int velocity = k >= 2 * MAXM, a = (k % (2 * MAXM)) / MAXM, j = k % MAXM;
+    if (j >= s->n[a]) return -1;
+    return s->off[a] + (velocity ? s->n[a] : 0) + j;
+}
+
+static fmi2Status me_start(fmu_instance *fi, void *data, double *v, double t)
+{
+    const structure *s = data;
+    (void)fi;
+    (void)t;
+    for (int k = 0; k < ME_N; k++) v[FMU_STATE_VRS[k]] = me_index(s, k) < 0 ? 0.0 : s->z[me_index(s, k)];
+    return fmi2OK;
+}
+
+static fmi2Status me_eval(fmu_instance *fi, void *data, double *v, double t, double *zi)
+{
+    structure *s = data;
+    double u[NIN], dz[NZ];
+    char a[32], b[32];
+    (void)zi;
+    inputs_of(v, u);
+    for (int k = 0; k < NIN; k++)
+        if (!isfinite(u[k])) {
+            fmu_log(fi, fmi2Error, "Structure '%s': input %s must be finite, got %s at t = %s s",
+                    fmu_instance_name(fi), input_name(k), fmu_repr(u[k], a), fmu_repr(t, b));
+            return fmi2Error;
+        }
+    for (int k = 0; k < ME_N; k++)
+        if (me_index(s, k) >= 0) s->z[me_index(s, k)] = v[FMU_STATE_VRS[k]];
+    rhs(s, t, s->z, u, dz);
+    for (int k = 0; k < ME_N; k++) v[FMU_DERIVATIVE_VRS[k]] = me_index(s, k) < 0 ? 0.0 : dz[me_index(s, k)];
+    if (!publish(s, v, t, s->z, u)) {
+        fmu_log(fi, fmi2Error, "Structure '%s': the outputs at t = %s s would not be finite", fmu_instance_name(fi),
+                fmu_repr(t, a));
+        return fmi2Error;
+    }
+    return fmi2OK;
+}
+
+static fmi2Status me_event(fmu_instance *fi, void *data, double *v, double t, fmu_event *ev)
+{
+    (void)fi;
+    (void)data;
+    (void)v;
+    (void)t;
+    (void)ev;
+    return fmi2OK;
+}
+
+static const fmu_me ME = {
+    FMU_N_STATES, FMU_N_INDICATORS, FMU_STATE_VRS, FMU_DERIVATIVE_VRS, FMU_STATE_NOMINALS, FMU_INDICATOR_VRS,
+    me_start, me_eval, me_event,
+};
+
 const fmu_model FMU_MODEL = {
     FMU_IDENTIFIER, FMU_GUID, FMU_N_VARS, FMU_VARIABLES,
     sizeof(structure), offsetof(structure, z),
-    setup, step, check, inputs_set,
+    setup, step, check, inputs_set, &ME,
 };

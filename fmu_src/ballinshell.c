@@ -1444,8 +1444,85 @@ static fmi2Status check(fmu_instance *fi, const void *data, const double *v)
     return fmi2Error;
 }
 
+/* ===================================================================== Model Exchange
+ * The importer integrates the vector formulation's state (n, omega), stored in v at the
+ * state variables n_x .. w_z (interface.ModelExchange), along the platform motion it sets:
+ * ax1O, ay1O (and x1O, y1O for the moment arm) read as they are at every call (no input
+ * reconstruction: input_mode 1 or 4). The derivatives are the kernel's (bm_derivative), the
+ * outputs bm_outputs' at that instant; the event indicators N (loss of contact) and
+ * mu N - Ft (onset of slip) cross 0 where co-simulation's report() would flag them, and the
+ * event update runs report() itself: the validity latch (valid, t_invalid) as in
+ * co-simulation, at the event's time. */
+static const int ME_STATES[6] = {VR_n_x, VR_n_y, VR_n_z, VR_w_x, VR_w_y, VR_w_z};
+
+static fmi2Status me_start(fmu_instance *fi, void *data, double *v, double t)
+{
+    ball_in_shell *b = data;
+    char msg[512];
+    (void)t;
+    if (b->P.form != BM_VECTOR || b->motion != 1 || (b->mode != 1 && b->mode != 4)) {
+        snprintf(msg, sizeof msg, "Model Exchange integrates the vector formulation of a translating chamber from "
+                 "the acceleration inputs as set: it needs formulation = 1, motion = 1 and input_mode = 1 or 4, "
+                 "got formulation = %d, motion = %d, input_mode = %d (input_mode 2 differentiates positions and "
+                 "3 holds the inputs over a communication step: co-simulation only)",
+                 b->P.form == BM_VECTOR ? 1 : 2, b->motion, b->mode);
+        return init_error(fi, msg, "");
+    }
+    for (int i = 0; i < 6; i++) v[ME_STATES[i]] = b->state.y[i];
+    return fmi2OK;
+}
+
+/* the outputs at t from the states and inputs in v (0), or 1 after fmu_log named the unusable input */
+static int me_outputs(fmu_instance *fi, ball_in_shell *b, const double *v, double t, double y[6], double o[N_OUT])
+{
+    static const int in_vr[4] = {VR_x1O, VR_y1O, VR_ax1O, VR_ay1O};
+    for (int i = 0; i < 4; i++)
+        if (!isfinite(v[in_vr[i]])) {
+            char a[32], c[32];
+            fmu_log(fi, fmi2Error, "BallInShell '%s': input %s = %s refused at t = %s s: it must be finite",
+                    fmu_instance_name(fi), FMU_VARIABLES[in_vr[i]].name, fmu_repr(v[in_vr[i]], a), fmu_repr(t, c));
+            return 1;
+        }
+    for (int i = 0; i < 6; i++) y[i] = v[ME_STATES[i]];
+    bm_outputs(&b->P, y, v[VR_ax1O], v[VR_ay1O], v[VR_x1O], v[VR_y1O], o);
+    translation_extras(b->R, v[VR_x1O], v[VR_y1O], o);
+    return 0;
+}
+
+static fmi2Status me_eval(fmu_instance *fi, void *data, double *v, double t, double *z)
+{
+    ball_in_shell *b = data;
+    static const int der_vr[6] = {VR_der_n_x, VR_der_n_y, VR_der_n_z, VR_der_w_x, VR_der_w_y, VR_der_w_z};
+    double y[6], f[6], o[N_OUT];
+    if (me_outputs(fi, b, v, t, y, o)) return fmi2Error;
+    bm_derivative(&b->P, y, v[VR_ax1O], v[VR_ay1O], f);
+    for (int i = 0; i < 6; i++) v[der_vr[i]] = f[i];
+    publish(v, o);
+    if (z) {
+        z[0] = o[O_N];
+        z[1] = b->mu * o[O_N] - o[O_FT];
+    }
+    return fmi2OK;
+}
+
+static fmi2Status me_event(fmu_instance *fi, void *data, double *v, double t, fmu_event *ev)
+{
+    ball_in_shell *b = data;
+    double y[6], o[N_OUT];
+    (void)ev; /* no time events; the states are never re-initialised */
+    if (me_outputs(fi, b, v, t, y, o)) return fmi2Error;
+    b->has_t_prev = 0; /* report() says "at t": the importer located the event */
+    report(fi, b, v, t, o);
+    return fmi2OK;
+}
+
+static const fmu_me ME = {
+    FMU_N_STATES, FMU_N_INDICATORS, FMU_STATE_VRS, FMU_DERIVATIVE_VRS, FMU_STATE_NOMINALS, FMU_INDICATOR_VRS,
+    me_start, me_eval, me_event,
+};
+
 const fmu_model FMU_MODEL = {
     FMU_IDENTIFIER, FMU_GUID, FMU_N_VARS, FMU_VARIABLES,
     sizeof(ball_in_shell), offsetof(ball_in_shell, state),
-    setup, step, check, inputs_set,
+    setup, step, check, inputs_set, &ME,
 };

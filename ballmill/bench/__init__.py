@@ -29,7 +29,10 @@ figures in benchmarks/figures/):
    a scene that stays rolling next to `simulate`, and scenes with slip, flight and
    impacts: cost per simulated second, per event, and of locating the events;
 10. design (bench/design.py): `ballmill optimize` (NSGA-II, 40 x 25) and `ballmill
-   sensitivity` (Sobol, 5 parameters, N = 1024) as whole processes on the kernel evaluator.
+   sensitivity` (Sobol, 5 parameters, N = 1024) as whole processes on the kernel evaluator;
+11. Model Exchange (bench/model_exchange.py): the coupled fast start through
+   `ballmill run --interface me` next to co-simulation, and one ME derivative call
+   of BallInShell against the compiled kernel's right-hand side.
 
 Speed is measured here, never asserted in tests. ``--quick`` runs a reduced
 grid (about a minute) and by default writes to benchmarks/_work/ so that it
@@ -79,14 +82,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-compiled", action="store_true", help="skip the compiled (C) peer")
     p.add_argument("--debug", action="store_true", help="show the traceback when a benchmark fails")
     p.add_argument("--section", choices=("all", "studies", "absorber", "startup", "sweep-grid", "hybrid",
-                                         "design"),
+                                         "design", "me"),
                    default="all",
                    help="'studies': run only the design-study section (ballmill/bench/studies.py), "
                         "'absorber': only the absorber co-simulation section (ballmill/bench/absorber.py), "
                         "'startup': only the command start-up section (ballmill/bench/startup.py), "
                         "'sweep-grid': only the 4000-point sweep command A/B (ballmill/bench/sweep_grid.py), "
                         "'hybrid': only the hybrid ball's costs on the event-driven driver (ballmill/bench/hybrid.py), "
-                        "'design': only the optimize and sensitivity commands (ballmill/bench/design.py), and "
+                        "'design': only the optimize and sensitivity commands (ballmill/bench/design.py), "
+                        "'me': only the Model Exchange section (ballmill/bench/model_exchange.py: the coupled "
+                        "fast start through --interface me against co-simulation, one ME derivative call against "
+                        "the kernel's right-hand side), and "
                         "splice it into the report (default: all sections)")
     p.add_argument("--baseline", metavar="REF",
                    help="sweep-grid: also time the command with the code of git revision REF (git archive of "
@@ -156,6 +162,9 @@ def main(argv=None) -> int:
         if args.section in ("all", "design"):
             from . import design  # NSGA-II 40 x 25 and Sobol N = 1024 over 5 parameters, whole commands
             design.run_section(Path(out).resolve(), args.repeats or (1 if args.quick else 3), progress)
+        if args.section in ("all", "me"):
+            from . import model_exchange  # the coupled fast start as one ODE, likewise
+            model_exchange.run_section(Path(out).resolve(), args.quick, args.repeats, progress)
     except KeyboardInterrupt:
         print("ballmill bench: interrupted", file=sys.stderr)
         return 130

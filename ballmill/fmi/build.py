@@ -2,7 +2,9 @@
 
 * native (`ballmill.fmi.native`): C, only libc/libm, at ``build/<Model>.fmu`` -
   what `ballmill run`, SSP export, libcosim and other tools use by default;
-* pythonfmu: the Python reference at ``build/pythonfmu/<Model>.fmu``.
+* pythonfmu: the Python reference at ``build/pythonfmu/<Model>.fmu``;
+* beside each native FMU, the FMI cross-check files of its default experiment in
+  ``build/crosscheck/<Model>/`` (`ballmill.fmi.crosscheck`), produced by a run of that FMU.
 
 Both come from the one declaration of each interface (ballmill/fmi/interface.py).
 Without a C compiler (or for a model without a C file) the native path gets a copy
@@ -259,10 +261,26 @@ def _fresh(base: Path, wanted, names) -> dict | None:
                     return None
                 if not all(unchanged(src) and files[src][2] == sha for src, sha in entry["sources"].items()):
                     return None
+                if flavour == "native":  # its cross-check files (ballmill.fmi.crosscheck), by stat
+                    cc = entry["crosscheck"]
+                    if not (unchanged(cc["generator"][0]) and files[cc["generator"][0]][2] == cc["generator"][1]
+                            and all(_stat(f) == st for f, st in cc["files"].items())):
+                        return None
                 out[flavour].append(path)
     except (OSError, KeyError, TypeError, IndexError):
         return None
     return out
+
+
+def _crosscheck_fresh(entry, generator: str, sha) -> bool:
+    """Whether a native FMU's stamp entry records cross-check files that are still there as
+    written, by this generator."""
+    cc = (entry or {}).get("crosscheck")
+    try:
+        return (cc["generator"] == [generator, sha(generator)]
+                and all(_stat(f) == st for f, st in cc["files"].items()))
+    except (OSError, KeyError, TypeError):
+        return False
 
 
 def _sha256(path) -> str:
@@ -308,7 +326,7 @@ def _build(base: Path, wanted, force: bool, log, names=None) -> dict:
     """The full check and the build of what it finds out of date; writes the stamp."""
     from concurrent.futures import ThreadPoolExecutor
 
-    from . import native
+    from . import crosscheck, native
 
     dirs = {str(d): os.stat(d).st_mtime_ns for d in _source_dirs()}  # before listing them
     old = _read_stamp(base)
@@ -385,7 +403,8 @@ def _build(base: Path, wanted, force: bool, log, names=None) -> dict:
 
         def compile_one(name: str):
             t0 = time.perf_counter()
-            try:
+            try:  # the FMI 3.0 archive with it, from the same sources (build/fmi3/)
+                _validated(native.build_native(name, base / "fmi3", fmi=3))
                 return native.build_native(name, base), time.perf_counter() - t0
             except native.NativeBuildError as e:
                 raise BuildError(str(e)) from None
@@ -404,10 +423,29 @@ def _build(base: Path, wanted, force: bool, log, names=None) -> dict:
                     "no C compiler (cc, gcc, clang or $CC) to build the native FMU"
                 report(nat, 0.0, f" ({why_not}: a copy of the pythonfmu flavour)")
         log(f"built {len(todo)} FMU{'s' if len(todo) != 1 else ''} in {time.perf_counter() - t_start:.1f} s")
+    # the cross-check files of each real native FMU: rewritten with its FMU, or when missing,
+    # touched or built by another version of their generator
+    generator = str(crosscheck.GENERATOR)
+    stale_cc = [n for fl, n in order if fl == "native" and n in real_native
+                and (("native", n) in todo or not _crosscheck_fresh(old_fmus.get(f"native/{n}"), generator, sha))]
+    written = {}
+    if stale_cc:
+        t0 = time.perf_counter()
+        for name in stale_cc:
+            try:
+                written[name] = crosscheck.write(name, fmu_path(name, base), base)
+            except crosscheck.CrossCheckError as e:
+                raise BuildError(str(e)) from None
+        log(f"wrote the FMI cross-check files of {len(stale_cc)} FMU{'s' if len(stale_cc) != 1 else ''} in "
+            f"{crosscheck.folder('', base)} in {time.perf_counter() - t0:.1f} s")
     for fl, name in order:
-        fmus[f"{fl}/{name}"] = {"stat": _stat(fmu_path(name, base, fl)),
-                                "copy": fl == "native" and name not in real_native,
-                                "sources": built_from[(fl, name)]}
+        entry = fmus[f"{fl}/{name}"] = {"stat": _stat(fmu_path(name, base, fl)),
+                                        "copy": fl == "native" and name not in real_native,
+                                        "sources": built_from[(fl, name)]}
+        if fl == "native" and name in real_native:
+            paths = written.get(name) or crosscheck.files(name, base)
+            entry["crosscheck"] = {"generator": [generator, sha(generator)],
+                                   "files": {str(f): _stat(f) for f in paths}}
     for script in all_scripts.values():
         sha(str(script))
     stamp = {"format": STAMP_FORMAT, "dirs": dirs, "scripts": {str(s): n for n, s in all_scripts.items()},

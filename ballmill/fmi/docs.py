@@ -48,7 +48,33 @@ def model_table(interface: Interface) -> list[str]:
         lines.append(f"| {vr} | `{v.name}` | {v.causality} | {v.fmi_variability} | {v.type} | "
                      f"{_cell(v.unit)} | {start_value} | {_cell(v.min)} | {_cell(v.max)} | "
                      f"{', '.join(f'`{d}`' for d in v.feedthrough)} | {_cell(v.description)} |")
-    return lines + [""]
+    return lines + [""] + model_exchange_table(interface)
+
+
+def model_exchange_table(interface: Interface) -> list[str]:
+    """What the native FMU adds for Model Exchange: its states (local variables after the
+    declared ones), event indicators, ME-only direct dependencies and what it supports."""
+    me = interface.model_exchange
+    if me is None:
+        return []
+    first = len(interface.variables)
+    lines = [f"Model Exchange (native flavour): {_count(len(me.states), 'continuous state')}, "
+             f"{_count(len(me.indicators), 'event indicator')}; " + _cell(me.notes) + ".", ""]
+    if me.states:
+        lines += ["| state | vr | unit | nominal | its derivative (vr) | description |",
+                  "| --- | ---: | --- | ---: | --- | --- |"]
+        n = len(me.states)
+        for k, (name, unit, desc, nominal) in enumerate(me.states):
+            lines.append(f"| `{name}` | {first + k} | {_cell(unit)} | {_cell(nominal)} | `der({name})` "
+                         f"({first + n + k}) | {_cell(desc)} |")
+        lines.append("")
+    for k, (name, unit, text) in enumerate(me.indicators):
+        lines.append(f"- event indicator {k}: `{name}` (vr {first + 2 * len(me.states) + k}, {unit}): {_cell(text)}")
+    for outs, ins in me.direct:
+        lines.append(f"- in Model Exchange {', '.join(f'`{o}`' for o in outs)} depend directly on "
+                     f"{', '.join(f'`{i}`' for i in ins)} (not declared in ModelStructure/Outputs, which is "
+                     "co-simulation's)")
+    return lines + ([""] if me.indicators or me.direct else [])
 
 
 def reference() -> str:
@@ -62,7 +88,8 @@ def reference() -> str:
              "(they are calculated); \"direct feedthrough from\" lists the inputs an output "
              "depends on while stepping (ModelStructure/Outputs: set the input and read the output "
              "again, no step needed). What the variables mean together (frames, equations, input "
-             "modes, the validity latch): [design.md](design.md), sections 1 to 6 and 8.",
+             "modes, the validity latch): [design.md](design.md), sections 1 to 6 and 8; Model "
+             "Exchange: section 15.",
              "",
              "Models: " + ", ".join(f"[{name}](#{name.lower()})" for name in INTERFACES) + ".", ""]
     for interface in INTERFACES.values():

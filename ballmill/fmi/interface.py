@@ -50,6 +50,7 @@ UNITS = {
     "Wb": {"kg": 1, "m": 2, "s": -2, "A": -1},
     "N.s/m": {"kg": 1, "s": -1},
     "Hz/s": {"s": -2},
+    "1/s": {"s": -1},
 }
 
 LOG_CATEGORIES = {
@@ -60,7 +61,7 @@ LOG_CATEGORIES = {
     "logAll": "All messages.",
 }
 
-CAUSALITIES = ("parameter", "input", "output")
+CAUSALITIES = ("parameter", "input", "output", "local")  # local: Model Exchange's states and derivatives
 _TYPES = {float: "Real", int: "Integer", bool: "Boolean"}
 
 
@@ -140,6 +141,8 @@ class Interface:
     default_experiment: tuple = (0.0, 10.0, 2e-3)
     log_categories: dict = field(default_factory=lambda: dict(LOG_CATEGORIES))
     rules: tuple = ()  # Rule: what the parameters must meet together, in the FMU's order of checking
+    # Model Exchange (native flavour only): its continuous states and event indicators; None: co-simulation only
+    model_exchange: ModelExchange | None = None
 
     def __post_init__(self):
         names = [v.name for v in self.variables]
@@ -170,6 +173,48 @@ class Interface:
 
     def of(self, causality: str) -> list[Variable]:
         return [v for v in self.variables if v.causality == causality]
+
+    @property
+    def native_variables(self) -> tuple:
+        """The native FMU's variables: ``variables`` (both flavours, the same value references),
+        then Model Exchange's continuous states and their derivatives (local; value references
+        after every declared one, so that the co-simulation interface keeps its numbers)."""
+        return self.variables + (self.model_exchange.variables() if self.model_exchange else ())
+
+
+@dataclass(frozen=True)
+class ModelExchange:
+    """What a model gives an FMI Model Exchange importer: its continuous states
+    (``states``: (name, unit, description, nominal) rows; each becomes a local variable with
+    its derivative ``der(name)``), its event indicators (``indicators``: (name, unit,
+    description) rows in the order the FMU returns them; each a local variable too, which FMI
+    3.0's ModelStructure/EventIndicator names) and what its Model Exchange supports
+    (``notes``: the configurations it refuses, with why; for docs/fmus.md)."""
+
+    states: tuple = ()
+    indicators: tuple = ()
+    notes: str = ""
+    # outputs that depend directly on inputs in Model Exchange only ((output names, input names)
+    # rows): co-simulation integrates over the step in between, so its ModelStructure/Outputs
+    # (the archive's one, read by co-simulation masters to find algebraic loops) does not list
+    # them; an ME importer that sorts its equations must add them
+    direct: tuple = ()
+
+    def direct_inputs(self, output: str) -> tuple:
+        return tuple(i for outs, ins in self.direct if output in outs for i in ins)
+
+    def variables(self) -> tuple:
+        rows = [Variable(name, "local", 0.0, desc, unit=unit) for name, unit, desc, _ in self.states]
+        rows += [Variable(f"der({name})", "local", 0.0, f"Time derivative of {name}",
+                          unit=DERIVATIVE_UNITS[unit]) for name, unit, _, _ in self.states]
+        rows += [Variable(name, "local", 0.0, f"Event indicator: {desc}", unit=unit)
+                 for name, unit, desc in self.indicators]
+        return tuple(rows)
+
+
+# unit of a state -> unit of its time derivative
+DERIVATIVE_UNITS = {"1": "1/s", "rad": "rad/s", "rad/s": "rad/s2", "m": "m/s", "m/s": "m/s2", "Wb": "V",
+                    "J": "W"}
 
 
 def _interface(name, description, rows, **kw) -> Interface:
@@ -217,7 +262,10 @@ MOTOR_STARTUP = _interface(
         ("law", "parameter", 1, "Shape of the speed rise to n0 in t0: 1 = quadratic (the paper's), "
          "2 = S-curve (cubic smoothstep, zero acceleration at both ends), 3 = linear (constant "
          "acceleration), 4 = quintic (zero acceleration and jerk at both ends)", dict(min=1, max=4)),
-    ], rules=_STARTUP_RULES)
+    ], rules=_STARTUP_RULES,
+    model_exchange=ModelExchange(notes="no continuous states: the crank angle is a function of time; time "
+                                 "events at t = 0 and t = t0, where the speed rise starts and ends (the "
+                                 "acceleration or the jerk jumps there)"))
 
 
 def _motor(name):
@@ -321,7 +369,19 @@ INDUCTION_MOTOR = _interface(
          dict(unit="J")),
         ("E_drive", "output", 0.0, "Kinetic energy of rotor, gear, cranks and platform 1/2 J_total psi'^2",
          dict(unit="J")),
-    ], rules=_INDUCTION_RULES)
+    ], rules=_INDUCTION_RULES,
+    model_exchange=ModelExchange(
+        states=(("s_psi", "rad", "Crank angle psi (the state behind the output psi)", 1.0),
+                ("s_psi_dot", "rad/s", "Crank angular speed psi' (the state behind the output psi_dot)", 1.0),
+                ("s_flux_sd", "Wb", "Stator flux linkage, d axis (dq model; stays 0 with Kloss)", 1.0),
+                ("s_flux_sq", "Wb", "Stator flux linkage, q axis (dq model; stays 0 with Kloss)", 1.0),
+                ("s_flux_rd", "Wb", "Rotor flux linkage, d axis (dq model; stays 0 with Kloss)", 1.0),
+                ("s_flux_rq", "Wb", "Rotor flux linkage, q axis (dq model; stays 0 with Kloss)", 1.0),
+                ("s_W_motor", "J", "Mechanical work of the motor since the start (the output W_motor)", 1.0)),
+        direct=((("psi_ddot", "ax1O", "ay1O"), ("M_reaction",)),),
+        notes="M_reaction is read as set at every call (M_input, tolerance: co-simulation's); time "
+              "events at t = 0 (the supply is switched on) and, with a voltage or frequency ramp, at "
+              "t = ramp_time (the ramp ends: the supply's slope jumps)"))
 
 # ----------------------------------------------------------------------------- the Fig. 1 machine
 _WRENCH = ("Fx", "Fy", "Fz", "MO1x", "MO1y", "MO1z")
@@ -400,7 +460,11 @@ FIG1_DRIVE = _interface(
          dict(unit="N.m", depends=_WRENCH)),
         ("P_frame", "output", 0.0, "Power the frame drive must supply: T_frame phi'", dict(unit="W", depends=_WRENCH)),
         ("P_crank", "output", 0.0, "Power the crank drive must supply: T_crank psi'", dict(unit="W", depends=_WRENCH)),
-    ])
+    ],
+    model_exchange=ModelExchange(
+        direct=((("M_frame", "M_crank", "T_frame", "T_crank", "P_frame", "P_crank"), _WRENCH),),
+        notes="no continuous states: the frame and crank angles are functions of time; time events at "
+              "t = 0, t0 (the cranks' rise ends) and t0_frame (the frame's, frame_law 1..4)"))
 
 # ----------------------------------------------------------------------------- the ball
 BALL_INPUTS = ("x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O")
@@ -638,7 +702,28 @@ BALL_IN_SHELL = _interface(
         ("s_bed", "output", 1.0, "Share of the material's resistance acting at the contact point: 1 in the "
          "bed (deeper than w_bed below its surface; always with bed = 0), 0 above its surface",
          dict(unit="1", **_out)),
-    ], rules=_BALL_RULES)
+    ], rules=_BALL_RULES,
+    model_exchange=ModelExchange(
+        states=(("n_x", "1", "Contact direction n (unit vector from the chamber centre to the contact "
+                 "point), x; the vector formulation's state", 1.0),
+                ("n_y", "1", "Contact direction n, y", 1.0),
+                ("n_z", "1", "Contact direction n, z", 1.0),
+                ("w_x", "rad/s", "Ball angular velocity x (the state of the output wx)", 1.0),
+                ("w_y", "rad/s", "Ball angular velocity y", 1.0),
+                ("w_z", "rad/s", "Ball angular velocity z", 1.0)),
+        indicators=(("z_contact", "N", "N, the normal force; it crosses 0 from above where the ball loses "
+                     "contact"),
+                    ("z_rolling", "N", "mu N - Ft; it crosses 0 from above where the rolling ball would begin "
+                     "to slip")),
+        notes="vector formulation (formulation = 1), motion = 1, input_mode 1 or 4: the platform "
+              "acceleration ax1O, ay1O and position x1O, y1O are read directly at every call (no "
+              "reconstruction: the importer supplies them); input_mode 2 (positions alone, "
+              "differentiated by a fit) and 3 (inputs held over a communication step) are "
+              "co-simulation rules and are refused, as are formulation = 2 and motion = 2; "
+              "integrator, tolerance, h_fixed, max_step, corrector, input_tol and coupling_warn "
+              "belong to co-simulation's internal integration and are not used (coupling_error "
+              "stays 0: there is no coupling error). valid and t_invalid latch at the state event "
+              "where an indicator crosses 0"))
 
 # ----------------------------------------------------------------------------- the structure
 # A linear structure per horizontal axis carrying the ball's cavity (ballmill.absorber.structure,
@@ -748,7 +833,20 @@ STRUCTURE = _interface(
          "of sum phi q' F_ball (relative to the ground)", dict(unit="J")),
     ],
     default_experiment=(0.0, 60.0, 2e-3),
-)
+    model_exchange=ModelExchange(
+        states=tuple(
+            [(f"s_q_{a}{j}", "m", f"Modal coordinate of mode {j} of axis {a} (stays 0 for a mode beyond "
+              f"n_{a})", 1.0) for a in AXES for j in range(1, STRUCTURE_MODES + 1)]
+            + [(f"s_qd_{a}{j}", "m/s", f"Modal velocity of mode {j} of axis {a}", 1.0)
+               for a in AXES for j in range(1, STRUCTURE_MODES + 1)]
+            + [row for a in AXES for row in ((f"s_{a}g", "m", f"Ground displacement {a}", 1.0),
+                                               (f"s_v{a}g", "m/s", f"Ground velocity {a}", 1.0))]
+            + [(f"s_{w}", "J", f"The work integral {w}", 1.0) for w in ("W_exc", "W_damp", "W_ball")]),
+        notes="Fx_ball, Fy_ball, ag_x, ag_y are read as set at every call (h_max, input_order: "
+              "co-simulation's). With BallInShell the coupling is an algebraic loop: ax1O, ay1O "
+              "depend directly on Fx_ball, Fy_ball (ModelStructure/Outputs) and BallInShell's Fx, Fy "
+              "on ax1O, ay1O; an importer solves it (the loop is linear: both sides are affine in "
+              "the other's output) or breaks it"))
 
 INTERFACES = {i.name: i for i in (BALL_IN_SHELL, MOTOR_STARTUP, INDUCTION_MOTOR, FIG1_DRIVE, STRUCTURE)}
 

@@ -37,7 +37,7 @@ _lock = threading.Lock()
 _digests: dict[tuple, str] = {}  # (device, inode, size, mtime) -> SHA-256 of the content
 _descriptions: dict[str, object] = {}  # digest -> fmpy ModelDescription
 _folders: dict[str, Path] = {}  # digest -> extracted folder
-_idle: dict[str, list] = {}  # digest -> FMU2Slave objects with their library loaded, no instance
+_idle: dict[tuple, list] = {}  # (digest, "cs"/"me") -> FMU2Slave/FMU2Model objects, library loaded, no instance
 _root: Path | None = None
 _cleanup_registered = False
 _ROOT_PARENT = Path(tempfile.gettempdir()) / f"ballmill-fmus-{os.getuid() if hasattr(os, 'getuid') else 'user'}"
@@ -116,29 +116,31 @@ def extracted(path) -> Path:
         return folder
 
 
-def take(path, md, instance_name: str):
-    """An fmpy FMU2Slave for a new instance of this FMU, named ``instance_name``: a
-    reused one (library loaded, functions bound) or a new one. Not yet instantiated."""
-    from fmpy.fmi2 import FMU2Slave
+def take(path, md, instance_name: str, interface: str = "cs"):
+    """An fmpy FMU2Slave (``interface`` "cs") or FMU2Model ("me") for a new instance of this
+    FMU, named ``instance_name``: a reused one (library loaded, functions bound) or a new one.
+    Not yet instantiated."""
+    from fmpy.fmi2 import FMU2Model, FMU2Slave
 
-    key = digest(path)
+    key = (digest(path), interface)
     with _lock:
         pool = _idle.get(key)
         slave = pool.pop() if pool else None
     if slave is None:
-        slave = FMU2Slave(guid=md.guid, unzipDirectory=str(extracted(path)),
-                          modelIdentifier=md.coSimulation.modelIdentifier, instanceName=instance_name)
+        cls, kind = (FMU2Model, md.modelExchange) if interface == "me" else (FMU2Slave, md.coSimulation)
+        slave = cls(guid=md.guid, unzipDirectory=str(extracted(path)),
+                    modelIdentifier=kind.modelIdentifier, instanceName=instance_name)
     slave.instanceName = instance_name
     slave.component = None
     return slave
 
 
-def give_back(path, slave) -> None:
-    """Return a slave whose instance has been freed (fmi2FreeInstance), for reuse."""
+def give_back(path, slave, interface: str = "cs") -> None:
+    """Return a slave (or model) whose instance has been freed (fmi2FreeInstance), for reuse."""
     slave.component = None
     slave.callbacks = None
     with _lock:
-        _idle.setdefault(digest(path), []).append(slave)
+        _idle.setdefault((digest(path), interface), []).append(slave)
 
 
 def clear() -> None:

@@ -49,16 +49,19 @@ import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
 from . import fmucache
+from . import me as _me
 from . import spec as _spec
 
 PROGRESS_EVERY = 50  # steps between updates of the progress bar (which itself shows at most 10 per s)
 INIT_PASSES = 5  # at most, for the fixed-point iteration over connections in initialisation mode
 STATUS = {0: "ok", 1: "warning", 2: "discard", 3: "error", 4: "fatal", 5: "pending"}
-INITIALISED = ("stepComplete", "stepFailed")  # the FMI 2.0 states in which fmi2Terminate is allowed
+# the FMI 2.0 states in which fmi2Terminate is allowed (co-simulation; Model Exchange)
+INITIALISED = ("stepComplete", "stepFailed", "eventMode", "continuousTimeMode")
 
 
 @dataclass
@@ -74,6 +77,8 @@ class RunResult:
     steps: int = 0
     loops: list = field(default_factory=list)  # each a list of "a.x -> b.y" connections
     loop_sweeps: int = 0  # Gauss-Seidel sweeps over the loops, all communication points together
+    interface: str = "cs"  # "cs": communication steps (steps: their number); "me": one ODE (steps: the integrator's)
+    events: int = 0  # Model Exchange: the events handled (time, state and step events)
 
     def column(self, name: str) -> np.ndarray:
         return self.data[:, self.columns.index(name)]
@@ -164,30 +169,9 @@ def _order(sc: _spec.Scenario) -> list[str]:
     return ordered
 
 
-def algebraic_loops(sc: _spec.Scenario, models: dict) -> list[list[tuple]]:
-    """The scenario's algebraic loops: cycles through connections and direct feedthrough
-    (ModelStructure/Outputs dependencies of the FMUs' model descriptions; an output without
-    the attribute depends on every input, as FMI 2.0 says). Each loop is the list of its
-    connections (src inst, src var, dst inst, dst var), in the scenario's order."""
-    graph: dict[tuple, set] = {}
-
-    def edge(a, b):
-        graph.setdefault(a, set()).add(b)
-        graph.setdefault(b, set())
-
-    for si, sv, di, dv in sc.connections:
-        edge((si, sv), (di, dv))
-    for name, inst in sc.instances.items():
-        md = models.get(inst.fmu) if inst.fmu else None
-        if md is None:
-            continue
-        inputs = [v.name for v in md.modelVariables if v.causality == "input"]
-        for unknown in md.outputs:
-            deps = unknown.dependencies
-            names = inputs if deps is None else [d.name for d in deps]
-            for d in names:
-                edge((name, d), (name, unknown.variable.name))
-    # strongly connected components (Tarjan, iterative)
+def components(graph: dict) -> dict:
+    """Strongly connected components of a directed graph {node: set of successors}
+    (Tarjan, iterative): node -> the root node naming its component."""
     index, low, on, stack, comp, counter = {}, {}, set(), [], {}, [0]
     for root in graph:
         if root in index:
@@ -220,6 +204,33 @@ def algebraic_loops(sc: _spec.Scenario, models: dict) -> list[list[tuple]]:
                         comp[w] = node
                         if w == node:
                             break
+    return comp
+
+
+def algebraic_loops(sc: _spec.Scenario, models: dict) -> list[list[tuple]]:
+    """The scenario's algebraic loops: cycles through connections and direct feedthrough
+    (ModelStructure/Outputs dependencies of the FMUs' model descriptions; an output without
+    the attribute depends on every input, as FMI 2.0 says). Each loop is the list of its
+    connections (src inst, src var, dst inst, dst var), in the scenario's order."""
+    graph: dict[tuple, set] = {}
+
+    def edge(a, b):
+        graph.setdefault(a, set()).add(b)
+        graph.setdefault(b, set())
+
+    for si, sv, di, dv in sc.connections:
+        edge((si, sv), (di, dv))
+    for name, inst in sc.instances.items():
+        md = models.get(inst.fmu) if inst.fmu else None
+        if md is None:
+            continue
+        inputs = [v.name for v in md.modelVariables if v.causality == "input"]
+        for unknown in md.outputs:
+            deps = unknown.dependencies
+            names = inputs if deps is None else [d.name for d in deps]
+            for d in names:
+                edge((name, d), (name, unknown.variable.name))
+    comp = components(graph)
     loops: dict = {}
     for c in sc.connections:
         si, sv, di, dv = c
@@ -279,21 +290,22 @@ def _slot(bus, i: int):
 
 
 class _FmuInstance:
-    def __init__(self, inst: _spec.Instance, path: Path, md, logger: _Logger):
+    def __init__(self, inst: _spec.Instance, path: Path, md, logger: _Logger, interface: str = "cs"):
         self.name = inst.name
         self.path = path
         self.md = md
         self.vars = {v.name: v for v in md.modelVariables}
         # the FMU's files and its loaded library are kept between runs (fmucache): a
         # run still instantiates, initialises and frees its own instance
-        self.fmu = fmucache.take(path, md, inst.name)
+        self.fmu = fmucache.take(path, md, inst.name, interface)
         try:
             self.fmu.instantiate(callbacks=logger.callbacks, loggingOn=True)
         except Exception:
-            fmucache.give_back(path, self.fmu)  # nothing instantiated: the library is still good
+            fmucache.give_back(path, self.fmu, interface)  # nothing instantiated: the library is still good
             raise
         self.state = "instantiated"  # the instance's FMI 2.0 state, as far as the master knows it
         self.parameters = inst.parameters
+        self.interface = interface
 
     def returned(self, function: str, status: int):
         """Follow a call's status above fmi2Warning: fmi2Discard of fmi2DoStep -> stepFailed,
@@ -387,7 +399,7 @@ class _FmuInstance:
             self.fmu.fmi2FreeInstance(self.fmu.component)  # the library stays loaded for the next run
         except Exception:
             return  # a library that failed to free an instance is not reused
-        fmucache.give_back(self.path, self.fmu)
+        fmucache.give_back(self.path, self.fmu, self.interface)
 
 
 def _refused(owner, function: str, status: int):
@@ -399,8 +411,28 @@ def _refused(owner, function: str, status: int):
     return FMICallException(function=function, status=status)
 
 
-def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, echo: bool = True) -> RunResult:
-    """Run a checked scenario. ``models``/``paths``: model name -> ModelDescription / FMU path."""
+def _stopped(logger: _Logger, e, f, what: str, t: float) -> str:
+    """The message of a run that an FMU's refusal ``e`` (of ``what``, at t) ended, with the
+    FMU's own last reason."""
+    why = [m["message"] for m in logger.messages if m["instance"] == f.name
+           and m["status"] in ("discard", "error", "fatal")]
+    return (f"{f.name} refused {what} at t = {t:.6g} s ({STATUS.get(getattr(e, 'status', -1), 'error')}): "
+            f"{why[-1] if why else e}")
+
+
+INTERFACES = ("cs", "me")
+
+
+def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, echo: bool = True,
+        interface: str = "cs") -> RunResult:
+    """Run a checked scenario. ``models``/``paths``: model name -> ModelDescription / FMU path.
+    ``interface``: "cs" steps the FMUs' co-simulation interface on the communication grid;
+    "me" integrates every FMU's continuous states together through Model Exchange
+    (`ballmill.scenario.me`), recorded on the same grid."""
+    if interface not in INTERFACES:
+        raise ValueError(f"interface must be one of {INTERFACES}, got {interface!r}")
+    if interface == "me":
+        import scipy.integrate  # noqa: F401  (its integrators; an import of seconds, not the run's time)
     wall0 = time.perf_counter()
     master = {**_spec.MASTER_DEFAULTS, **(getattr(sc, "master", None) or {})}
     loops = algebraic_loops(sc, models)
@@ -413,12 +445,12 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
     order = _order(sc)
     columns = ["time"] + [f"{a}.{b}" for a, b in sc.record]
     rows, record, columns_at = 0, None, None
-    success, message, steps = True, "completed", 0
+    success, message, steps, events = True, "completed", 0, 0
     try:
         for name in order:
             inst = sc.instances[name]
             if inst.fmu is not None:
-                fmus[name] = _FmuInstance(inst, paths[inst.fmu], models[inst.fmu], logger)
+                fmus[name] = _FmuInstance(inst, paths[inst.fmu], models[inst.fmu], logger, interface)
             else:
                 tables[name] = _TableSource(inst)
         # what each instance must deliver at a communication point: connection sources + records,
@@ -543,7 +575,7 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
         for name in order:
             if name in fmus:
                 fmus[name].call("fmi2ExitInitializationMode", fmus[name].fmu.exitInitializationMode)
-                fmus[name].state = "stepComplete"
+                fmus[name].state = "stepComplete" if interface == "cs" else "eventMode"
         init_time = time.perf_counter() - wall0
         bar = _Progress(sc.stop - sc.start, progress)
         n_steps = int(round((sc.stop - sc.start) / sc.step))
@@ -551,54 +583,66 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
         row_bytes = record.strides[0]
         record_at, bus_at = record.ctypes.data, ctypes.addressof(bus)
         memmove = ctypes.memmove
-        now, size = ctypes.c_double(), ctypes.c_double()  # the doStep arguments, set at each step
-        no_set_prior = ctypes.c_int(1)  # noSetFMUStatePriorToCurrentPoint = fmi2True, as fmpy's doStep
-        steppers = [(f, _bare(f.fmu, "fmi2DoStep"), (ctypes.c_void_p(f.fmu.component), now, size, no_set_prior))
-                    for f in fmus.values()]
-        every = PROGRESS_EVERY
-        reached = sc.start  # where the last step took the FMUs
-        for k in range(n_steps + 1):
-            # the grid start + k H; the last point is where the last step ended (stop, when
-            # stop - start is not a whole number of steps and that step was shortened)
-            t = sc.start + k * sc.step if k < n_steps else reached
-            logger.now = t
-            bus[0] = t
-            for fun, args, fname, owner in step_ops:
-                status = fun(*args)
-                if status > 1:
-                    raise _refused(owner, fname, status)
-            if iterate:
-                loop_sweeps += solve_loops(t)
-            memmove(record_at + k * row_bytes, bus_at, row_bytes)
-            rows = k + 1
-            if k == n_steps:
-                break
-            for slots, staged in gathers:
-                np.take(bus_np, slots, out=staged)
-            for fun, args, fname, owner in set_ops:
-                status = fun(*args)
-                if status > 1:
-                    raise _refused(owner, fname, status)
-            h = min(sc.step, sc.stop - t) if k == n_steps - 1 else sc.step
-            now.value, size.value = t, h
-            for f, do_step, args in steppers:
-                status = do_step(*args)
-                if status > 1:
-                    name = f.name
-                    e = _refused(f, "fmi2DoStep", status)
-                    why = [m["message"] for m in logger.messages if m["instance"] == name
-                           and m["status"] in ("discard", "error", "fatal")]
-                    success = False
-                    message = (f"{name} refused the step at t = {t:.6g} s "
-                               f"({STATUS.get(getattr(e, 'status', -1), 'error')}): "
-                               f"{why[-1] if why else e}")
+        if interface == "me":
+            def solve_loops_once():
+                for n in loop_insts:
+                    g = gather_of.get(n)
+                    if g is not None:
+                        np.take(bus_np, g[0], out=g[1])
+                    check(*writes[n])
+                    for op in reads[n]:
+                        check(*op)
+            sweeps = [0]
+            driver = _me.Driver(SimpleNamespace(
+                sc=sc, models=models, master=master, fmus=fmus, order=order, bus=bus, bus_np=bus_np,
+                offset=offset, wanted=wanted, reads=reads, step_ops=step_ops, iterate=iterate,
+                solve_loops=solve_loops, solve_loops_once=solve_loops_once, sweeps=sweeps, logger=logger,
+                refused=_refused, stopped=_stopped, record_at=record_at, row_bytes=row_bytes))
+            rows, success, message = driver.run(bar, PROGRESS_EVERY)
+            steps, events, loop_sweeps = driver.steps, driver.events, loop_sweeps + sweeps[0]
+        else:
+            now, size = ctypes.c_double(), ctypes.c_double()  # the doStep arguments, set at each step
+            no_set_prior = ctypes.c_int(1)  # noSetFMUStatePriorToCurrentPoint = fmi2True, as fmpy's doStep
+            steppers = [(f, _bare(f.fmu, "fmi2DoStep"), (ctypes.c_void_p(f.fmu.component), now, size, no_set_prior))
+                        for f in fmus.values()]
+            every = PROGRESS_EVERY
+            reached = sc.start  # where the last step took the FMUs
+            for k in range(n_steps + 1):
+                # the grid start + k H; the last point is where the last step ended (stop, when
+                # stop - start is not a whole number of steps and that step was shortened)
+                t = sc.start + k * sc.step if k < n_steps else reached
+                logger.now = t
+                bus[0] = t
+                for fun, args, fname, owner in step_ops:
+                    status = fun(*args)
+                    if status > 1:
+                        raise _refused(owner, fname, status)
+                if iterate:
+                    loop_sweeps += solve_loops(t)
+                memmove(record_at + k * row_bytes, bus_at, row_bytes)
+                rows = k + 1
+                if k == n_steps:
                     break
-            if not success:
-                break
-            steps += 1
-            reached = t + h
-            if steps % every == 0 or k == n_steps - 1:
-                bar.update(t + h - sc.start, t + h)
+                for slots, staged in gathers:
+                    np.take(bus_np, slots, out=staged)
+                for fun, args, fname, owner in set_ops:
+                    status = fun(*args)
+                    if status > 1:
+                        raise _refused(owner, fname, status)
+                h = min(sc.step, sc.stop - t) if k == n_steps - 1 else sc.step
+                now.value, size.value = t, h
+                for f, do_step, args in steppers:
+                    status = do_step(*args)
+                    if status > 1:
+                        success = False
+                        message = _stopped(logger, _refused(f, "fmi2DoStep", status), f, "the step", t)
+                        break
+                if not success:
+                    break
+                steps += 1
+                reached = t + h
+                if steps % every == 0 or k == n_steps - 1:
+                    bar.update(t + h - sc.start, t + h)
     except Exception as e:
         success, message = False, f"{type(e).__name__}: {e}"
         shown = message
@@ -619,7 +663,8 @@ def run(sc: _spec.Scenario, models: dict, paths: dict, progress: bool = True, ec
     data = record[:rows, columns_at] if rows else np.empty((0, len(columns)))
     return RunResult(sc, columns, data, success, message, logger.messages,
                      time.perf_counter() - wall0, init_time, steps,
-                     [[f"{si}.{sv} -> {di}.{dv}" for si, sv, di, dv in lp] for lp in loops], loop_sweeps)
+                     [[f"{si}.{sv} -> {di}.{dv}" for si, sv, di, dv in lp] for lp in loops], loop_sweeps,
+                     interface, events)
 
 
 def without(sc: _spec.Scenario, instance: str, record: list | None = None) -> _spec.Scenario:
@@ -666,10 +711,12 @@ def _models_used(name_or_path: str) -> list[str]:
 
 
 def prepare(name_or_path: str, overrides=(), build_dir: Path | None = None, log=print,
-            flavour: str = "native", **check):
+            flavour: str = "native", interface: str = "cs", **check):
     """Build the FMUs the scenario uses if needed (only the flavour asked), read their model
     descriptions, load and check the scenario.
     flavour: "native" (C, build/<Model>.fmu) or "pythonfmu" (build/pythonfmu/<Model>.fmu);
+    interface: "cs" or "me" (`run`): for "me", an FMU without a ModelExchange interface is a
+    problem of the scenario (ScenarioError, naming the instance, its file and why);
     ``check``: `spec.load`'s origins and points (a sweep's)."""
     from ..fmi import build as _build
     fmus = _build.build_all(build_dir, log=log, flavour=flavour, only=True, names=_models_used(name_or_path))
@@ -677,6 +724,12 @@ def prepare(name_or_path: str, overrides=(), build_dir: Path | None = None, log=
     for name in _build.model_names():  # and the others, not built for this run: the check names them
         paths.setdefault(name, _build.fmu_path(name, build_dir, flavour))
     sc, models = load_built(name_or_path, overrides, paths, **check)
+    if interface == "me":
+        problems = _me.problems(sc, models, paths)
+        if problems:
+            raise _spec.ScenarioError(problems)
+    elif interface not in INTERFACES:
+        raise _spec.ScenarioError([f"--interface {interface!r}: expected one of {INTERFACES}"])
     return sc, models, paths
 
 

@@ -15,7 +15,10 @@ A scenario is a TOML file:
     [master]                algebraic_loops = "iterate" (default) or "ignore": what the master does
                             with a loop of direct feedthrough through the connections (found from
                             the FMUs' ModelStructure); loop_tol (relative, default 1e-10),
-                            loop_atol (absolute, default 1e-14), loop_max_iter (default 50)
+                            loop_atol (absolute, default 1e-14), loop_max_iter (default 50);
+                            for --interface me (Model Exchange, ballmill.scenario.me): solver
+                            (scipy's DOP853 (default), RK45, Radau, BDF or LSODA), rtol (default
+                            1e-10) and atol (default 1e-10, times each state's nominal value)
     [[plots]]               title, x = "time" or a variable, y = [variables], file = "name.png",
                             aspect = "equal" (optional), ylabel, xlabel (optional; default: the
                             variable's description and unit from its FMU's declaration),
@@ -90,7 +93,9 @@ class Scenario:
     master: dict = field(default_factory=lambda: dict(MASTER_DEFAULTS))
 
 
-MASTER_DEFAULTS = {"algebraic_loops": "iterate", "loop_tol": 1e-10, "loop_atol": 1e-14, "loop_max_iter": 50}
+MASTER_DEFAULTS = {"algebraic_loops": "iterate", "loop_tol": 1e-10, "loop_atol": 1e-14, "loop_max_iter": 50,
+                   "solver": "DOP853", "rtol": 1e-10, "atol": 1e-10}
+ME_SOLVERS = ("DOP853", "RK45", "Radau", "BDF", "LSODA")  # scipy's, for ballmill run --interface me
 LOOP_MODES = ("iterate", "ignore")
 
 
@@ -233,6 +238,11 @@ def load(name_or_path: str, overrides: list[str] = (), models: dict | None = Non
             bad("master.algebraic_loops", f"expected one of {list(LOOP_MODES)}, got {v!r}")
         elif key == "loop_max_iter" and not (isinstance(v, int) and not isinstance(v, bool) and v >= 1):
             bad("master.loop_max_iter", f"expected an integer >= 1, got {v!r}")
+        elif key == "solver" and v not in ME_SOLVERS:
+            bad("master.solver", f"expected one of {list(ME_SOLVERS)}, got {v!r}")
+        elif key in ("rtol", "atol") and not (isinstance(v, (int, float)) and not isinstance(v, bool)
+                                              and math.isfinite(v) and v > 0):
+            bad(f"master.{key}", f"expected a finite number > 0, got {v!r}")
         elif key in ("loop_tol", "loop_atol") and not (isinstance(v, (int, float)) and not isinstance(v, bool)
                                                         and math.isfinite(v) and v >= 0):
             bad(f"master.{key}", f"expected a finite number >= 0, got {v!r}")

@@ -22,7 +22,8 @@
 #include "fmi2Functions.h"
 
 typedef enum { FMU_REAL, FMU_INTEGER, FMU_BOOLEAN } fmu_type;
-typedef enum { FMU_PARAMETER, FMU_INPUT, FMU_OUTPUT } fmu_causality;
+/* FMU_LOCAL: Model Exchange's continuous states and their derivatives (interface.ModelExchange) */
+typedef enum { FMU_PARAMETER, FMU_INPUT, FMU_OUTPUT, FMU_LOCAL } fmu_causality;
 
 typedef struct {
     const char *name;
@@ -35,6 +36,37 @@ typedef struct {
 } fmu_variable;
 
 typedef struct fmu_instance fmu_instance;
+
+/* what an event update found (Model Exchange) */
+typedef struct {
+    int terminate;          /* the model cannot continue */
+    int states_changed;     /* the continuous states in v were changed (re-initialised) */
+    int next_time_defined;  /* a time event is due at next_time (> the event's time) */
+    double next_time;
+} fmu_event;
+
+/* Model Exchange: a model's continuous states and event indicators (their value references
+ * and nominals come from the generated interface header: FMU_N_STATES, FMU_STATE_VRS,
+ * FMU_DERIVATIVE_VRS, FMU_STATE_NOMINALS, FMU_N_INDICATORS). The continuous states live in
+ * v at their value references, their derivatives at theirs: FMU states carry them with v.
+ * Inputs are read from v at every call, as the importer set them (no reconstruction). */
+typedef struct {
+    int n_states, n_indicators;
+    const int *state_vr, *der_vr; /* n_states each */
+    const double *nominal;        /* n_states */
+    const int *indicator_vr;      /* n_indicators: the variables that show the event indicators */
+    /* after setup (FMU_SETUP_START) at fmi2ExitInitializationMode: refuse (fmi2Error after
+     * fmu_log said why) a configuration Model Exchange does not support; write the start
+     * state into v at state_vr */
+    fmi2Status (*start)(fmu_instance *fi, void *data, double *v, double t);
+    /* at time t, from the states and inputs in v: the outputs and the derivatives into v, the
+     * event indicators into z (n_indicators; NULL: not wanted). fmi2OK, or fmi2Error after
+     * fmu_log said why (an input or state it cannot use); the plumbing then keeps v as it was */
+    fmi2Status (*eval)(fmu_instance *fi, void *data, double *v, double t, double *z);
+    /* event mode at time t, after eval: update the discrete state (e.g. a validity latch,
+     * logging why), say when the next time event is due. fmi2OK / fmi2Warning. */
+    fmi2Status (*event)(fmu_instance *fi, void *data, double *v, double t, fmu_event *ev);
+} fmu_me;
 
 typedef struct {
     const char *identifier;
@@ -67,6 +99,8 @@ typedef struct {
      * the inputs are unusable (the next step refuses them). The model may record in its
      * dynamic state what the outputs were recomputed from (FMU states carry it). fmi2OK. */
     fmi2Status (*inputs_set)(fmu_instance *fi, void *data, double *v, double t);
+    /* Model Exchange (NULL: co-simulation only) */
+    const fmu_me *me;
 } fmu_model;
 
 extern const fmu_model FMU_MODEL;
@@ -79,6 +113,9 @@ void fmu_log(fmu_instance *fi, fmi2Status status, const char *fmt, ...)
 #endif
     ;
 const char *fmu_instance_name(const fmu_instance *fi);
+
+/* whether the instance runs as Model Exchange (1) or co-simulation (0) */
+int fmu_is_me(const fmu_instance *fi);
 
 /* during a step: the communicationStepSize the master passed, and the call as
  * "doStep(currentCommunicationPoint = <tc> s, communicationStepSize = <h> s)" in buf

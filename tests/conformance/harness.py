@@ -1,5 +1,6 @@
-"""An FMU instance driven through the FMI 2.0 API only (fmpy's FMU2Slave): every call
-returns its status, and the instance's log is collected as (status, message)."""
+"""An FMU instance driven through the FMI 2.0 API only (fmpy's FMU2Slave, or FMU2Model for
+Model Exchange: ``interface="me"``): every call returns its status, and the instance's log
+is collected as (status, message)."""
 from __future__ import annotations
 
 import ctypes
@@ -8,7 +9,7 @@ import shutil
 
 from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
-from fmpy.fmi2 import (FMU2Slave, calloc, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+from fmpy.fmi2 import (FMU2Model, FMU2Slave, calloc, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                        fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, free)
 from fmpy.logging import addLoggerProxy
 
@@ -16,8 +17,9 @@ OK = 0
 
 
 class Fmu:
-    def __init__(self, path, name, **parameters):
+    def __init__(self, path, name, interface="cs", **parameters):
         self.md = read_model_description(str(path))
+        self.interface = interface
         self.unzipdir = extract(str(path))
         self.vars = {v.name: v for v in self.md.modelVariables}
         self.log: list[tuple[int, str]] = []
@@ -27,8 +29,9 @@ class Fmu:
         self.callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
         self.callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
         addLoggerProxy(ctypes.byref(self.callbacks))
-        self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.unzipdir,
-                             modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
+        kind = FMU2Model if interface == "me" else FMU2Slave
+        self.fmu = kind(guid=self.md.guid, unzipDirectory=self.unzipdir,
+                        modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
         self.fmu.instantiate(callbacks=self.callbacks, loggingOn=True)
         self.time = 0.0
         for k, v in parameters.items():
@@ -87,6 +90,10 @@ class Fmu:
         st, _ = self._status(self.fmu.exitInitializationMode)
         return st
 
+    def call(self, name, *args):
+        """(status, result) of the FMI call `name` (fmpy's method name) on the instance."""
+        return self._status(getattr(self.fmu, name), *args)
+
     def step(self, h, t=None) -> int:
         t = self.time if t is None else t
         st, _ = self._status(self.fmu.doStep, t, h)
@@ -123,3 +130,93 @@ class Fmu:
 
 def finite(values) -> bool:
     return all(math.isfinite(v) for v in values if isinstance(v, float))
+
+
+class Fmu3:
+    """The same driver on an FMI 3.0 archive (fmpy's FMU3Model for ``interface="me"``, else
+    FMU3Slave): `call` takes FMI 2.0's function names and calls FMI 3.0's counterpart, so that
+    one test runs on both versions; messages name FMI 3.0's functions and states."""
+
+    NAMES = {"getDerivatives": "getContinuousStateDerivatives", "newDiscreteStates": "updateDiscreteStates",
+             "getReal": "getFloat64"}
+
+    def __init__(self, path, name, interface="cs", **parameters):
+        from fmpy.fmi3 import FMU3Model, FMU3Slave
+        self.md = read_model_description(str(path))
+        self.interface = interface
+        self.unzipdir = extract(str(path))
+        self.vars = {v.name: v for v in self.md.modelVariables}
+        self.log: list[tuple[int, str]] = []
+        kind = FMU3Model if interface == "me" else FMU3Slave
+        self.fmu = kind(guid=self.md.guid, unzipDirectory=self.unzipdir,
+                        modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
+        self.fmu.instantiate(loggingOn=True, logMessage=self._on_message)
+        self.time = 0.0
+        for k, v in parameters.items():
+            assert self.set(**{k: v}) == OK, (k, v, self.log)
+
+    def _on_message(self, env, status, category, message):
+        self.log.append((status, message.decode("utf-8", "replace") if message else ""))
+
+    dead = False
+
+    def _status(self, call, *args):
+        try:
+            return OK, call(*args)
+        except FMICallException as e:
+            return e.status, None
+
+    def call(self, name, *args):
+        return self._status(getattr(self.fmu, self.NAMES.get(name, name)), *args)
+
+    def messages(self, since=0):
+        return " | ".join(m for _, m in self.log[since:])
+
+    def set(self, **values) -> int:
+        worst = OK
+        for name, value in values.items():
+            v = self.vars[name]
+            if v.type == "Float64":
+                st, _ = self._status(self.fmu.setFloat64, [v.valueReference], [float(value)])
+            elif v.type == "Int32":
+                st, _ = self._status(self.fmu.setInt32, [v.valueReference], [int(value)])
+            else:
+                st, _ = self._status(self.fmu.setBoolean, [v.valueReference], [bool(value)])
+            worst = max(worst, st)
+        return worst
+
+    def get(self, name):
+        v = self.vars[name]
+        if v.type == "Float64":
+            return self.fmu.getFloat64([v.valueReference])[0]
+        if v.type == "Int32":
+            return self.fmu.getInt32([v.valueReference])[0]
+        return bool(self.fmu.getBoolean([v.valueReference])[0])
+
+    def outputs(self):
+        return {n: self.get(n) for n, v in self.vars.items() if v.causality == "output"}
+
+    def init(self, start=0.0) -> int:
+        self.time = start
+        st, _ = self._status(self.fmu.enterInitializationMode, None, start)
+        if st:
+            return st
+        return self._status(self.fmu.exitInitializationMode)[0]
+
+    def get_state(self):
+        return self.fmu.getFMUState()
+
+    def set_state(self, state) -> int:
+        return self._status(self.fmu.setFMUState, state)[0]
+
+    def serialize(self, state) -> bytes:
+        return bytes(self.fmu.serializeFMUState(state))
+
+    def deserialize(self, blob: bytes):
+        return self._status(self.fmu.deserializeFMUState, bytes(blob))
+
+    def free(self):
+        try:
+            self.fmu.freeInstance()
+        finally:
+            shutil.rmtree(self.unzipdir, ignore_errors=True)

@@ -136,17 +136,25 @@ def test_a_bad_experiment_time_reads_as_zero(value, seconds):
 # -- [master] --------------------------------------------------------------------------------
 def test_master_defaults_and_values(tmp_path):
     assert _loaded(tmp_path, EXPERIMENT + DRIVE).master == {
-        "algebraic_loops": "iterate", "loop_tol": 1e-10, "loop_atol": 1e-14, "loop_max_iter": 50}
+        "algebraic_loops": "iterate", "loop_tol": 1e-10, "loop_atol": 1e-14, "loop_max_iter": 50,
+        "solver": "DOP853", "rtol": 1e-10, "atol": 1e-10}
     sc = _loaded(tmp_path, EXPERIMENT + DRIVE + "[master]\nalgebraic_loops = 'ignore'\nloop_tol = 0\n"
                  "loop_atol = 0.0\nloop_max_iter = 1\n")
-    assert sc.master == {"algebraic_loops": "ignore", "loop_tol": 0, "loop_atol": 0.0, "loop_max_iter": 1}
+    assert sc.master == {"algebraic_loops": "ignore", "loop_tol": 0, "loop_atol": 0.0, "loop_max_iter": 1, "solver": "DOP853", "rtol": 1e-10, "atol": 1e-10}
     sc = _loaded(tmp_path, EXPERIMENT + DRIVE + "[master]\nalgebraic_loops = 'iterate'\nloop_tol = 1\n"
-                 "loop_atol = 1e-3\nloop_max_iter = 7\n")
-    assert sc.master == {"algebraic_loops": "iterate", "loop_tol": 1, "loop_atol": 1e-3, "loop_max_iter": 7}
+                 "loop_atol = 1e-3\nloop_max_iter = 7\nsolver = 'BDF'\nrtol = 1e-6\natol = 1\n")
+    assert sc.master == {"algebraic_loops": "iterate", "loop_tol": 1, "loop_atol": 1e-3, "loop_max_iter": 7,
+                         "solver": "BDF", "rtol": 1e-6, "atol": 1}
 
 
 @pytest.mark.parametrize("line, expected", [
-    ("foo = 1", "master.foo: unknown key; expected one of ['algebraic_loops', 'loop_atol', 'loop_max_iter', 'loop_tol']"),
+    ("foo = 1", "master.foo: unknown key; expected one of ['algebraic_loops', 'atol', 'loop_atol', 'loop_max_iter', "
+                "'loop_tol', 'rtol', 'solver']"),
+    ("solver = 'CVode'", "master.solver: expected one of ['DOP853', 'RK45', 'Radau', 'BDF', 'LSODA'], got 'CVode'"),
+    ("rtol = 0", "master.rtol: expected a finite number > 0, got 0"),
+    ("atol = -1e-9", "master.atol: expected a finite number > 0, got -1e-09"),
+    ("rtol = nan", "master.rtol: expected a finite number > 0, got nan"),
+    ("atol = true", "master.atol: expected a finite number > 0, got True"),
     ("algebraic_loops = 'solve'", "master.algebraic_loops: expected one of ['iterate', 'ignore'], got 'solve'"),
     ("algebraic_loops = 1", "master.algebraic_loops: expected one of ['iterate', 'ignore'], got 1"),
     ("loop_max_iter = 0", "master.loop_max_iter: expected an integer >= 1, got 0"),
