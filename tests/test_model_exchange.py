@@ -6,15 +6,17 @@ Tolerances: the importer integrates at a relative tolerance of 1e-10 (CVode) or 
 (scipy's DOP853), the library at 1e-12 over a few pendulum periods, so the contact point
 (R = 0.25 m) agrees to about 1e-9 m and N (about 5 N) to about 1e-8 N; the assertions
 leave a factor 10-100 above what was measured (4.6e-10 m, 1e-8 N). An event located by
-CVode's root finding agrees with the library's (its outputs sampled every 0.1 ms, the
-crossing interpolated linearly: error about dt^2 |z''| / (8 |z'|) < 1e-8 s) within 1e-6 s.
+CVode's root finding agrees with the library's within 1e-7 s: the library's outputs sampled
+every 0.1 ms, the crossing interpolated linearly, are 1e-8 s off (0.18832368651 s against
+0.18832367833 s at 2 us, the value it converges to; CVode found 0.18832367665 s).
 """
 import ctypes
 import math
 
 import numpy as np
 import pytest
-from fmpy import read_model_description, simulate_fmu
+from fmpy import read_model_description
+from fmpy import simulate_fmu as _simulate_fmu
 from fmpy.validation import validate_fmu
 from scipy.integrate import solve_ivp
 
@@ -25,6 +27,15 @@ from ballmill.physics.params import Ball
 from tests.conformance.harness import Fmu
 
 ME_MODELS = ("BallInShell", "MotorStartup", "InductionMotor", "Fig1Drive", "Structure")
+
+
+def _quiet(*args):
+    """fmpy's FMI 2.0 logger for simulate_fmu: its native proxy calls the last Python logger
+    registered in the process, which an instance of another test may have left behind freed"""
+
+
+def simulate_fmu(*args, **kwargs):
+    return _simulate_fmu(*args, logger=_quiet, **kwargs)
 
 
 @pytest.fixture(scope="module")
@@ -90,7 +101,7 @@ def test_ball_me_reports_slip_and_lift_off_at_the_librarys_time(native, wy0, mu,
     expected = getattr(lib, what)
     assert expected is not None and expected > 0.05
     assert not r["valid"][-1]
-    assert r["t_invalid"][-1] == pytest.approx(expected, abs=1e-6)
+    assert r["t_invalid"][-1] == pytest.approx(expected, abs=1e-7)
     before = r["time"] < expected - 1e-6
     assert r["valid"][before].all() and (r["t_invalid"][before] == 1e300).all()
 

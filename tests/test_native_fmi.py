@@ -1,4 +1,4 @@
-"""The native FMUs' FMI plumbing (fmu_src/native/fmi2.c): the calls the FMI 2.0 standard
+"""The native FMUs' FMI plumbing (fmu_src/native/fmu_instance.c under fmi2.c): the calls the FMI 2.0 standard
 rules out for the instance's state, step sizes that are not steps, fixed parameters after
 initialisation, FMU states that are not this instance's, bad parameters. Each refused
 call returns the exact status with a message naming what was wrong, and leaves the

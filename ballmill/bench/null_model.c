@@ -29,6 +29,6 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
     return fmi2OK;
 }
 
-const fmu_model FMU_MODEL = { /* nothing to check, no direct feedthrough */
-    FMU_IDENTIFIER, FMU_GUID, FMU_N_VARS, FMU_VARIABLES, sizeof(null_model), 0, setup, step, NULL, NULL,
+const fmu_model FMU_MODEL = { /* nothing to check, no direct feedthrough, no Model Exchange */
+    FMU_IDENTIFIER, FMU_GUID, FMU_N_VARS, FMU_VARIABLES, sizeof(null_model), 0, setup, step, NULL, NULL, NULL,
 };

@@ -1,6 +1,7 @@
 """Build the native (C) flavour of the FMUs: no Python inside, only libc and libm.
 
-Each native FMU is the FMI plumbing written once (fmu_src/native/fmi2.c, its
+Each native FMU is the FMI plumbing written once (fmu_src/native/fmu_instance.c under the
+version's fmi2.c or fmi3.c, its
 contract fmu_src/native/fmu_model.h, the FMU state's layout and check fmu_state.c/.h),
 one C file for the model (next to its pythonfmu adapter: fmu_src/ballinshell.c,
 drive_models/*.c) and, for the ball, the compiled

@@ -529,7 +529,7 @@ fmi2Status fmu_set(fmu_instance *fi, const char *function, const unsigned int vr
     }
     /* direct feedthrough: outputs that depend on the inputs follow them between steps (in
      * initialisation mode every read rebuilds them anyway) */
-    if (input && fi->state == S_STEP_COMPLETE && FMU_MODEL.inputs_set)
+    if (input && (fi->state & (S_STEP_COMPLETE | S_EVENT)) && FMU_MODEL.inputs_set) /* FMI 3: step or event mode */
         return FMU_MODEL.inputs_set(fi, fi->data, fi->v, fi->t);
     return fmi2OK;
 }

@@ -233,7 +233,7 @@ def test_a_non_finite_input_is_refused_at_the_next_read(me_paths, version, model
         good = f.outputs()
         assert f.set(**{name: float("nan")}) == OK
         n = len(f.log)
-        v = next(v for v in f.vars.values() if v.causality == "output" and v.type == "Real")
+        v = next(v for v in f.vars.values() if v.causality == "output" and v.type in ("Real", "Float64"))
         assert f.call("getReal", [v.valueReference])[0] == ERROR
         assert text in f.messages(n), f.messages(n)
         assert f.set(**{name: 0.0}) == OK

@@ -47,7 +47,8 @@ def _number(x):
 def test_every_variable_as_declared_in_both_flavours(mds, model):
     py, nat, iface = mds[model]
     assert [v.name for v in py.modelVariables] == [v.name for v in iface.variables]
-    assert [v.name for v in nat.modelVariables] == [v.name for v in iface.variables]
+    # the native flavour adds Model Exchange's states, derivatives and event indicators after them
+    assert [v.name for v in nat.modelVariables] == [v.name for v in iface.native_variables]
     for vr, (p, n, d) in enumerate(zip(py.modelVariables, nat.modelVariables, iface.variables)):
         assert p.valueReference == n.valueReference == vr, d.name
         assert p.causality == n.causality == d.causality, d.name
@@ -73,14 +74,20 @@ def test_every_variable_as_declared_in_both_flavours(mds, model):
 def test_outputs_and_their_initial_dependencies(mds, model):
     py, nat, iface = mds[model]
     outputs = [v.name for v in iface.variables if v.causality == "output"]
+    me = iface.model_exchange
+    states = [row[0] for row in me.states] if me else []
     for md in (py, nat):
         assert [u.variable.name for u in md.outputs] == outputs
-        # direct feedthrough: exactly the declared one (BallInShell's force, Structure's accelerations)
+        # direct feedthrough: exactly the declared one (BallInShell's force, Structure's accelerations);
+        # with Model Exchange (native) the continuous outputs depend on the states too
         feed = {v.name: sorted(v.feedthrough) for v in iface.variables if v.causality == "output"}
-        assert {u.variable.name: sorted(d.name for d in u.dependencies) for u in md.outputs} == feed
-        assert [u.variable.name for u in md.initialUnknowns] == outputs
+        assert {u.variable.name: sorted(d.name for d in u.dependencies if d.causality != "local")
+                for u in md.outputs} == feed
+        extra = (states + [f"der({n})" for n in states]) if md is nat else []
+        assert [u.variable.name for u in md.initialUnknowns] == outputs + extra
         depends = {v.name: sorted(v.depends) for v in iface.variables if v.causality == "output"}
-        assert {u.variable.name: sorted(d.name for d in u.dependencies) for u in md.initialUnknowns} == depends
+        assert {u.variable.name: sorted(d.name for d in u.dependencies) for u in md.initialUnknowns
+                if u.variable.name in depends} == depends
     if model == "BallInShell":  # its outputs at the start follow the position inputs
         assert any(v.depends for v in iface.variables)
 
@@ -88,8 +95,8 @@ def test_outputs_and_their_initial_dependencies(mds, model):
 @pytest.mark.parametrize("model", sorted(SCRIPTS))
 def test_units_are_defined_once_each_as_the_table_says(mds, model):
     py, nat, iface = mds[model]
-    used = {v.unit for v in iface.variables if v.unit}
     for md in (py, nat):
+        used = {v.unit for v in (iface.native_variables if md is nat else iface.variables) if v.unit}
         defs = {u.name: u for u in md.unitDefinitions}
         assert set(defs) == used
         for name, u in defs.items():
@@ -225,7 +232,7 @@ def test_a_variable_is_refused_with_its_name_and_what_is_wrong():
     from ballmill.fmi.interface import Variable
     for kwargs, text in (
             (dict(name="a", causality="state", start=1.0, description="d", unit="m"),
-             "a: causality 'state' not in ('parameter', 'input', 'output')"),
+             "a: causality 'state' not in ('parameter', 'input', 'output', 'local')"),
             (dict(name="a", causality="input", start="x", description="d"), "a: start 'x' is not a float, int or bool"),
             (dict(name="a", causality="input", start=1.0, description="d"), "Real variable 'a' needs a unit"),
             (dict(name="a", causality="input", start=1.0, description="d", unit="parsec"),
