@@ -194,6 +194,25 @@ def _number(v, kind: str) -> str:
     return repr(float(v))
 
 
+def _units_categories_experiment(root, interface: Interface, variables) -> None:
+    """UnitDefinitions, LogCategories and DefaultExperiment: the same elements, in the same
+    order, in the FMI 2.0 and the FMI 3.0 schema."""
+    units = SubElement(root, "UnitDefinitions")
+    for u in sorted({v.unit for v in variables if v.unit}):
+        spec = dict(UNITS[u])
+        factor = spec.pop("factor", None)
+        attrs = {k: str(x) for k, x in spec.items()}
+        if factor is not None:
+            attrs["factor"] = repr(factor)
+        SubElement(SubElement(units, "Unit", name=u), "BaseUnit", attrs)
+    cats = SubElement(root, "LogCategories")
+    for name, desc in interface.log_categories.items():
+        SubElement(cats, "Category", name=name, description=desc)
+    start, stop, step = interface.default_experiment
+    SubElement(root, "DefaultExperiment", startTime=repr(float(start)), stopTime=repr(float(stop)),
+               stepSize=repr(float(step)))
+
+
 def model_description(interface: Interface, guid_: str, sources: list[str]) -> str:
     """modelDescription.xml of the native flavour (the same variables, units, bounds,
     structure and DefaultExperiment as the pythonfmu flavour's; with Model Exchange as well
@@ -221,20 +240,7 @@ def model_description(interface: Interface, guid_: str, sources: list[str]) -> s
     files = SubElement(cs, "SourceFiles")
     for name in sources:
         SubElement(files, "File", name=name)
-    units = SubElement(root, "UnitDefinitions")
-    for u in sorted({v.unit for v in variables if v.unit}):
-        spec = dict(UNITS[u])
-        factor = spec.pop("factor", None)
-        attrs = {k: str(x) for k, x in spec.items()}
-        if factor is not None:
-            attrs["factor"] = repr(factor)
-        SubElement(SubElement(units, "Unit", name=u), "BaseUnit", attrs)
-    cats = SubElement(root, "LogCategories")
-    for name, desc in interface.log_categories.items():
-        SubElement(cats, "Category", name=name, description=desc)
-    start, stop, step = interface.default_experiment
-    SubElement(root, "DefaultExperiment", startTime=repr(float(start)), stopTime=repr(float(stop)),
-               stepSize=repr(float(step)))
+    _units_categories_experiment(root, interface, variables)
     mv = SubElement(root, "ModelVariables")
     index = {}
     states = [row[0] for row in me.states] if me else []
@@ -309,20 +315,7 @@ def model_description_fmi3(interface: Interface, token: str) -> str:
         providesIntermediateUpdate="false", mightReturnEarlyFromDoStep="false",
         canReturnEarlyAfterIntermediateUpdate="false", hasEventMode="true",
         providesEvaluateDiscreteStates="false"))
-    units = SubElement(root, "UnitDefinitions")
-    for u in sorted({v.unit for v in variables if v.unit}):
-        spec = dict(UNITS[u])
-        factor = spec.pop("factor", None)
-        attrs = {k: str(x) for k, x in spec.items()}
-        if factor is not None:
-            attrs["factor"] = repr(factor)
-        SubElement(SubElement(units, "Unit", name=u), "BaseUnit", attrs)
-    cats = SubElement(root, "LogCategories")
-    for name, desc in interface.log_categories.items():
-        SubElement(cats, "Category", name=name, description=desc)
-    start, stop, step = interface.default_experiment
-    SubElement(root, "DefaultExperiment", startTime=repr(float(start)), stopTime=repr(float(stop)),
-               stepSize=repr(float(step)))
+    _units_categories_experiment(root, interface, variables)
     mv = SubElement(root, "ModelVariables")
     states = [row[0] for row in me.states] if me else []
     indicators = [row[0] for row in me.indicators] if me else []
