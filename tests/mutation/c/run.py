@@ -71,12 +71,12 @@ def sh(cmd, cwd=None, env=None, timeout=None, capture=True):
 
 
 # ----------------------------------------------------------------------------- mutants
-def generate(rel: str, scratch: Path) -> list[dict]:
+def generate(rel: str, gen: Path) -> list[dict]:
     """Every mutant of the checkout's file `rel`: [{id, file, line, before, after, path}].
-    Cached under scratch/gen/<file's sha256>/ (a changed file gets new mutants)."""
+    Cached under gen/<file>-<file's sha256>/ (a changed file gets new mutants)."""
     src = ROOT / rel
     digest = hashlib.sha256(src.read_bytes()).hexdigest()[:16]
-    out = scratch / "gen" / f"{rel.replace('/', '_')}-{digest}"
+    out = gen / f"{rel.replace('/', '_')}-{digest}"
     done = out / "DONE"
     if not done.exists():
         shutil.rmtree(out, ignore_errors=True)
@@ -110,12 +110,12 @@ def generate(rel: str, scratch: Path) -> list[dict]:
     return mutants
 
 
-def stratified(files: list[str], scratch: Path, seed: int) -> list[dict]:
+def stratified(files: list[str], gen: Path, seed: int) -> list[dict]:
     """All mutants of the files in the run's order: each file's shuffled with the seed, the
     files interleaved in proportion to their counts (the k-th of n at (k + 1/2) / n)."""
     keyed = []
     for rel in files:
-        ms = generate(rel, scratch)
+        ms = generate(rel, gen)
         random.Random(f"{seed}:{rel}").shuffle(ms)
         keyed += [((k + 0.5) / len(ms), rel, m) for k, m in enumerate(ms)]
     keyed.sort(key=lambda x: (x[0], x[1]))
@@ -444,6 +444,11 @@ def main(argv=None) -> int:
     ap.add_argument("--full", type=Path, metavar="RESULTS",
                     help="run the survivors of RESULTS (equivalent ones included) on the full test files")
     ap.add_argument("--ids", nargs="+", help="judge these mutants (FILE:N) only")
+    ap.add_argument("--gen", type=Path, default=None,
+                    help="where the generated mutants are cached (default scratch/gen; shards share it)")
+    ap.add_argument("--shard", default="0/1", metavar="K/N",
+                    help="judge every N-th mutant of the order from the K-th (N runs, each with its own "
+                         "--scratch, the same --results and --gen: they stop together at --sample judged)")
     args = ap.parse_args(argv)
     if args.score:
         return score(args.score, args.survivors, files_all)
@@ -454,7 +459,9 @@ def main(argv=None) -> int:
     done = load_results(results_path)
     scratch.setup(files_all)
     scratch.keep_originals(files_all)
-    order = stratified(args.files, args.scratch, args.seed)
+    order = stratified(args.files, args.gen or args.scratch / "gen", args.seed)
+    k, n = (int(x) for x in args.shard.split("/"))
+    order = order[k::n]
     full = bool(args.full)
     if args.ids:
         order = [m for m in order if m["id"] in set(args.ids)]
@@ -465,6 +472,8 @@ def main(argv=None) -> int:
     print(f"{len(order)} mutants in order; {judged} already judged in {results_path}", flush=True)
     for m in order:
         if not full and not args.ids:
+            done = load_results(results_path)  # the other shards' verdicts too
+            judged = sum(1 for r in done.values() if r.get("verdict") in ("killed", "survived"))
             if judged >= args.sample:
                 break
             if m["id"] in done and done[m["id"]].get("verdict") != "error":
