@@ -344,7 +344,9 @@ def judge(scratch: Scratch, cfg: dict, m: dict, full: bool) -> dict:
             built, words = scratch.build(fcfg["builds"])
         record["build_s"] = round(time.monotonic() - t0, 1)
         if not built:
-            record.update(verdict="not built", detail=words.strip().splitlines()[-1][:300] if words.strip() else "")
+            lines = words.strip().splitlines()
+            why = next((ln for ln in lines if "error:" in ln or "warning:" in ln), lines[-1] if lines else "")
+            record.update(verdict="not built", detail=why.strip()[:300])
             return record
         if full:
             code, out, dt = scratch.pytest(fcfg["full"], None, run["full_timeout_s"], first_failure=False)
