@@ -340,10 +340,25 @@ def judge(scratch: Scratch, cfg: dict, m: dict, full: bool) -> dict:
     try:
         t0 = time.monotonic()
         built, words = scratch.syntax_check(m["file"], Path(m["path"]), fcfg["builds"])
+        builds, first = fcfg["builds"], [] if full else fcfg.get("first", [])
+        if built and first:  # tests that load only first_builds run before the rest is rebuilt
+            built, words = scratch.build(fcfg["first_builds"])
+            if built:
+                t1 = time.monotonic()
+                code, out, dt = scratch.pytest(first, run["fast_k"], run["timeout_s"])
+                t0 += time.monotonic() - t1
+                record["verdict"], record["detail"] = verdict_of(code, out)
+                record["test_s"] = round(dt, 1)
+                if record["verdict"] != "survived":
+                    record["build_s"] = round(time.monotonic() - t0, 1)
+                    record["commit"] = scratch.commit
+                    return record
+                builds = [b for b in builds if b not in fcfg["first_builds"]]
         if built:
-            built, words = scratch.build(fcfg["builds"])
+            built, words = scratch.build(builds)
         record["build_s"] = round(time.monotonic() - t0, 1)
         if not built:
+            record.pop("verdict", None), record.pop("detail", None), record.pop("test_s", None)
             lines = words.strip().splitlines()
             why = next((ln for ln in lines if "error:" in ln or "warning:" in ln), lines[-1] if lines else "")
             record.update(verdict="not built", detail=why.strip()[:300])
@@ -354,9 +369,9 @@ def judge(scratch: Scratch, cfg: dict, m: dict, full: bool) -> dict:
             record["full_s"] = round(dt, 1)
             record["full_commit"] = scratch.commit
         else:
-            code, out, dt = scratch.pytest(fcfg["fast"], run["fast_k"], run["timeout_s"])
+            code, out, dt = scratch.pytest(fcfg["fast"], run["fast_k"], run["timeout_s"] - record.get("test_s", 0))
             record["verdict"], record["detail"] = verdict_of(code, out)
-            record["test_s"] = round(dt, 1)
+            record["test_s"] = round(dt + record.get("test_s", 0), 1)
             record["commit"] = scratch.commit
         return record
     finally:
