@@ -37,6 +37,7 @@ import hashlib
 import json
 import os
 import random
+import re
 import shutil
 import signal
 import subprocess
@@ -393,6 +394,14 @@ def final_verdict(r: dict) -> str:
     return r["verdict"]
 
 
+def discard_reason(detail: str) -> str:
+    """A discarded mutant's compiler message as a kind: a warning (by its flag) or an error."""
+    flag = re.search(r"\[-W(?:error=)?([A-Za-z0-9=-]+)\]", detail)
+    if flag and flag.group(1) != "error":
+        return f"warning -W{flag.group(1)}"
+    return "compile error" if "error" in detail else "other (see the results file)"
+
+
 def score(path: Path, survivors: bool, files: list[str]) -> int:
     results = load_results(path)
     eq = equivalents()
@@ -434,6 +443,13 @@ def score(path: Path, survivors: bool, files: list[str]) -> int:
     pct = f"{100 * tot['killed'] / denom:.1f} %" if denom else "-"
     print(f"| **total** | **{judged}** | **{tot['killed']}** | **{tot['equivalent']}** | **{tot['survived']}** "
           f"| **{pct}** | **{tot['discarded']}** |")
+    why = {}
+    for r in results.values():
+        if final_verdict(r) == "not built":
+            why[discard_reason(r.get("detail", ""))] = why.get(discard_reason(r.get("detail", "")), 0) + 1
+    if why:
+        print("\ndiscarded (the project's build refuses them):",
+              "; ".join(f"{n} {w}" for w, n in sorted(why.items(), key=lambda x: -x[1])))
     if tot["errors"]:
         print(f"\n{tot['errors']} mutant(s) whose test run errored (not counted): rerun them")
     if survivors:
