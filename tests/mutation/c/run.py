@@ -378,7 +378,7 @@ def judge(scratch: Scratch, cfg: dict, m: dict, full: bool) -> dict:
                 elif not f.endswith(".py"):  # a folder: its files with the tests -k deselected
                     files += [str(p.relative_to(scratch.tree)) for p in sorted((scratch.tree / f).glob("test_*.py"))
                               if "def test_forty" in p.read_text()]
-            code, out, dt = scratch.pytest(files, None, run["full_timeout_s"], native_only=not kernel)
+            code, out, dt = scratch.pytest(files, fcfg.get("full_k"), run["full_timeout_s"], native_only=not kernel)
             record["full_verdict"], record["full_detail"] = verdict_of(code, out)
             record["full_s"] = round(dt, 1)
             record["full_commit"] = scratch.commit
