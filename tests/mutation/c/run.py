@@ -59,16 +59,54 @@ def config() -> dict:
 
 def sh(cmd, cwd=None, env=None, timeout=None, capture=True):
     """Run cmd in its own process group at nice 10; (returncode or 'timeout', output)."""
+    code, out, _ = sh_limited(cmd, cwd, env, timeout, None, capture)
+    return code, out
+
+
+CLK_TCK = os.sysconf("SC_CLK_TCK")
+
+
+def session_cpu(sid: int) -> float:
+    """CPU seconds (user + system) used so far by the live processes of session sid, with the
+    children they have waited for."""
+    ticks = 0
+    for d in os.listdir("/proc"):
+        if not d.isdigit():
+            continue
+        try:
+            with open(f"/proc/{d}/stat") as f:
+                stat = f.read()
+        except OSError:
+            continue
+        fields = stat[stat.rindex(")") + 2:].split()
+        if int(fields[3]) == sid:
+            ticks += sum(int(x) for x in fields[11:15])
+    return ticks / CLK_TCK
+
+
+def sh_limited(cmd, cwd=None, env=None, timeout=None, cpu_limit=None, capture=True):
+    """sh with a limit on the CPU time the command's session uses (it and every process it
+    starts, polled each second) as well as on the wall-clock time: on a loaded machine a test
+    process gets a fraction of a core, and a wall-clock limit alone would stop slow runs as if
+    they never ended. (returncode or 'timeout', output, CPU seconds used)."""
+    import resource
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     proc = subprocess.Popen(["nice", "-n", "10", *cmd], cwd=cwd, env=env, start_new_session=True,
                             stdout=subprocess.PIPE if capture else None, stderr=subprocess.STDOUT,
                             text=True)
-    try:
-        out, _ = proc.communicate(timeout=timeout)
-        return proc.returncode, out or ""
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)
-        out, _ = proc.communicate()
-        return "timeout", out or ""
+    t0, cpu = time.monotonic(), 0.0
+    while True:
+        try:
+            out, _ = proc.communicate(timeout=1.0)
+            after = resource.getrusage(resource.RUSAGE_CHILDREN)
+            cpu = max(cpu, after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
+            return proc.returncode, out or "", cpu
+        except subprocess.TimeoutExpired:
+            cpu = max(cpu, session_cpu(proc.pid))
+            if (timeout is not None and time.monotonic() - t0 > timeout) or (cpu_limit is not None and cpu > cpu_limit):
+                os.killpg(proc.pid, signal.SIGKILL)
+                out, _ = proc.communicate()
+                return "timeout", out or "", cpu
 
 
 # ----------------------------------------------------------------------------- mutants
@@ -290,8 +328,9 @@ class Scratch:
         for rel in files:
             shutil.copy2(self.tree / rel, self.pristine / rel.replace("/", "_"))
 
-    def pytest(self, files: list[str], k: str | None, timeout: float, native_only=True):
-        """pytest -x on files; native_only: the native flavour only (native_only.py)."""
+    def pytest(self, files: list[str], k: str | None, cpu_limit: float, native_only=True):
+        """pytest -x on files, limited to cpu_limit CPU seconds (and 10 times that of wall-clock
+        time); native_only: the native flavour only (native_only.py). (code, output, wall s, CPU s)"""
         present = [f for f in files if (self.tree / f).exists()]
         cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "--tb=line", "-W", "ignore", "-x"]
         if native_only:
@@ -299,8 +338,9 @@ class Scratch:
         if k:
             cmd += ["-k", k]
         t0 = time.monotonic()
-        code, out = sh(cmd + present, cwd=self.tree, env=self.env(), timeout=timeout)
-        return code, out, time.monotonic() - t0
+        code, out, cpu = sh_limited(cmd + present, cwd=self.tree, env=self.env(), timeout=10 * cpu_limit,
+                                    cpu_limit=cpu_limit)
+        return code, out, time.monotonic() - t0, cpu
 
 
 def verdict_of(code, out: str) -> tuple[str, str]:
@@ -309,7 +349,7 @@ def verdict_of(code, out: str) -> tuple[str, str]:
     last = tail[-1] if tail else ""
     failed = next((ln for ln in tail if ln.startswith("FAILED") or ln.startswith("ERROR")), "")
     if code == "timeout":
-        return "killed", "timeout"
+        return "killed", "time limit"
     if code == 0:
         return "survived", last
     if code == 1:
@@ -347,10 +387,10 @@ def judge(scratch: Scratch, cfg: dict, m: dict, full: bool) -> dict:
             built, words = scratch.build(fcfg["first_builds"])
             if built:
                 t1 = time.monotonic()
-                code, out, dt = scratch.pytest(first, run["fast_k"], run["timeout_s"])
+                code, out, dt, cpu = scratch.pytest(first, run["fast_k"], run["cpu_limit_s"])
                 t0 += time.monotonic() - t1
                 record["verdict"], record["detail"] = verdict_of(code, out)
-                record["test_s"] = round(dt, 1)
+                record["test_s"], record["test_cpu_s"] = round(dt, 1), round(cpu, 1)
                 if record["verdict"] != "survived":
                     record["build_s"] = round(time.monotonic() - t0, 1)
                     record["commit"] = scratch.commit
@@ -378,14 +418,17 @@ def judge(scratch: Scratch, cfg: dict, m: dict, full: bool) -> dict:
                 elif not f.endswith(".py"):  # a folder: its files with the tests -k deselected
                     files += [str(p.relative_to(scratch.tree)) for p in sorted((scratch.tree / f).glob("test_*.py"))
                               if "def test_forty" in p.read_text()]
-            code, out, dt = scratch.pytest(files, fcfg.get("full_k"), run["full_timeout_s"], native_only=not kernel)
+            code, out, dt, cpu = scratch.pytest(files, fcfg.get("full_k"), run["full_cpu_limit_s"],
+                                                native_only=not kernel)
             record["full_verdict"], record["full_detail"] = verdict_of(code, out)
-            record["full_s"] = round(dt, 1)
+            record["full_s"], record["full_cpu_s"] = round(dt, 1), round(cpu, 1)
             record["full_commit"] = scratch.commit
         else:
-            code, out, dt = scratch.pytest(fcfg["fast"], run["fast_k"], run["timeout_s"] - record.get("test_s", 0))
+            code, out, dt, cpu = scratch.pytest(fcfg["fast"], run["fast_k"],
+                                                run["cpu_limit_s"] - record.get("test_cpu_s", 0))
             record["verdict"], record["detail"] = verdict_of(code, out)
             record["test_s"] = round(dt + record.get("test_s", 0), 1)
+            record["test_cpu_s"] = round(cpu + record.get("test_cpu_s", 0), 1)
             record["commit"] = scratch.commit
         return record
     finally:
@@ -399,7 +442,15 @@ def equivalents() -> dict:
     return {m["id"]: m for m in tomllib.loads(EQUIVALENT.read_text()).get("mutant", [])}
 
 
+def undecided(r: dict) -> bool:
+    """A verdict of the old wall-clock limit (180 s), which on a loaded machine stopped runs that
+    were only slow: judged again under the CPU-time limit."""
+    return r.get("detail") == "timeout"
+
+
 def final_verdict(r: dict) -> str:
+    if undecided(r):
+        return "error"
     if r.get("verdict") in ("not built", "error", None):
         return r.get("verdict") or "not run"
     if r.get("full_verdict") == "killed":
@@ -464,7 +515,8 @@ def score(path: Path, survivors: bool, files: list[str]) -> int:
         print("\ndiscarded (the project's build refuses them):",
               "; ".join(f"{n} {w}" for w, n in sorted(why.items(), key=lambda x: -x[1])))
     if tot["errors"]:
-        print(f"\n{tot['errors']} mutant(s) whose test run errored (not counted): rerun them")
+        print(f"\n{tot['errors']} mutant(s) whose test run errored or timed out under the old wall-clock "
+              "limit (not counted): judge them again")
     if survivors:
         print(f"\nnot killed and not listed as equivalent ({len(left)}):")
         for r in sorted(left, key=lambda r: (r["file"], r["line"])):
@@ -519,10 +571,10 @@ def main(argv=None) -> int:
     for m in order:
         if not full and not args.ids:
             done = load_results(results_path)  # the other shards' verdicts too
-            judged = sum(1 for r in done.values() if r.get("verdict") in ("killed", "survived"))
+            judged = sum(1 for r in done.values() if r.get("verdict") in ("killed", "survived") and not undecided(r))
             if judged >= args.sample:
                 break
-            if m["id"] in done and done[m["id"]].get("verdict") != "error":
+            if m["id"] in done and done[m["id"]].get("verdict") != "error" and not undecided(done[m["id"]]):
                 continue
         scratch.sync_tests()
         r = judge(scratch, cfg, m, full)
