@@ -165,6 +165,7 @@ def test_fixed_parameters_cannot_change_after_initialisation(opened, fmus_of, mo
 
 @pytest.mark.parametrize("model,parameters,fragments", [
     ("BallInShell", {"r": 0.3}, ["R must be larger than r", "r = 0.3 m"]),
+    ("BallInShell", {"r": 0.25}, ["R must be larger than r", "r = 0.25 m, R = 0.25 m"]),  # r = R: no room
     ("BallInShell", {"tolerance": 1.0}, ["tolerance", "1.0", "[1e-15, 0.1]"]),
     ("BallInShell", {"coupling_warn": -1.0}, ["parameter coupling_warn = -1.0 m", "range [0, inf] m"]),
     ("MotorStartup", {"t0": 0.0}, ["parameter t0 = 0.0 s is outside its accepted range [0.001, 1e+06] s"]),
@@ -285,6 +286,40 @@ def test_string_access_is_refused_by_name_and_the_logger_gets_the_hosts_environm
         assert info.value.status == ERROR
         assert _errors(inst)[-1] == f"{model} 'strings': fmi2{call[0].upper()}{call[1:]}: this FMU has no String variables"
     assert inst.environments and set(inst.environments) == {env}, inst.environments
+
+
+@pytest.mark.parametrize("model", MODELS + ("Structure",))
+def test_a_state_taken_right_after_initialisation_restores(opened, fmus_of, model):
+    """The state at the start time, taken after fmi2ExitInitializationMode and before the first
+    step, is a state like any other: set back after three steps, the instance steps again
+    exactly as it did from there (every output of the three steps, bit for bit)."""
+    inst = opened(fmus_of("native")[model], "start", **({"xC0": 0.05} if model == "BallInShell" else {}))
+    inst.initialize()
+    state = inst.fmu.getFMUstate()
+    outputs = [n for n, v in inst.vars.items() if v.causality == "output" and v.type == "Real"]
+    runs = []
+    for _ in range(2):
+        rows = []
+        for k in range(3):
+            inst.fmu.doStep(k * H, H)
+            rows.append(inst.reals(outputs))
+        runs.append(rows)
+        inst.fmu.setFMUstate(state)
+    assert runs[0] == runs[1]
+    inst.fmu.freeFMUstate(state)
+
+
+@pytest.mark.parametrize("model", MODELS)
+def test_boolean_status_answers_terminated_only(opened, fmus_of, model):
+    """fmi2GetBooleanStatus (co-simulation): fmi2Terminated is answered (fmi2OK, false: these
+    FMUs never end a simulation themselves); the other kinds have no Boolean answer (fmi2Discard,
+    as FMI 2.0.4, 4.2.3 allows)."""
+    inst = _start(opened, fmus_of, model)
+    assert inst.fmu.getBooleanStatus(3) == 0  # fmi2Terminated = 3: false
+    for kind in (0, 1, 2):  # fmi2DoStepStatus, fmi2PendingStatus, fmi2LastSuccessfulTime
+        with pytest.raises(FMICallException) as info:
+            inst.fmu.getBooleanStatus(kind)
+        assert info.value.status == DISCARD
 
 
 def _refusals_of_forged_states(inst, blob, good, fmt, value):
