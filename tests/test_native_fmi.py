@@ -322,6 +322,22 @@ def test_boolean_status_answers_terminated_only(opened, fmus_of, model):
         assert info.value.status == DISCARD
 
 
+def test_getters_and_setters_take_any_number_of_references(opened, fmus_of):
+    """A getter or setter takes nvr references in one call, any number, the same one repeated
+    too: 150 (more than the plumbing's chunks of 64) of each type read back as the value one
+    reference gives, and 150 set leave the last value."""
+    ball = _start(opened, fmus_of, "BallInShell")
+    v = {n: ball.vars[n].valueReference for n in ("xC", "valid", "x1O")}
+    assert ball.get("valid") is True  # (a value the zeros of an unwritten buffer are not)
+    assert ball.fmu.getReal([v["xC"]] * 150) == [ball.get("xC")] * 150
+    assert ball.fmu.getBoolean([v["valid"]] * 150) == [ball.fmu.getBoolean([v["valid"]])[0]] * 150
+    ints = [n for n, var in ball.vars.items() if var.type == "Integer"]
+    vi = ball.vars[ints[0]].valueReference
+    assert ball.fmu.getInteger([vi] * 150) == [ball.fmu.getInteger([vi])[0]] * 150
+    ball.fmu.setReal([v["x1O"]] * 150, [1e-4 * i for i in range(150)])
+    assert ball.get("x1O") == 1e-4 * 149
+
+
 def _refusals_of_forged_states(inst, blob, good, fmt, value):
     """{the model's reason: [offsets]}: the state `blob` with the field of struct format `fmt`
     at each offset of the model's data (after the header and the values) set to `value`, its
