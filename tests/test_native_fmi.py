@@ -67,6 +67,10 @@ def test_step_sizes_that_are_not_steps_are_refused_state_intact(opened, fmus_of,
     for t in (2 * H, 4 * H):
         assert _raw(inst, "fmi2DoStep", ctypes.c_double(t), ctypes.c_double(H), 1) == ERROR
         assert "currentCommunicationPoint" in _errors(inst)[-1] and "t = 0.006 s" in _errors(inst)[-1]
+    # positive but too small to move the time: 0.006 + 1e-20 == 0.006 in double precision
+    assert _raw(inst, "fmi2DoStep", ctypes.c_double(3 * H), ctypes.c_double(1e-20), 1) == ERROR
+    assert "the step ends at 0.006 s, not after the FMU's time t = 0.006 s" in _errors(inst)[-1]
+    assert inst.get(WATCH[model]) == before
     # and the instance carries on exactly like one that never saw them
     for k in range(3, 8):
         inst.fmu.doStep(k * H, H)
