@@ -1,6 +1,7 @@
 """Mutation testing of the project's C (docs/mutation.md, "The C").
 
     python tests/mutation/c/run.py [--sample N] [--seed S] [--files F ...] [--results R.jsonl]
+                                   [--scratch DIR] [--gen DIR] [--shard K/N]
     python tests/mutation/c/run.py --score R.jsonl [--survivors]
     python tests/mutation/c/run.py --full R.jsonl          # survivors of the subset on the full files
 
@@ -18,8 +19,9 @@ gives the same order). For each mutant, one at a time:
    project's build refuses (a compile error, or a warning at -Wall -Wextra, which the native
    build treats as an error) is discarded, not counted;
 2. it is judged by the file's fast subset (``pytest -x -k "<fast_k>"``, BALLMILL_TEST_FMU_DIR
-   pointing at the rebuilt FMUs), with a time limit: a failing test, a crashed test process
-   or the time limit kills it;
+   pointing at the rebuilt FMUs), with a limit on the CPU time its processes use (config.toml):
+   a failing test, a crashed test process or the limit kills it (the kernel's mutants meet
+   the tests that load no FMU first, on the rebuilt kernel alone);
 3. the tree and the FMUs are restored.
 
 Every verdict is appended at once to the results file (JSONL), with the commit whose tests
