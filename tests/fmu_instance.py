@@ -19,11 +19,14 @@ class Instance:
 
     _by_name: dict = {}
 
-    def __init__(self, path, name, **parameters):
+    def __init__(self, path, name, environment=None, **parameters):
+        """environment: the componentEnvironment pointer handed to fmi2Instantiate (an int);
+        ``environments`` collects what the FMU hands back with each message."""
         self.md = read_model_description(str(path))
         self.unzipdir = extract(str(path))
         self.vars = {v.name: v for v in self.md.modelVariables}
         self.messages: list[tuple[int, str]] = []
+        self.environments: list[int | None] = []
         self.name = name
         Instance._by_name[name] = self
         self.callbacks = fmi2CallbackFunctions()
@@ -31,6 +34,7 @@ class Instance:
         self.callbacks.logger = self._logger
         self.callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
         self.callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        self.callbacks.componentEnvironment = environment
         addLoggerProxy(ctypes.byref(self.callbacks))
         self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.unzipdir,
                              modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
@@ -41,6 +45,7 @@ class Instance:
         name = instance.decode("utf-8", "replace") if instance else self.name
         target = Instance._by_name.get(name, self)
         target.messages.append((status, message.decode("utf-8", "replace") if message else ""))
+        target.environments.append(env)
 
     def set(self, **values):
         for name, value in values.items():

@@ -27,6 +27,7 @@ import pytest
 from ballmill.fmi.interface import BALL_MOTION_OUTPUTS, BALL_OUTPUTS
 from ballmill.physics import Ball
 from ballmill.physics.turning import Fig1Machine, Spin, simulate_chamber
+from ballmill.physics.turning.motions import SpeedRise
 from chamber_master import drive
 from fmu_instance import Opened
 from tests.conformance.inputs import INPUTS as CRANK_INPUTS
@@ -196,7 +197,11 @@ def test_the_library_says_where_validity_ended_as_the_fmu_does(built_fmus, opene
     # Omega with two components about a tilted axis: every term of the centre's acceleration
     # Omega x (Omega x R Q e3) (the Fig. 1 machine turns about x only)
     ({}, Spin((0.0, 1.0, 2.0), (0.0, 0.0, R))),
-], ids=["RK45", "DOP853", "RK4-hold", "no-corrector", "RK45-tilted-spin"])
+    # the frame's rate rising (quadratic law, to 0.5 rad/s in 0.6 s): Omega's fit between samples
+    # has quadratic and cubic terms, which the turned angle and the chamber's orientation at
+    # the step's end integrate (the other cases turn at constant rates, where they are 0)
+    ({}, Fig1Machine(frame=SpeedRise(0.5, 0.6))),
+], ids=["RK45", "DOP853", "RK4-hold", "no-corrector", "RK45-tilted-spin", "RK45-frame-rising"])
 def test_flavours_agree_bit_for_bit_on_motion_2(fmus_of, opened, parameters, motion):
     got = []
     for flavour in ("native", "pythonfmu"):

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import ctypes
 import math
+import struct
 import zlib
 
 import pytest
@@ -22,6 +23,7 @@ OK, WARNING, DISCARD, ERROR = 0, 1, 2, 3
 MODELS = ("BallInShell", "MotorStartup", "InductionMotor", "Fig1Drive")
 WATCH = {"BallInShell": "xC", "MotorStartup": "psi_dot", "InductionMotor": "psi_dot", "Fig1Drive": "z1O"}
 H = 0.002
+HEADER_BYTES = 160  # a native state's header (fmu_src/native/fmu_state.h)
 
 
 @pytest.fixture
@@ -65,6 +67,10 @@ def test_step_sizes_that_are_not_steps_are_refused_state_intact(opened, fmus_of,
     for t in (2 * H, 4 * H):
         assert _raw(inst, "fmi2DoStep", ctypes.c_double(t), ctypes.c_double(H), 1) == ERROR
         assert "currentCommunicationPoint" in _errors(inst)[-1] and "t = 0.006 s" in _errors(inst)[-1]
+    # positive but too small to move the time: 0.006 + 1e-20 == 0.006 in double precision
+    assert _raw(inst, "fmi2DoStep", ctypes.c_double(3 * H), ctypes.c_double(1e-20), 1) == ERROR
+    assert "the step ends at 0.006 s, not after the FMU's time t = 0.006 s" in _errors(inst)[-1]
+    assert inst.get(WATCH[model]) == before
     # and the instance carries on exactly like one that never saw them
     for k in range(3, 8):
         inst.fmu.doStep(k * H, H)
@@ -163,6 +169,7 @@ def test_fixed_parameters_cannot_change_after_initialisation(opened, fmus_of, mo
 
 @pytest.mark.parametrize("model,parameters,fragments", [
     ("BallInShell", {"r": 0.3}, ["R must be larger than r", "r = 0.3 m"]),
+    ("BallInShell", {"r": 0.25}, ["R must be larger than r", "r = 0.25 m, R = 0.25 m"]),  # r = R: no room
     ("BallInShell", {"tolerance": 1.0}, ["tolerance", "1.0", "[1e-15, 0.1]"]),
     ("BallInShell", {"coupling_warn": -1.0}, ["parameter coupling_warn = -1.0 m", "range [0, inf] m"]),
     ("MotorStartup", {"t0": 0.0}, ["parameter t0 = 0.0 s is outside its accepted range [0.001, 1e+06] s"]),
@@ -263,6 +270,140 @@ def test_a_paper_formulation_state_beyond_the_equator_is_refused(opened, fmus_of
     assert _errors(ball)[-2].endswith("FMU state refused: its ball centre lies at or beyond the chamber's equator")
     assert ball.get("yC") == before
     ball.fmu.doStep(3 * H, H)  # and it carries on
+
+
+@pytest.mark.parametrize("model", MODELS)
+def test_string_access_is_refused_by_name_and_the_logger_gets_the_hosts_environment(opened, fmus_of, model):
+    """No model has String variables: fmi2GetString and fmi2SetString with a reference are
+    refused (fmi2Error) with a message naming the instance, the function and why, and with
+    none they do nothing (fmi2OK). Every message reaches the logger with the
+    componentEnvironment the host gave fmi2Instantiate (FMI 2.0.4, 2.1.5), here a pointer
+    value no allocator returns."""
+    env = 0xBA11_0000
+    inst = opened(fmus_of("native")[model], "strings", environment=env)
+    inst.initialize()
+    inst.fmu.getString([])
+    inst.fmu.setString([], [])
+    for call, args in (("getString", ([0],)), ("setString", ([0], ["x"]))):
+        with pytest.raises(FMICallException) as info:
+            getattr(inst.fmu, call)(*args)
+        assert info.value.status == ERROR
+        assert _errors(inst)[-1] == f"{model} 'strings': fmi2{call[0].upper()}{call[1:]}: this FMU has no String variables"
+    assert inst.environments and set(inst.environments) == {env}, inst.environments
+
+
+@pytest.mark.parametrize("model", MODELS + ("Structure",))
+def test_a_state_taken_right_after_initialisation_restores(opened, fmus_of, model):
+    """The state at the start time, taken after fmi2ExitInitializationMode and before the first
+    step, is a state like any other: set back after three steps, the instance steps again
+    exactly as it did from there (every output of the three steps, bit for bit)."""
+    inst = opened(fmus_of("native")[model], "start", **({"xC0": 0.05} if model == "BallInShell" else {}))
+    inst.initialize()
+    state = inst.fmu.getFMUstate()
+    outputs = [n for n, v in inst.vars.items() if v.causality == "output" and v.type == "Real"]
+    runs = []
+    for _ in range(2):
+        rows = []
+        for k in range(3):
+            inst.fmu.doStep(k * H, H)
+            rows.append(inst.reals(outputs))
+        runs.append(rows)
+        inst.fmu.setFMUstate(state)
+    assert runs[0] == runs[1]
+    inst.fmu.freeFMUstate(state)
+
+
+@pytest.mark.parametrize("model", MODELS)
+def test_boolean_status_answers_terminated_only(opened, fmus_of, model):
+    """fmi2GetBooleanStatus (co-simulation): fmi2Terminated is answered (fmi2OK, false: these
+    FMUs never end a simulation themselves); the other kinds have no Boolean answer (fmi2Discard,
+    as FMI 2.0.4, 4.2.3 allows)."""
+    inst = _start(opened, fmus_of, model)
+    assert inst.fmu.getBooleanStatus(3) == 0  # fmi2Terminated = 3: false
+    for kind in (0, 1, 2):  # fmi2DoStepStatus, fmi2PendingStatus, fmi2LastSuccessfulTime
+        with pytest.raises(FMICallException) as info:
+            inst.fmu.getBooleanStatus(kind)
+        assert info.value.status == DISCARD
+
+
+def test_getters_and_setters_take_any_number_of_references(opened, fmus_of):
+    """A getter or setter takes nvr references in one call, any number, the same one repeated
+    too: 150 (more than the plumbing's chunks of 64) of each type read back as the value one
+    reference gives, and 150 set leave the last value."""
+    ball = _start(opened, fmus_of, "BallInShell")
+    v = {n: ball.vars[n].valueReference for n in ("xC", "valid", "x1O")}
+    assert ball.get("valid") is True  # (a value the zeros of an unwritten buffer are not)
+    assert ball.fmu.getReal([v["xC"]] * 150) == [ball.get("xC")] * 150
+    assert ball.fmu.getBoolean([v["valid"]] * 150) == [ball.fmu.getBoolean([v["valid"]])[0]] * 150
+    ints = [n for n, var in ball.vars.items() if var.type == "Integer"]
+    vi = ball.vars[ints[0]].valueReference
+    assert ball.fmu.getInteger([vi] * 150) == [ball.fmu.getInteger([vi])[0]] * 150
+    ball.fmu.setReal([v["x1O"]] * 150, [1e-4 * i for i in range(150)])
+    assert ball.get("x1O") == 1e-4 * 149
+
+
+def _refusals_of_forged_states(inst, blob, good, fmt, value):
+    """{the model's reason: [offsets]}: the state `blob` with the field of struct format `fmt`
+    at each offset of the model's data (after the header and the values) set to `value`, its
+    checksum made right, set into `inst` (put back to `good` when it is accepted)."""
+    size, found = struct.calcsize(fmt), {}
+    for at in range(HEADER_BYTES + 8 * len(inst.vars), len(blob) - 4 - size + 1, size):
+        forged = bytearray(blob)
+        forged[at:at + size] = struct.pack(fmt, value)
+        if forged == blob:
+            continue
+        state = inst.fmu.deSerializeFMUstate(_sealed(forged))
+        n = len(inst.messages)
+        try:
+            inst.fmu.setFMUstate(state)
+            inst.fmu.setFMUstate(good)
+        except FMICallException:
+            why = [m.split("FMU state refused: ", 1)[1] for s, m in inst.messages[n:] if "FMU state refused: " in m]
+            if why:
+                found.setdefault(why[0], []).append(at)
+        inst.fmu.freeFMUstate(state)
+    return found
+
+
+def test_impossible_dynamic_states_are_refused_and_a_missing_step_size_is_chosen(opened, fmus_of):
+    """BallInShell checks the dynamic part of a state it is given (docs/conformance.md, "FMU
+    state"). Where each field lies is found by setting every int, then every double, of the
+    model's data in turn (checksum made right): with input_mode 1 (2 fit points, up to 6 more
+    samples kept) an input history of 9 samples, a negative coupling-error sum (a sum of
+    squares) and an input sample that is NaN are each refused with their reason, and the
+    instance keeps its state. The ball state's step size h just before the history's count (the
+    struct's order) is not checked: NaN means "choose one", and so must 0 (no step is 0 long):
+    a state with h = 0 steps on exactly like the same state with h = NaN."""
+    ball = opened(fmus_of("native")["BallInShell"], "forged", xC0=0.05, input_mode=1)
+    ball.initialize()
+    for k in range(6):
+        ball.set(x1O=0.001 * k * k)
+        ball.fmu.doStep(k * H, H)
+    good = ball.fmu.getFMUstate()
+    blob = bytes(ball.fmu.serializeFMUstate(good))
+    before = ball.reals(("xC", "yC", "N"))
+    count = _refusals_of_forged_states(ball, blob, good, "<i", 2 + 6 + 1)
+    assert list(count.get("its input history has a wrong number of samples", [])) != [], count
+    negative = _refusals_of_forged_states(ball, blob, good, "<d", -0.5)
+    assert "its coupling-error sums are not finite" in negative, negative
+    nan = _refusals_of_forged_states(ball, blob, good, "<d", float("nan"))
+    assert "an input sample is not finite" in nan, nan
+    assert ball.reals(("xC", "yC", "N")) == before  # every refusal kept the state
+    # the step size: the double before the history's count
+    h_at = count["its input history has a wrong number of samples"][0] - 8
+    runs = []
+    for h in (float("nan"), 0.0):
+        forged = bytearray(blob)
+        forged[h_at:h_at + 8] = struct.pack("<d", h)
+        inst = opened(fmus_of("native")["BallInShell"], f"h{h}", xC0=0.05, input_mode=1)
+        inst.fmu.setFMUstate(inst.fmu.deSerializeFMUstate(_sealed(forged)))
+        rows = []
+        for k in range(6, 12):
+            inst.set(x1O=0.001 * k * k)
+            inst.fmu.doStep(k * H, H)
+            rows.append(inst.reals(("xC", "yC", "N", "wz")))
+        runs.append(rows)
+    assert runs[0] == runs[1]
 
 
 def test_a_state_from_another_configuration_restores_that_configuration(opened, fmus_of):

@@ -1,6 +1,7 @@
 """Mutation testing of the project's C (docs/mutation.md, "The C").
 
     python tests/mutation/c/run.py [--sample N] [--seed S] [--files F ...] [--results R.jsonl]
+                                   [--scratch DIR] [--gen DIR] [--shard K/N]
     python tests/mutation/c/run.py --score R.jsonl [--survivors]
     python tests/mutation/c/run.py --full R.jsonl          # survivors of the subset on the full files
 
@@ -18,8 +19,9 @@ gives the same order). For each mutant, one at a time:
    project's build refuses (a compile error, or a warning at -Wall -Wextra, which the native
    build treats as an error) is discarded, not counted;
 2. it is judged by the file's fast subset (``pytest -x -k "<fast_k>"``, BALLMILL_TEST_FMU_DIR
-   pointing at the rebuilt FMUs), with a time limit: a failing test, a crashed test process
-   or the time limit kills it;
+   pointing at the rebuilt FMUs), with a limit on the CPU time its processes use (config.toml):
+   a failing test, a crashed test process or the limit kills it (the kernel's mutants meet
+   the tests that load no FMU first, on the rebuilt kernel alone);
 3. the tree and the FMUs are restored.
 
 Every verdict is appended at once to the results file (JSONL), with the commit whose tests
@@ -37,6 +39,7 @@ import hashlib
 import json
 import os
 import random
+import re
 import shutil
 import signal
 import subprocess
@@ -58,25 +61,63 @@ def config() -> dict:
 
 def sh(cmd, cwd=None, env=None, timeout=None, capture=True):
     """Run cmd in its own process group at nice 10; (returncode or 'timeout', output)."""
+    code, out, _ = sh_limited(cmd, cwd, env, timeout, None, capture)
+    return code, out
+
+
+CLK_TCK = os.sysconf("SC_CLK_TCK")
+
+
+def session_cpu(sid: int) -> float:
+    """CPU seconds (user + system) used so far by the live processes of session sid, with the
+    children they have waited for."""
+    ticks = 0
+    for d in os.listdir("/proc"):
+        if not d.isdigit():
+            continue
+        try:
+            with open(f"/proc/{d}/stat") as f:
+                stat = f.read()
+        except OSError:
+            continue
+        fields = stat[stat.rindex(")") + 2:].split()
+        if int(fields[3]) == sid:
+            ticks += sum(int(x) for x in fields[11:15])
+    return ticks / CLK_TCK
+
+
+def sh_limited(cmd, cwd=None, env=None, timeout=None, cpu_limit=None, capture=True):
+    """sh with a limit on the CPU time the command's session uses (it and every process it
+    starts, polled each second) as well as on the wall-clock time: on a loaded machine a test
+    process gets a fraction of a core, and a wall-clock limit alone would stop slow runs as if
+    they never ended. (returncode or 'timeout', output, CPU seconds used)."""
+    import resource
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     proc = subprocess.Popen(["nice", "-n", "10", *cmd], cwd=cwd, env=env, start_new_session=True,
                             stdout=subprocess.PIPE if capture else None, stderr=subprocess.STDOUT,
                             text=True)
-    try:
-        out, _ = proc.communicate(timeout=timeout)
-        return proc.returncode, out or ""
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)
-        out, _ = proc.communicate()
-        return "timeout", out or ""
+    t0, cpu = time.monotonic(), 0.0
+    while True:
+        try:
+            out, _ = proc.communicate(timeout=1.0)
+            after = resource.getrusage(resource.RUSAGE_CHILDREN)
+            cpu = max(cpu, after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
+            return proc.returncode, out or "", cpu
+        except subprocess.TimeoutExpired:
+            cpu = max(cpu, session_cpu(proc.pid))
+            if (timeout is not None and time.monotonic() - t0 > timeout) or (cpu_limit is not None and cpu > cpu_limit):
+                os.killpg(proc.pid, signal.SIGKILL)
+                out, _ = proc.communicate()
+                return "timeout", out or "", cpu
 
 
 # ----------------------------------------------------------------------------- mutants
-def generate(rel: str, scratch: Path) -> list[dict]:
+def generate(rel: str, gen: Path) -> list[dict]:
     """Every mutant of the checkout's file `rel`: [{id, file, line, before, after, path}].
-    Cached under scratch/gen/<file's sha256>/ (a changed file gets new mutants)."""
+    Cached under gen/<file>-<file's sha256>/ (a changed file gets new mutants)."""
     src = ROOT / rel
     digest = hashlib.sha256(src.read_bytes()).hexdigest()[:16]
-    out = scratch / "gen" / f"{rel.replace('/', '_')}-{digest}"
+    out = gen / f"{rel.replace('/', '_')}-{digest}"
     done = out / "DONE"
     if not done.exists():
         shutil.rmtree(out, ignore_errors=True)
@@ -110,12 +151,12 @@ def generate(rel: str, scratch: Path) -> list[dict]:
     return mutants
 
 
-def stratified(files: list[str], scratch: Path, seed: int) -> list[dict]:
+def stratified(files: list[str], gen: Path, seed: int) -> list[dict]:
     """All mutants of the files in the run's order: each file's shuffled with the seed, the
     files interleaved in proportion to their counts (the k-th of n at (k + 1/2) / n)."""
     keyed = []
     for rel in files:
-        ms = generate(rel, scratch)
+        ms = generate(rel, gen)
         random.Random(f"{seed}:{rel}").shuffle(ms)
         keyed += [((k + 0.5) / len(ms), rel, m) for k, m in enumerate(ms)]
     keyed.sort(key=lambda x: (x[0], x[1]))
@@ -289,16 +330,19 @@ class Scratch:
         for rel in files:
             shutil.copy2(self.tree / rel, self.pristine / rel.replace("/", "_"))
 
-    def pytest(self, files: list[str], k: str | None, timeout: float, first_failure=True):
+    def pytest(self, files: list[str], k: str | None, cpu_limit: float, native_only=True):
+        """pytest -x on files, limited to cpu_limit CPU seconds (and 10 times that of wall-clock
+        time); native_only: the native flavour only (native_only.py). (code, output, wall s, CPU s)"""
         present = [f for f in files if (self.tree / f).exists()]
-        cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "--tb=line", "-W", "ignore"]
-        if first_failure:  # the fast subset: the native flavour (native_only.py), up to the first failure
-            cmd += ["-x", "-p", "tests.mutation.c.native_only"]
+        cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "--tb=line", "-W", "ignore", "-x"]
+        if native_only:
+            cmd += ["-p", "tests.mutation.c.native_only"]
         if k:
             cmd += ["-k", k]
         t0 = time.monotonic()
-        code, out = sh(cmd + present, cwd=self.tree, env=self.env(), timeout=timeout)
-        return code, out, time.monotonic() - t0
+        code, out, cpu = sh_limited(cmd + present, cwd=self.tree, env=self.env(), timeout=10 * cpu_limit,
+                                    cpu_limit=cpu_limit)
+        return code, out, time.monotonic() - t0, cpu
 
 
 def verdict_of(code, out: str) -> tuple[str, str]:
@@ -307,7 +351,7 @@ def verdict_of(code, out: str) -> tuple[str, str]:
     last = tail[-1] if tail else ""
     failed = next((ln for ln in tail if ln.startswith("FAILED") or ln.startswith("ERROR")), "")
     if code == "timeout":
-        return "killed", "timeout"
+        return "killed", "time limit"
     if code == 0:
         return "survived", last
     if code == 1:
@@ -340,21 +384,53 @@ def judge(scratch: Scratch, cfg: dict, m: dict, full: bool) -> dict:
     try:
         t0 = time.monotonic()
         built, words = scratch.syntax_check(m["file"], Path(m["path"]), fcfg["builds"])
+        builds, first = fcfg["builds"], [] if full else fcfg.get("first", [])
+        if built and first:  # tests that load only first_builds run before the rest is rebuilt
+            built, words = scratch.build(fcfg["first_builds"])
+            if built:
+                t1 = time.monotonic()
+                code, out, dt, cpu = scratch.pytest(first, run["fast_k"], run["cpu_limit_s"])
+                t0 += time.monotonic() - t1
+                record["verdict"], record["detail"] = verdict_of(code, out)
+                record["test_s"], record["test_cpu_s"] = round(dt, 1), round(cpu, 1)
+                if record["verdict"] != "survived":
+                    record["build_s"] = round(time.monotonic() - t0, 1)
+                    record["commit"] = scratch.commit
+                    return record
+                builds = [b for b in builds if b not in fcfg["first_builds"]]
         if built:
-            built, words = scratch.build(fcfg["builds"])
+            built, words = scratch.build(builds)
         record["build_s"] = round(time.monotonic() - t0, 1)
         if not built:
-            record.update(verdict="not built", detail=words.strip().splitlines()[-1][:300] if words.strip() else "")
+            record.pop("verdict", None), record.pop("detail", None), record.pop("test_s", None)
+            lines = words.strip().splitlines()
+            why = next((ln for ln in lines if "error:" in ln or "warning:" in ln), lines[-1] if lines else "")
+            record.update(verdict="not built", detail=why.strip()[:300])
             return record
         if full:
-            code, out, dt = scratch.pytest(fcfg["full"], None, run["full_timeout_s"], first_failure=False)
+            # the full files the fast subset did not pass in full (a folder it ran with -k "not
+            # forty" runs again); the pythonfmu flavour's tests only for the kernel, which its FMUs
+            # bundle (for the other files they judge the unmutated Python adapters)
+            kernel = "pythonfmu" in fcfg["builds"]
+            ran = set() if kernel else set(fcfg["fast"] + fcfg.get("first", []))
+            files = []
+            for f in fcfg["full"]:
+                if f not in ran:
+                    files.append(f)
+                elif not f.endswith(".py"):  # a folder: its files with the tests -k deselected
+                    files += [str(p.relative_to(scratch.tree)) for p in sorted((scratch.tree / f).glob("test_*.py"))
+                              if "def test_forty" in p.read_text()]
+            code, out, dt, cpu = scratch.pytest(files, fcfg.get("full_k"), run["full_cpu_limit_s"],
+                                                native_only=not kernel)
             record["full_verdict"], record["full_detail"] = verdict_of(code, out)
-            record["full_s"] = round(dt, 1)
+            record["full_s"], record["full_cpu_s"] = round(dt, 1), round(cpu, 1)
             record["full_commit"] = scratch.commit
         else:
-            code, out, dt = scratch.pytest(fcfg["fast"], run["fast_k"], run["timeout_s"])
+            code, out, dt, cpu = scratch.pytest(fcfg["fast"], run["fast_k"],
+                                                run["cpu_limit_s"] - record.get("test_cpu_s", 0))
             record["verdict"], record["detail"] = verdict_of(code, out)
-            record["test_s"] = round(dt, 1)
+            record["test_s"] = round(dt + record.get("test_s", 0), 1)
+            record["test_cpu_s"] = round(cpu + record.get("test_cpu_s", 0), 1)
             record["commit"] = scratch.commit
         return record
     finally:
@@ -368,12 +444,28 @@ def equivalents() -> dict:
     return {m["id"]: m for m in tomllib.loads(EQUIVALENT.read_text()).get("mutant", [])}
 
 
+def undecided(r: dict) -> bool:
+    """A verdict of the old wall-clock limit (180 s), which on a loaded machine stopped runs that
+    were only slow: judged again under the CPU-time limit."""
+    return r.get("detail") == "timeout"
+
+
 def final_verdict(r: dict) -> str:
+    if undecided(r):
+        return "error"
     if r.get("verdict") in ("not built", "error", None):
         return r.get("verdict") or "not run"
     if r.get("full_verdict") == "killed":
         return "killed"
     return r["verdict"]
+
+
+def discard_reason(detail: str) -> str:
+    """A discarded mutant's compiler message as a kind: a warning (by its flag) or an error."""
+    flag = re.search(r"\[-W(?:error=)?([A-Za-z0-9=-]+)\]", detail)
+    if flag and flag.group(1) != "error":
+        return f"warning -W{flag.group(1)}"
+    return "compile error" if "error" in detail else "other (see the results file)"
 
 
 def score(path: Path, survivors: bool, files: list[str]) -> int:
@@ -417,8 +509,16 @@ def score(path: Path, survivors: bool, files: list[str]) -> int:
     pct = f"{100 * tot['killed'] / denom:.1f} %" if denom else "-"
     print(f"| **total** | **{judged}** | **{tot['killed']}** | **{tot['equivalent']}** | **{tot['survived']}** "
           f"| **{pct}** | **{tot['discarded']}** |")
+    why = {}
+    for r in results.values():
+        if final_verdict(r) == "not built":
+            why[discard_reason(r.get("detail", ""))] = why.get(discard_reason(r.get("detail", "")), 0) + 1
+    if why:
+        print("\ndiscarded (the project's build refuses them):",
+              "; ".join(f"{n} {w}" for w, n in sorted(why.items(), key=lambda x: -x[1])))
     if tot["errors"]:
-        print(f"\n{tot['errors']} mutant(s) whose test run errored (not counted): rerun them")
+        print(f"\n{tot['errors']} mutant(s) whose test run errored or timed out under the old wall-clock "
+              "limit (not counted): judge them again")
     if survivors:
         print(f"\nnot killed and not listed as equivalent ({len(left)}):")
         for r in sorted(left, key=lambda r: (r["file"], r["line"])):
@@ -444,6 +544,11 @@ def main(argv=None) -> int:
     ap.add_argument("--full", type=Path, metavar="RESULTS",
                     help="run the survivors of RESULTS (equivalent ones included) on the full test files")
     ap.add_argument("--ids", nargs="+", help="judge these mutants (FILE:N) only")
+    ap.add_argument("--gen", type=Path, default=None,
+                    help="where the generated mutants are cached (default scratch/gen; shards share it)")
+    ap.add_argument("--shard", default="0/1", metavar="K/N",
+                    help="judge every N-th mutant of the order from the K-th (N runs, each with its own "
+                         "--scratch, the same --results and --gen: they stop together at --sample judged)")
     args = ap.parse_args(argv)
     if args.score:
         return score(args.score, args.survivors, files_all)
@@ -454,7 +559,9 @@ def main(argv=None) -> int:
     done = load_results(results_path)
     scratch.setup(files_all)
     scratch.keep_originals(files_all)
-    order = stratified(args.files, args.scratch, args.seed)
+    order = stratified(args.files, args.gen or args.scratch / "gen", args.seed)
+    k, n = (int(x) for x in args.shard.split("/"))
+    order = order[k::n]
     full = bool(args.full)
     if args.ids:
         order = [m for m in order if m["id"] in set(args.ids)]
@@ -465,9 +572,11 @@ def main(argv=None) -> int:
     print(f"{len(order)} mutants in order; {judged} already judged in {results_path}", flush=True)
     for m in order:
         if not full and not args.ids:
+            done = load_results(results_path)  # the other shards' verdicts too
+            judged = sum(1 for r in done.values() if r.get("verdict") in ("killed", "survived") and not undecided(r))
             if judged >= args.sample:
                 break
-            if m["id"] in done and done[m["id"]].get("verdict") != "error":
+            if m["id"] in done and done[m["id"]].get("verdict") != "error" and not undecided(done[m["id"]]):
                 continue
         scratch.sync_tests()
         r = judge(scratch, cfg, m, full)
