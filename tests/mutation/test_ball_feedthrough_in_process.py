@@ -60,7 +60,7 @@ def test_new_chamber_inputs_between_steps_refresh_the_force_and_moments(mode, mo
     expected = {"Fx": Fx, "Fy": Fy, "Fz": Fz, "N": m * g, "Ft": ft, "friction_ratio": ft / (m * g),
                 "MAx": R * Fy, "MAy": -R * Fx, "MAz": 0.0,
                 "MO1x": Y * Fz, "MO1y": -X * Fz, "MO1z": X * Fy - Y * Fx, "M_reaction": X * Fy - Y * Fx,
-                "Fx_ch": Fx, "Fy_ch": Fy, "Fz_ch": Fz, "P_diss": 0.0, "contact": True, "rolling": True}
+                "Fx_ch": Fx, "Fy_ch": Fy, "Fz_ch": Fz, "P_diss": 0.0, "P_grind": 0.0, "contact": True, "rolling": True}
     assert set(expected) == set(BALL_FEEDTHROUGH)
     for name, value in expected.items():
         assert _close(out[name], value), (mode, name, out[name], value)

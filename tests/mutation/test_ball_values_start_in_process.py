@@ -39,7 +39,7 @@ def _stepped(motion, **start):
 def _names(out, motion):
     if motion == 2:
         return [n for n, _ in out.values]
-    return [n for n, _, _ in _module().OUTPUTS] + ["P_diss"] + [n for n, _ in out.extra]
+    return [n for n, _, _ in _module().OUTPUTS] + ["P_diss", "P_grind", "s_bed"] + [n for n, _ in out.extra]
 
 
 def _with(out, motion, name, value):
@@ -63,7 +63,7 @@ def test_each_output_that_would_not_be_finite_is_named(motion):
     s = f.slave
     out = s._outputs_at(s._state, s._time)
     names = _names(out, motion)
-    assert len(names) == 29 and len(set(names)) == 29
+    assert len(names) == 31 and len(set(names)) == 31
     good = dict(s._values(out))
     assert list(good) == names
     for name in names:

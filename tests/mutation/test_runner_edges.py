@@ -135,7 +135,7 @@ def test_an_fmu_that_does_not_instantiate_gives_its_library_back(native_models, 
     assert res.message == f"Exception: Failed to instantiate model {why}"
     assert res.messages == [{"time": 0.0, "instance": "drive", "status": "error", "category": "logStatusError",
                              "message": why}]
-    assert len(fmucache._idle[fmucache.digest(native_fmus["MotorStartup"])]) == 1
+    assert len(fmucache._idle[(fmucache.digest(native_fmus["MotorStartup"]), "cs")]) == 1
 
 
 def test_an_input_the_fmu_refuses_to_take_stops_the_run(native_models, native_fmus):

@@ -76,7 +76,7 @@ def test_record_get_unknown_variable_names_what_is_recorded():
         rec.get("ball.nothing")
     assert e.value.args[0] == (
         "no recorded variable 'ball.nothing' (recorded: ball.N, ball.friction_ratio, ball.xC, ball.xP, "
-        "ball.yC, ball.yP, ball.zC, ball.zP, ball.rhoP, ball.theta_deg)")
+        "ball.yC, ball.yP, ball.zC, ball.zP, ball.rhoP, ball.theta_deg, ball.slip_margin)")
     # the derived names belong to the record's ball instance only
     with pytest.raises(KeyError):
         rec.get("other.rhoP")
