@@ -304,11 +304,13 @@ class Scratch:
             if not ok:
                 return False, out
         natives = [b.split(":", 1)[1] for b in builds if b.startswith("native:")]
+        natives3 = [b.split(":", 1)[1] for b in builds if b.startswith("native3:")]
         code = ("import sys; from pathlib import Path; from ballmill.fmi import native, build; "
                 "d = Path(sys.argv[1]); [native.build_native(n, d) for n in sys.argv[2].split(',') if n]; "
+                "[native.build_native(n, d / 'fmi3', fmi=3) for n in sys.argv[4].split(',') if n]; "
                 "[build.build_one(s, d) for s in build.scripts()] if sys.argv[3] == '1' else None")
         rc, out = sh([sys.executable, "-c", code, str(self.fmus), ",".join(natives),
-                      "1" if "pythonfmu" in builds else "0"], cwd=self.tree, env=self.env())
+                      "1" if "pythonfmu" in builds else "0", ",".join(natives3)], cwd=self.tree, env=self.env())
         return rc == 0, out
 
     def restore(self, rel: str, builds: list[str]) -> None:
@@ -322,6 +324,9 @@ class Scratch:
             if b.startswith("native:"):
                 name = b.split(":", 1)[1]
                 shutil.copy2(self.ref / f"{name}.fmu", self.fmus / f"{name}.fmu")
+            elif b.startswith("native3:"):
+                name = b.split(":", 1)[1]
+                shutil.copy2(self.ref / "fmi3" / f"{name}.fmu", self.fmus / "fmi3" / f"{name}.fmu")
             elif b == "pythonfmu":
                 shutil.rmtree(self.fmus / "pythonfmu")
                 shutil.copytree(self.ref / "pythonfmu", self.fmus / "pythonfmu")
