@@ -17,15 +17,10 @@ the split of timing.json.
 """
 from __future__ import annotations
 
-import json
 import os
-import resource
 import shutil
 import statistics
-import subprocess
-import sys
 import tempfile
-import time
 from pathlib import Path
 
 from .report import splice_section
@@ -35,23 +30,6 @@ COMMANDS = (("NSGA-II 40 x 25 (optimize_fast_start)", ["optimize", "optimize_fas
             ("Sobol, 5 parameters, N = 1024 (sensitivity_fast_start)", ["sensitivity", "sensitivity_fast_start"],
              7168))
 GOAL_S = 20.0
-
-
-def _children_cpu() -> float:
-    r = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return r.ru_utime + r.ru_stime
-
-
-def _run(args: list[str], out: Path, env: dict) -> dict:
-    shutil.rmtree(out, ignore_errors=True)
-    cmd = [sys.executable, "-m", "ballmill.cli", *args, "--out", str(out), "--quiet"]
-    c0, t0 = _children_cpu(), time.perf_counter()
-    res = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=out.parent)
-    wall, cpu = time.perf_counter() - t0, _children_cpu() - c0
-    if res.returncode != 0:
-        raise RuntimeError(f"{' '.join(cmd)} failed ({res.returncode}): {res.stderr[-2000:]}")
-    timing = json.loads((out / "timing.json").read_text())
-    return {"wall": wall, "cpu": cpu, "timing": timing}
 
 
 def measure(repeats: int, progress=print) -> dict:
@@ -65,7 +43,7 @@ def measure(repeats: int, progress=print) -> dict:
         for k in range(repeats):
             for label, args, _ in COMMANDS:
                 progress(f"design: round {k + 1}/{repeats}: {label}")
-                data["runs"].setdefault(label, []).append(_run(args, work / "out", env))
+                data["runs"].setdefault(label, []).append(machine.whole_command(args, work / "out", env))
     finally:
         shutil.rmtree(work, ignore_errors=True)
     data["load_end"] = machine.load()

@@ -61,3 +61,26 @@ def load():
         return os.getloadavg()
     except (AttributeError, OSError):
         return None
+
+
+def whole_command(args: list[str], out: Path, env: dict) -> dict:
+    """`python -m ballmill.cli ARGS --out OUT --quiet` once, as a fresh process: its wall and CPU
+    time (its own and its children's: Dask's workers), its stdout and the timing.json it wrote.
+    It runs in out's parent folder, so that ``python -m`` finds ballmill on env's PYTHONPATH
+    (not in the current folder, which ``-m`` would search first)."""
+    import json
+    import resource
+    import time
+
+    def children_cpu() -> float:
+        r = resource.getrusage(resource.RUSAGE_CHILDREN)
+        return r.ru_utime + r.ru_stime
+
+    shutil.rmtree(out, ignore_errors=True)
+    cmd = [sys.executable, "-m", "ballmill.cli", *args, "--out", str(out), "--quiet"]
+    c0, t0 = children_cpu(), time.perf_counter()
+    res = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=out.parent)
+    wall, cpu = time.perf_counter() - t0, children_cpu() - c0
+    if res.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed ({res.returncode}): {res.stderr[-2000:]}")
+    return {"wall": wall, "cpu": cpu, "stdout": res.stdout, "timing": json.loads((out / "timing.json").read_text())}

@@ -26,13 +26,11 @@ from __future__ import annotations
 
 import json
 import os
-import resource
 import shutil
 import statistics
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 from .report import splice_section
@@ -43,26 +41,14 @@ VARIANTS = (("one-pass (default)", []), ("--error richardson", ["--error", "rich
             ("--error richardson --scheduler local", ["--error", "richardson", "--scheduler", "local"]))
 
 
-def _children_cpu() -> float:
-    r = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return r.ru_utime + r.ru_stime
-
-
 def _run(args: list[str], out: Path, env: dict) -> dict:
-    """The whole command once: wall and CPU time (its own and its children's), its summary.
-    It runs in out's parent folder, so that ``python -m`` finds ballmill on env's PYTHONPATH
-    (not in the current folder, which ``-m`` would search first)."""
-    shutil.rmtree(out, ignore_errors=True)
-    cmd = [sys.executable, "-m", "ballmill.cli", "sweep", *GRID, *args, "--out", str(out), "--quiet"]
-    c0, t0 = _children_cpu(), time.perf_counter()
-    res = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=out.parent)
-    wall, cpu = time.perf_counter() - t0, _children_cpu() - c0
-    if res.returncode != 0:
-        raise RuntimeError(f"{' '.join(cmd)} failed ({res.returncode}): {res.stderr[-2000:]}")
-    js = json.loads(res.stdout)
-    timing = json.loads((out / "timing.json").read_text())
-    return {"wall": wall, "cpu": cpu, "points": js["points"], "plots": len(js["plots"]), "timing": timing,
-            "executor": js["executor"]}
+    """The whole sweep command once (machine.whole_command): wall and CPU time, its summary."""
+    from .machine import whole_command
+
+    r = whole_command(["sweep", *GRID, *args], out, env)
+    js = json.loads(r["stdout"])
+    return {"wall": r["wall"], "cpu": r["cpu"], "points": js["points"], "plots": len(js["plots"]),
+            "timing": r["timing"], "executor": js["executor"]}
 
 
 def _baseline(root: Path, ref: str, work: Path) -> tuple[Path, str]:
