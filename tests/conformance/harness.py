@@ -54,26 +54,22 @@ class Fmu:
         return " | ".join(m for _, m in self.log[since:])
 
     # -- variables ------------------------------------------------------------
+    # FMI type -> the suffix of fmpy's set/get method and the Python type it takes
+    TYPES = {"Real": ("Real", float), "Integer": ("Integer", int), "Boolean": ("Boolean", bool)}
+
     def set(self, **values) -> int:
         worst = OK
         for name, value in values.items():
             v = self.vars[name]
-            if v.type == "Real":
-                st, _ = self._status(self.fmu.setReal, [v.valueReference], [float(value)])
-            elif v.type == "Integer":
-                st, _ = self._status(self.fmu.setInteger, [v.valueReference], [int(value)])
-            else:
-                st, _ = self._status(self.fmu.setBoolean, [v.valueReference], [bool(value)])
+            suffix, kind = self.TYPES[v.type]
+            st, _ = self._status(getattr(self.fmu, "set" + suffix), [v.valueReference], [kind(value)])
             worst = max(worst, st)
         return worst
 
     def get(self, name):
         v = self.vars[name]
-        if v.type == "Real":
-            return self.fmu.getReal([v.valueReference])[0]
-        if v.type == "Integer":
-            return self.fmu.getInteger([v.valueReference])[0]
-        return bool(self.fmu.getBoolean([v.valueReference])[0])
+        suffix, kind = self.TYPES[v.type]
+        return kind(getattr(self.fmu, "get" + suffix)([v.valueReference])[0])
 
     def outputs(self):
         return {n: self.get(n) for n, v in self.vars.items() if v.causality == "output"}
@@ -132,13 +128,14 @@ def finite(values) -> bool:
     return all(math.isfinite(v) for v in values if isinstance(v, float))
 
 
-class Fmu3:
+class Fmu3(Fmu):
     """The same driver on an FMI 3.0 archive (fmpy's FMU3Model for ``interface="me"``, else
     FMU3Slave): `call` takes FMI 2.0's function names and calls FMI 3.0's counterpart, so that
     one test runs on both versions; messages name FMI 3.0's functions and states."""
 
     NAMES = {"getDerivatives": "getContinuousStateDerivatives", "newDiscreteStates": "updateDiscreteStates",
              "getReal": "getFloat64"}
+    TYPES = {"Float64": ("Float64", float), "Int32": ("Int32", int), "Boolean": ("Boolean", bool)}
 
     def __init__(self, path, name, interface="cs", **parameters):
         from fmpy.fmi3 import FMU3Model, FMU3Slave
@@ -169,54 +166,9 @@ class Fmu3:
     def call(self, name, *args):
         return self._status(getattr(self.fmu, self.NAMES.get(name, name)), *args)
 
-    def messages(self, since=0):
-        return " | ".join(m for _, m in self.log[since:])
-
-    def set(self, **values) -> int:
-        worst = OK
-        for name, value in values.items():
-            v = self.vars[name]
-            if v.type == "Float64":
-                st, _ = self._status(self.fmu.setFloat64, [v.valueReference], [float(value)])
-            elif v.type == "Int32":
-                st, _ = self._status(self.fmu.setInt32, [v.valueReference], [int(value)])
-            else:
-                st, _ = self._status(self.fmu.setBoolean, [v.valueReference], [bool(value)])
-            worst = max(worst, st)
-        return worst
-
-    def get(self, name):
-        v = self.vars[name]
-        if v.type == "Float64":
-            return self.fmu.getFloat64([v.valueReference])[0]
-        if v.type == "Int32":
-            return self.fmu.getInt32([v.valueReference])[0]
-        return bool(self.fmu.getBoolean([v.valueReference])[0])
-
-    def outputs(self):
-        return {n: self.get(n) for n, v in self.vars.items() if v.causality == "output"}
-
     def init(self, start=0.0) -> int:
         self.time = start
         st, _ = self._status(self.fmu.enterInitializationMode, None, start)
         if st:
             return st
         return self._status(self.fmu.exitInitializationMode)[0]
-
-    def get_state(self):
-        return self.fmu.getFMUState()
-
-    def set_state(self, state) -> int:
-        return self._status(self.fmu.setFMUState, state)[0]
-
-    def serialize(self, state) -> bytes:
-        return bytes(self.fmu.serializeFMUState(state))
-
-    def deserialize(self, blob: bytes):
-        return self._status(self.fmu.deserializeFMUState, bytes(blob))
-
-    def free(self):
-        try:
-            self.fmu.freeInstance()
-        finally:
-            shutil.rmtree(self.unzipdir, ignore_errors=True)
