@@ -120,12 +120,19 @@ def generate(rel: str, gen: Path) -> list[dict]:
     out = gen / f"{rel.replace('/', '_')}-{digest}"
     done = out / "DONE"
     if not done.exists():
-        shutil.rmtree(out, ignore_errors=True)
-        out.mkdir(parents=True)
-        code, log = sh(["mutate", str(src), "c", "--noCheck", "--mutantDir", str(out)])
+        # shards share gen/: each generates into its own folder and renames it into place
+        # (atomic); a shard that loses the race keeps the winner's identical mutants
+        tmp = out.with_name(f"{out.name}.tmp{os.getpid()}")
+        shutil.rmtree(tmp, ignore_errors=True)
+        tmp.mkdir(parents=True)
+        code, log = sh(["mutate", str(src), "c", "--noCheck", "--mutantDir", str(tmp)])
         if code != 0:
             raise SystemExit(f"universalmutator failed on {rel} (exit {code}):\n{log[-2000:]}")
-        done.write_text(log)
+        (tmp / "DONE").write_text(log)
+        try:
+            tmp.rename(out)
+        except OSError:  # another shard's folder is there first
+            shutil.rmtree(tmp, ignore_errors=True)
     listing = out / "mutants.json"
     if listing.exists():
         return json.loads(listing.read_text())
@@ -147,7 +154,9 @@ def generate(rel: str, gen: Path) -> list[dict]:
                             before="\n".join(original[i1:i2]), after="\n".join(lines[j1:j2]),
                             path=str(path)))
     mutants.sort(key=lambda m: int(m["id"].rsplit(":", 1)[1]))
-    listing.write_text(json.dumps(mutants))
+    part = listing.with_name(f"mutants.json.tmp{os.getpid()}")
+    part.write_text(json.dumps(mutants))
+    part.replace(listing)
     return mutants
 
 
