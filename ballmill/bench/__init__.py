@@ -41,6 +41,7 @@ does not replace the published BENCHMARKS.md.
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 import time
 from pathlib import Path
@@ -54,6 +55,31 @@ def _default_root() -> Path:
     if (here / "pyproject.toml").exists() and (here / "ballmill").is_dir():
         return here
     return Path.cwd()
+
+
+# The report's sections after the headline comparison, in the order `--section all` runs them:
+# name -> (module in this package, what it measures, how its run_section is called). Each
+# module is imported only when its section runs, and splices its part into the same report.
+SECTIONS = {
+    "studies": ("studies", "the design studies",
+                lambda m, out, a, root, progress: m.run_section(out, a.quick, progress)),
+    "absorber": ("absorber", "the absorber co-simulation",
+                 lambda m, out, a, root, progress: m.run_section(out, a.quick, progress)),
+    "startup": ("startup", "what a command costs before and around its run",
+                lambda m, out, a, root, progress: m.run_section(out, a.quick, progress, a.baseline)),
+    "sweep-grid": ("sweep_grid", "the whole sweep command on the 4000-point grid, A/B",
+                   lambda m, out, a, root, progress: m.run_section(
+                       out, a.repeats or (3 if a.quick else 5), a.baseline, root, progress)),
+    "hybrid": ("hybrid", "the hybrid ball on the event-driven driver, next to the rolling scene",
+               lambda m, out, a, root, progress: m.run_section(out, a.quick, progress)),
+    "design": ("design", "NSGA-II 40 x 25 and Sobol N = 1024 over 5 parameters, whole commands",
+               lambda m, out, a, root, progress: m.run_section(out, a.repeats or (1 if a.quick else 3),
+                                                               progress)),
+    "me": ("model_exchange", "the coupled fast start as one ODE through --interface me against "
+           "co-simulation, one ME derivative call against the kernel's right-hand side",
+           lambda m, out, a, root, progress: m.run_section(out, a.quick, a.repeats, progress)),
+}
+
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -81,19 +107,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--cc", default="gcc", help="C compiler for the compiled peer (default gcc)")
     p.add_argument("--no-compiled", action="store_true", help="skip the compiled (C) peer")
     p.add_argument("--debug", action="store_true", help="show the traceback when a benchmark fails")
-    p.add_argument("--section", choices=("all", "studies", "absorber", "startup", "sweep-grid", "hybrid",
-                                         "design", "me"),
-                   default="all",
-                   help="'studies': run only the design-study section (ballmill/bench/studies.py), "
-                        "'absorber': only the absorber co-simulation section (ballmill/bench/absorber.py), "
-                        "'startup': only the command start-up section (ballmill/bench/startup.py), "
-                        "'sweep-grid': only the 4000-point sweep command A/B (ballmill/bench/sweep_grid.py), "
-                        "'hybrid': only the hybrid ball's costs on the event-driven driver (ballmill/bench/hybrid.py), "
-                        "'design': only the optimize and sensitivity commands (ballmill/bench/design.py), "
-                        "'me': only the Model Exchange section (ballmill/bench/model_exchange.py: the coupled "
-                        "fast start through --interface me against co-simulation, one ME derivative call against "
-                        "the kernel's right-hand side), and "
-                        "splice it into the report (default: all sections)")
+    p.add_argument("--section", choices=("all", *SECTIONS), default="all",
+                   help="run only one section and splice it into the report (default: all sections): "
+                        + "; ".join(f"'{name}': {what} (ballmill/bench/{module}.py)"
+                                    for name, (module, what, _) in SECTIONS.items()))
     p.add_argument("--baseline", metavar="REF",
                    help="sweep-grid: also time the command with the code of git revision REF (git archive of "
                         "the repository at --root, its kernel built beside it); startup: compare with REF "
@@ -143,28 +160,10 @@ def main(argv=None) -> int:
         if args.section == "all":
             run(cfg, root=root, out=Path(out).resolve(), figures=Path(figures).resolve(),
                 work=work, progress=progress)
-        if args.section in ("all", "studies"):
-            from . import studies  # the design-study section, spliced into the same report
-            studies.run_section(Path(out).resolve(), args.quick, progress)
-        if args.section in ("all", "absorber"):
-            from . import absorber  # the absorber co-simulation section, likewise
-            absorber.run_section(Path(out).resolve(), args.quick, progress)
-        if args.section in ("all", "startup"):
-            from . import startup  # what a command costs before and around its run, likewise
-            startup.run_section(Path(out).resolve(), args.quick, progress, args.baseline)
-        if args.section in ("all", "sweep-grid"):
-            from . import sweep_grid  # the whole sweep command on the 4000-point grid, A/B
-            sweep_grid.run_section(Path(out).resolve(), args.repeats or (3 if args.quick else 5), args.baseline,
-                                   root, progress)
-        if args.section in ("all", "hybrid"):
-            from . import hybrid  # the hybrid ball on the event-driven driver, next to the rolling scene
-            hybrid.run_section(Path(out).resolve(), args.quick, progress)
-        if args.section in ("all", "design"):
-            from . import design  # NSGA-II 40 x 25 and Sobol N = 1024 over 5 parameters, whole commands
-            design.run_section(Path(out).resolve(), args.repeats or (1 if args.quick else 3), progress)
-        if args.section in ("all", "me"):
-            from . import model_exchange  # the coupled fast start as one ODE, likewise
-            model_exchange.run_section(Path(out).resolve(), args.quick, args.repeats, progress)
+        for name, (module, _, run_section) in SECTIONS.items():
+            if args.section in ("all", name):
+                run_section(importlib.import_module(f".{module}", __name__), Path(out).resolve(), args, root,
+                            progress)
     except KeyboardInterrupt:
         print("ballmill bench: interrupted", file=sys.stderr)
         return 130
