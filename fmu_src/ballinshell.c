@@ -1466,7 +1466,13 @@ static fmi2Status me_start(fmu_instance *fi, void *data, double *v, double t)
                  "got formulation = %d, motion = %d, input_mode = %d (input_mode 2 differentiates positions and "
                  "3 holds the inputs over a communication step: co-simulation only)",
                  b->P.form == BM_VECTOR ? 1 : 2, b->motion, b->mode);
-        return init_error(fi, msg, "");
+        if (fmu_is_me(fi)) return init_error(fi, msg, "");
+        /* co-simulation reads its Model Exchange variables (n_x .. w_z, their derivatives,
+         * z_contact, z_rolling) through this check: they exist where Model Exchange does */
+        fmu_log(fi, fmi2Error, "BallInShell '%s': the Model Exchange variables (n_x .. w_z, der(n_x) .. "
+                "der(w_z), z_contact, z_rolling) exist only in the configurations Model Exchange runs: %s",
+                fmu_instance_name(fi), msg);
+        return fmi2Error;
     }
     for (int i = 0; i < 6; i++) v[ME_STATES[i]] = b->state.y[i];
     return fmi2OK;

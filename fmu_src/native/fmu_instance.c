@@ -38,7 +38,9 @@
  *     output or derivative: fmi2Error naming it, the last good values kept;
  *   - fmi2NewDiscreteStates runs the model's event update (the validity latch, the next
  *     time event); with no event pending it changes nothing;
- *   - reading a state or derivative in co-simulation: fmi2Error (they are Model Exchange's).
+ *   - reading a continuous state, derivative or event indicator in co-simulation: the value at the
+ *     co-simulation's own state (cs_locals), the same number Model Exchange gives at that time,
+ *     state and inputs.
  */
 #include <math.h>
 #include <stdarg.h>
@@ -165,6 +167,8 @@ int fmu_allowed(fmu_instance *fi, const char *function, int states)
 #define T_REL 1e-13
 
 #define ME_RUNNING (S_EVENT | S_CONT | S_TERMINATED) /* Model Exchange after initialisation */
+/* co-simulation after initialisation (a refused step keeps the last good state) */
+#define CS_RUNNING (S_STEP_COMPLETE | S_STEP_FAILED | S_EVENT | S_TERMINATED | S_ERROR)
 
 /* ------------------------------------------------------------------ set up */
 static void start_values(fmu_instance *fi)
@@ -295,6 +299,47 @@ static fmi2Status me_evaluate(fmu_instance *fi, const char *function)
     fi->z_work = tz;
     fi->dirty = 0;
     return fmi2OK;
+}
+
+/* Co-simulation: the Model Exchange variables (continuous states, derivatives, event
+ * indicators) that the model description publishes for both interfaces, from the
+ * co-simulation's own state: the model's `start` writes the continuous states its data holds
+ * (the state at the last communication point) into a copy of v, `eval` gives the derivatives
+ * there with the inputs as set now, and the event indicators: the numbers a Model Exchange
+ * instance gives at the same time, states and inputs. On the work copies (the result in
+ * v_work): the co-simulation's values and data stay as they are. A configuration Model
+ * Exchange does not support has none of these variables: fmi2Error after the model said why. */
+static fmi2Status cs_locals(fmu_instance *fi, const char *function, const unsigned int vr[], size_t nvr)
+{
+    const fmu_me *me = FMU_MODEL.me;
+    size_t nv = (size_t)FMU_MODEL.n_vars * sizeof(double);
+    const char *name = FMU_MODEL.vars[vr[0]].name;
+    for (size_t i = 0; i < nvr; i++)
+        if (FMU_MODEL.vars[vr[i]].causality == FMU_LOCAL) {
+            name = FMU_MODEL.vars[vr[i]].name;
+            break;
+        }
+    fmi2Status s = fmi2Error;
+    if (me) {
+        memcpy(fi->v_work, fi->v, nv);
+        memcpy(fi->data_work, fi->data, FMU_MODEL.data_size);
+        s = me->start(fi, fi->data_work, fi->v_work, fi->t);
+        if (s <= fmi2Warning) s = me->eval(fi, fi->data_work, fi->v_work, fi->t, fi->z_work);
+        memcpy(fi->data_work, fi->data, FMU_MODEL.data_size); /* keep the copies equal */
+        for (int i = 0; s <= fmi2Warning && i < me->n_indicators; i++) fi->v_work[me->indicator_vr[i]] = fi->z_work[i];
+        for (size_t i = 0; s <= fmi2Warning && i < nvr; i++)
+            if (FMU_MODEL.vars[vr[i]].causality == FMU_LOCAL && !isfinite(fi->v_work[vr[i]])) {
+                char a[32], b[32];
+                fmu_log(fi, fmi2Error, "%s '%s': %s: %s would be %s at t = %s s", FMU_MODEL.identifier, fi->name,
+                        function, FMU_MODEL.vars[vr[i]].name, fmu_repr(fi->v_work[vr[i]], a), fmu_repr(fi->t, b));
+                s = fmi2Error;
+            }
+    }
+    if (s <= fmi2Warning) return fmi2OK;
+    fmu_log(fi, fmi2Error, "%s '%s': %s: %s refused: this co-simulation instance could not evaluate its Model "
+            "Exchange variables at t = %.17g s (see the message before)", FMU_MODEL.identifier, fi->name, function,
+            name, fi->t);
+    return fmi2Error;
 }
 
 /* ------------------------------------------------------------------ life cycle */
@@ -463,18 +508,26 @@ fmi2Status fmu_get(fmu_instance *fi, const char *function, const unsigned int vr
     if (nvr && (!vr || !out)) return fmi2Error;
     for (size_t i = 0; i < nvr; i++)
         if (check_vr(fi, function, vr[i], type) != fmi2OK) return fmi2Error;
+    int local = 0;
     for (size_t i = 0; i < nvr; i++) {
         const fmu_variable *var = &FMU_MODEL.vars[vr[i]];
-        if (var->causality != FMU_LOCAL || (fi->me && (fi->state & ME_RUNNING))) continue;
-        fmu_log(fi, fmi2Error, "%s '%s': %s: %s is a Model Exchange variable (a continuous state or its "
-                "derivative): %s", FMU_MODEL.identifier, fi->name, function, var->name,
-                fi->me ? "it is known at the end of initialisation"
-                       : "co-simulation does not compute it; read the outputs");
+        if (var->causality != FMU_LOCAL) continue;
+        local = 1;
+        if (fi->built && (fi->state & (fi->me ? ME_RUNNING : CS_RUNNING))) continue;
+        fmu_log(fi, fmi2Error, "%s '%s': %s: %s is a Model Exchange variable (a continuous state, its "
+                "derivative or an event indicator): it is known from the end of initialisation on, not in "
+                "state %s", FMU_MODEL.identifier, fi->name, function, var->name, fmu_state_name(fi, fi->state));
         return fmi2Error;
     }
     if (fi->state == S_INIT && build(fi, FMU_SETUP_PREVIEW) > fmi2Warning) /* outputs consistent with the inputs set so far */
         return fmi2Error;
     if (fi->me && (fi->state & ME_RUNNING) && me_evaluate(fi, function) != fmi2OK) return fmi2Error;
+    if (!fi->me && local) { /* co-simulation: the Model Exchange variables of its own state */
+        if (cs_locals(fi, function, vr, nvr) != fmi2OK) return fmi2Error;
+        for (size_t i = 0; i < nvr; i++)
+            out[i] = FMU_MODEL.vars[vr[i]].causality == FMU_LOCAL ? fi->v_work[vr[i]] : fi->v[vr[i]];
+        return fmi2OK;
+    }
     for (size_t i = 0; i < nvr; i++) out[i] = fi->v[vr[i]];
     return fmi2OK;
 }
