@@ -1524,7 +1524,7 @@ static fmi2Status me_event(fmu_instance *fi, void *data, double *v, double t, fm
 
 static const fmu_me ME = {
     FMU_N_STATES, FMU_N_INDICATORS, FMU_STATE_VRS, FMU_DERIVATIVE_VRS, FMU_STATE_NOMINALS, FMU_INDICATOR_VRS,
-    me_start, me_eval, me_event,
+    me_start, me_eval, me_event, NULL,
 };
 
 const fmu_model FMU_MODEL = {

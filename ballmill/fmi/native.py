@@ -312,7 +312,7 @@ def model_description_fmi3(interface: Interface, token: str) -> str:
         SubElement(root, "ModelExchange", dict(common, needsCompletedIntegratorStep="false"))
     SubElement(root, "CoSimulation", dict(
         common, canHandleVariableCommunicationStepSize="true", maxOutputDerivativeOrder="0",
-        providesIntermediateUpdate="false", mightReturnEarlyFromDoStep="false",
+        providesIntermediateUpdate="false", mightReturnEarlyFromDoStep="true",
         canReturnEarlyAfterIntermediateUpdate="false", hasEventMode="true",
         providesEvaluateDiscreteStates="false"))
     _units_categories_experiment(root, interface, variables)

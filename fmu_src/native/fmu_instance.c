@@ -112,6 +112,14 @@ void fmu_log(fmu_instance *fi, fmi2Status status, const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
+    if (fi->holding) { /* emitted later (step_to_event), or dropped with the trial step */
+        if (fi->n_held < (int)(sizeof fi->held / sizeof fi->held[0])) {
+            fi->held[fi->n_held].status = status;
+            snprintf(fi->held[fi->n_held].text, sizeof fi->held[0].text, "%s", msg);
+            fi->n_held++;
+        }
+        return;
+    }
     /* the host's logger takes the message as a printf format: '%' travels as "%%" */
     size_t j = 0;
     for (size_t i = 0; msg[i] && j + 2 < sizeof esc; i++) {
@@ -596,6 +604,68 @@ fmi2Status fmu_set(fmu_instance *fi, const char *function, const unsigned int vr
 
 
 /* ------------------------------------------------------------------ stepping */
+/* one step from the committed state (fi->t) to t_end on the work copies: the model's step and
+ * the check of its outputs. The configuration part of the data is the same in both copies
+ * (build and fmi2SetFMUstate write both), so only the dynamic part is copied. */
+static fmi2Status try_step(fmu_instance *fi, double t_end)
+{
+    size_t nv = (size_t)FMU_MODEL.n_vars * sizeof(double);
+    memcpy(fi->v_work, fi->v, nv);
+    memcpy(fi->data_work + FMU_MODEL.dyn_offset, fi->data + FMU_MODEL.dyn_offset,
+           FMU_MODEL.data_size - FMU_MODEL.dyn_offset);
+    fmi2Status s = FMU_MODEL.step(fi, fi->data_work, fi->v_work, fi->t, t_end);
+    if (s <= fmi2Warning && check_outputs(fi, fi->v_work, t_end) != fmi2OK) s = fmi2Discard;
+    return s;
+}
+
+/* the step on the work copies changed a Boolean output (validity, contact, rolling): an event */
+static int boolean_changed(const fmu_instance *fi)
+{
+    for (int i = 0; i < FMU_MODEL.n_vars; i++)
+        if (FMU_MODEL.vars[i].causality == FMU_OUTPUT && FMU_MODEL.vars[i].type == FMU_BOOLEAN &&
+            fi->v[i] != fi->v_work[i])
+            return 1;
+    return 0;
+}
+
+/* the located event time: within T_EVENT max(1 s, |t|) after the last step end without it */
+#define T_EVENT 1e-12
+
+/* FMI 3 early return: the step to *t_end, ended at the first event in it instead: a time event
+ * (the model's next_time), else where a Boolean output changes, located by bisection over the
+ * step's end: each trial is a step from the committed state to a shorter end, as if the master
+ * had asked for it, and the step kept is the shortest one with the change. Only the kept step's
+ * messages reach the host. Without an event the step is the one without early return. */
+static fmi2Status step_to_event(fmu_instance *fi, double *t_end)
+{
+    const double t = fi->t, tol = T_EVENT * fmax(1.0, fabs(*t_end));
+    double hi = *t_end;
+    if (FMU_MODEL.me && FMU_MODEL.me->next_time) {
+        double next = FMU_MODEL.me->next_time(fi->data, t);
+        if (next > t + tol && next < hi - tol) hi = next;
+    }
+    fi->holding = 1;
+    fi->n_held = 0;
+    fmi2Status s = try_step(fi, hi);
+    if (s <= fmi2Warning && boolean_changed(fi)) {
+        double lo = t;
+        while (hi - lo > tol) {
+            double mid = lo + 0.5 * (hi - lo);
+            fi->n_held = 0;
+            fmi2Status m = try_step(fi, mid);
+            if (m > fmi2Warning) break; /* a shorter step failed: keep the longer one found */
+            if (boolean_changed(fi)) hi = mid; else lo = mid;
+        }
+        fi->n_held = 0;
+        s = try_step(fi, hi);
+    }
+    fi->holding = 0;
+    for (int i = 0; i < fi->n_held; i++) fmu_log(fi, fi->held[i].status, "%s", fi->held[i].text);
+    fi->n_held = 0;
+    *t_end = hi;
+    return s;
+}
+
 fmi2Status fmu_do_step(fmu_instance *fi, const char *fn, double currentCommunicationPoint,
                        double communicationStepSize)
 {
@@ -626,22 +696,17 @@ fmi2Status fmu_do_step(fmu_instance *fi, const char *fn, double currentCommunica
                 "state unchanged", FMU_MODEL.identifier, fi->name, fn, fmu_repr(t_end, a), fmu_repr(fi->t, b));
         return fmi2Error;
     }
-    /* the step runs on the work copies; the configuration part of the data is the same in
-     * both (build and fmi2SetFMUstate write both), so only the dynamic part is copied */
-    size_t nv = (size_t)FMU_MODEL.n_vars * sizeof(double);
-    memcpy(fi->v_work, fi->v, nv);
-    memcpy(fi->data_work + FMU_MODEL.dyn_offset, fi->data + FMU_MODEL.dyn_offset,
-           FMU_MODEL.data_size - FMU_MODEL.dyn_offset);
     fi->call_t = t;
     fi->call_h = h;
-    /* from the FMU's time to the master's end of the step (slave.Slave.do_step) */
-    fmi2Status s = FMU_MODEL.step(fi, fi->data_work, fi->v_work, fi->t, t_end);
-    if (s <= fmi2Warning && check_outputs(fi, fi->v_work, t_end) != fmi2OK) s = fmi2Discard;
+    fi->returned_early = 0;
+    /* from the FMU's time to the master's end of the step (slave.Slave.do_step), or, when the
+     * importer allows early return, to the first event in it */
+    double t_stop = t_end;
+    fmi2Status s = fi->cs_early_return ? step_to_event(fi, &t_stop) : try_step(fi, t_end);
     if (s > fmi2Warning) return s == fmi2Discard ? fmi2Discard : fmi2Error; /* the last good state stays */
-    fi->step_event = 0; /* a Boolean output changed: an event FMI 3's event mode reports */
-    for (int i = 0; i < FMU_MODEL.n_vars && !fi->step_event; i++)
-        fi->step_event = FMU_MODEL.vars[i].causality == FMU_OUTPUT && FMU_MODEL.vars[i].type == FMU_BOOLEAN &&
-                         fi->v[i] != fi->v_work[i];
+    fi->step_event = boolean_changed(fi) || t_stop < t_end; /* an event FMI 3's event mode reports */
+    fi->returned_early = t_stop < t_end;
+    t_end = t_stop;
     double *tv = fi->v;
     fi->v = fi->v_work;
     fi->v_work = tv;
@@ -838,8 +903,13 @@ fmi2Status fmu_update_discrete_states(fmu_instance *fi, const char *fn, fmu_even
     size_t nv = (size_t)FMU_MODEL.n_vars * sizeof(double);
     memcpy(fi->v_work, fi->v, nv);
     fmu_event ev = {0, 0, 0, 0.0};
-    fmi2Status s = FMU_MODEL.me->event(fi, fi->data, fi->v_work, fi->t, &ev);
+    fmi2Status s = FMU_MODEL.me->event ? FMU_MODEL.me->event(fi, fi->data, fi->v_work, fi->t, &ev) : fmi2OK;
     if (s > fmi2Warning) return fmi2Error;
+    double next = FMU_MODEL.me->next_time ? FMU_MODEL.me->next_time(fi->data, fi->t) : INFINITY;
+    if (isfinite(next)) {
+        ev.next_time_defined = 1;
+        ev.next_time = next;
+    }
     double *tv = fi->v;
     fi->v = fi->v_work;
     fi->v_work = tv;
