@@ -913,7 +913,7 @@ fmi2Status fmu_update_discrete_states(fmu_instance *fi, const char *fn, fmu_even
     double *tv = fi->v;
     fi->v = fi->v_work;
     fi->v_work = tv;
-    if (ev.states_changed) fi->dirty = 1;
+    fi->dirty = 1; /* the discrete state may have changed (the indicators' hysteresis side): evaluate again */
     fi->t_accepted = fi->t;
     *info = ev; /* one update settles every event of these models */
     return s;

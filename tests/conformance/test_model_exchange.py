@@ -307,3 +307,51 @@ def test_a_non_finite_input_is_refused_at_the_next_read(me_paths, version, model
         assert f.outputs() == good
     finally:
         f.free()
+
+
+def test_event_indicators_have_hysteresis_so_a_restart_at_the_root_does_not_retrigger():
+    """The ball spun at wy0 = -20 rad/s begins to slip (mu = 0.1): an importer (scipy's
+    solve_ivp on the FMU's derivatives) locates the root of the slip indicator, handles the event
+    there and restarts at that very state. The indicator carries the hysteresis the FMI standard
+    recommends: before the event it is mu N - |F_t| + eps (so its root lies eps past the boundary,
+    where the ball does slip), after the event update mu N - |F_t| - eps, clearly negative: no
+    second crossing at the restart. eps = 1e-10 m g (the ball's weight)."""
+    from scipy.integrate import solve_ivp
+    from ballmill.physics.params import Ball
+    f = _running(_native_paths()["BallInShell"], wy0=-20.0, mu=0.1)
+    try:
+        eps = 1e-10 * Ball().m * Ball().g
+        x, dx, z = np.zeros(6), np.zeros(6), np.zeros(2)
+
+        def at(t, y):
+            x[:] = y
+            assert f.call("setTime", t)[0] == OK
+            assert f.call("setContinuousStates", _ptr(x), 6)[0] == OK
+
+        def rhs(t, y):
+            at(t, y)
+            f.call("getDerivatives", _ptr(dx), 6)
+            return dx.copy()
+
+        def slip(t, y):
+            at(t, y)
+            f.call("getEventIndicators", _ptr(z), 2)
+            return z[1]
+        slip.terminal = True
+        sol = solve_ivp(rhs, (0.0, 0.3), _states(f), method="DOP853", rtol=1e-10, atol=1e-12, events=slip)
+        (t_root,), (y_root,) = sol.t_events[0], sol.y_events[0]
+        assert 0.188 < t_root < 0.189
+        at(t_root, y_root)
+        raw = 0.1 * f.get("N") - f.get("Ft")
+        assert slip(t_root, y_root) == pytest.approx(raw + eps, abs=1e-15)
+        assert abs(raw + eps) < 1e-3 * eps  # the root: eps past the boundary
+        assert f.call("enterEventMode")[0] == OK and f.call("newDiscreteStates")[0] == OK
+        assert f.call("enterContinuousTimeMode")[0] == OK
+        assert not f.get("valid") and f.get("t_invalid") == t_root
+        after = slip(t_root, y_root)
+        assert after == pytest.approx(raw - eps, abs=1e-15) and after < -1.9 * eps
+        # the contact indicator is on its own side, shifted the other way (N > 0: no event)
+        f.call("getEventIndicators", _ptr(z), 2)
+        assert z[0] == pytest.approx(f.get("N") + eps, abs=1e-15)
+    finally:
+        f.free()
