@@ -1467,14 +1467,25 @@ static const int ME_STATES[6] = {VR_n_x, VR_n_y, VR_n_z, VR_w_x, VR_w_y, VR_w_z}
 static fmi2Status me_start(fmu_instance *fi, void *data, double *v, double t)
 {
     ball_in_shell *b = data;
-    char msg[512];
+    char msg[768];
     (void)t;
     if (b->P.form != BM_VECTOR || b->motion != 1 || (b->mode != 1 && b->mode != 4)) {
-        snprintf(msg, sizeof msg, "Model Exchange integrates the vector formulation of a translating chamber from "
-                 "the acceleration inputs as set: it needs formulation = 1, motion = 1 and input_mode = 1 or 4, "
-                 "got formulation = %d, motion = %d, input_mode = %d (input_mode 2 differentiates positions and "
-                 "3 holds the inputs over a communication step: co-simulation only)",
-                 b->P.form == BM_VECTOR ? 1 : 2, b->motion, b->mode);
+        /* each unsupported parameter with its value and what is supported */
+        size_t n = 0;
+        if (b->P.form != BM_VECTOR)
+            n += (size_t)snprintf(msg + n, sizeof msg - n, "formulation = 2 (supported: formulation = 1, the vector "
+                                  "formulation); ");
+        if (b->motion != 1)
+            n += (size_t)snprintf(msg + n, sizeof msg - n, "motion = %d (supported: motion = 1, a translating "
+                                  "chamber; a chamber that moves in 3-D and turns is co-simulation only); ", b->motion);
+        if (b->mode != 1 && b->mode != 4 && n < sizeof msg)
+            n += (size_t)snprintf(msg + n, sizeof msg - n, "input_mode = %d (supported: input_mode = 1 or 4, the "
+                                  "accelerations as set; %s); ", b->mode,
+                                  b->mode == 2 ? "2 differentiates the positions by a fit over the communication points"
+                                               : "3 holds the inputs over a communication step");
+        if (n < sizeof msg)
+            snprintf(msg + n, sizeof msg - n, "Model Exchange integrates the vector formulation of a translating "
+                     "chamber from the acceleration inputs as set; run this configuration through co-simulation");
         if (fmu_is_me(fi)) return init_error(fi, msg, "");
         /* co-simulation reads its Model Exchange variables (n_x .. w_z, their derivatives,
          * z_contact, z_rolling) through this check: they exist where Model Exchange does */

@@ -170,8 +170,10 @@ def test_non_finite_input_refuses_the_evaluation(native_paths):
 
 
 @pytest.mark.parametrize("parameters, expected", [
-    (dict(input_mode=2), "input_mode = 2"), (dict(input_mode=3), "input_mode = 3"),
-    (dict(formulation=2), "formulation = 2"), (dict(motion=2, input_mode=3), "motion = 2")])
+    (dict(input_mode=2), "input_mode = 2 (supported: input_mode = 1 or 4"),
+    (dict(input_mode=3), "input_mode = 3 (supported: input_mode = 1 or 4"),
+    (dict(formulation=2), "formulation = 2 (supported: formulation = 1"),
+    (dict(motion=2, input_mode=3), "motion = 2 (supported: motion = 1, a translating chamber")])
 def test_configurations_me_cannot_run_are_refused_at_initialisation(me_paths, version, parameters, expected):
     f = _open(me_paths["BallInShell"], "me", version, **parameters)
     try:
