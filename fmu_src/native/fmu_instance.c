@@ -25,7 +25,10 @@
  *   - a step whose outputs are not all finite: fmi2Discard, state kept;
  *   - fmi2Discard from a step leaves the instance in stepComplete at the last good
  *     state, so that a master may retry (with other inputs or a shorter step) or
- *     restore an FMU state.
+ *     restore an FMU state;
+ *   - FMI 3 early return (the importer allows it): a step ends at its first event, a time event
+ *     or a Boolean output's change located by bisection (step_to_event), as if the master had
+ *     asked for the step to that time.
  *
  * Model Exchange (models with an fmu_me; FMI 2.0 section 3.2.3 for the allowed calls): the
  * continuous states and their derivatives are variables (value references after the declared
