@@ -206,23 +206,18 @@ static fmi2Status me_eval(fmu_instance *fi, void *data, double *v, double t, dou
     return fmi2OK;
 }
 
-static fmi2Status me_event(fmu_instance *fi, void *data, double *v, double t, fmu_event *ev)
+static double next_time(const void *data, double t)
 {
     const fig1_drive *m = data;
-    double kinks[3] = {0.0, m->t0, m->frame_law != FRAME_CONSTANT ? m->t0_frame : -INFINITY};
-    (void)fi;
-    (void)v;
+    double kinks[3] = {0.0, m->t0, m->frame_law != FRAME_CONSTANT ? m->t0_frame : -INFINITY}, next = INFINITY;
     for (int i = 0; i < 3; i++)
-        if (kinks[i] > t && (!ev->next_time_defined || kinks[i] < ev->next_time)) {
-            ev->next_time_defined = 1;
-            ev->next_time = kinks[i];
-        }
-    return fmi2OK;
+        if (kinks[i] > t && kinks[i] < next) next = kinks[i];
+    return next;
 }
 
 static const fmu_me ME = {
     FMU_N_STATES, FMU_N_INDICATORS, FMU_STATE_VRS, FMU_DERIVATIVE_VRS, FMU_STATE_NOMINALS, FMU_INDICATOR_VRS,
-    me_start, me_eval, me_event,
+    me_start, me_eval, NULL, next_time,
 };
 
 const fmu_model FMU_MODEL = {

@@ -137,24 +137,15 @@ static fmi2Status me_eval(fmu_instance *fi, void *data, double *v, double t, dou
     return fmi2OK;
 }
 
-static fmi2Status me_event(fmu_instance *fi, void *data, double *v, double t, fmu_event *ev)
+static double next_time(const void *data, double t)
 {
     const motor_startup *m = data;
-    (void)fi;
-    (void)v;
-    if (t < 0.0) {
-        ev->next_time_defined = 1;
-        ev->next_time = 0.0;
-    } else if (t < m->t0) {
-        ev->next_time_defined = 1;
-        ev->next_time = m->t0;
-    }
-    return fmi2OK;
+    return t < 0.0 ? 0.0 : t < m->t0 ? m->t0 : INFINITY;
 }
 
 static const fmu_me ME = {
     FMU_N_STATES, FMU_N_INDICATORS, FMU_STATE_VRS, FMU_DERIVATIVE_VRS, FMU_STATE_NOMINALS, FMU_INDICATOR_VRS,
-    me_start, me_eval, me_event,
+    me_start, me_eval, NULL, next_time,
 };
 
 const fmu_model FMU_MODEL = {

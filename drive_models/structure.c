@@ -389,19 +389,9 @@ static fmi2Status me_eval(fmu_instance *fi, void *data, double *v, double t, dou
     return fmi2OK;
 }
 
-static fmi2Status me_event(fmu_instance *fi, void *data, double *v, double t, fmu_event *ev)
-{
-    (void)fi;
-    (void)data;
-    (void)v;
-    (void)t;
-    (void)ev;
-    return fmi2OK;
-}
-
 static const fmu_me ME = {
     FMU_N_STATES, FMU_N_INDICATORS, FMU_STATE_VRS, FMU_DERIVATIVE_VRS, FMU_STATE_NOMINALS, FMU_INDICATOR_VRS,
-    me_start, me_eval, me_event,
+    me_start, me_eval, NULL, NULL,
 };
 
 const fmu_model FMU_MODEL = {

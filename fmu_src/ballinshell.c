@@ -51,6 +51,7 @@
 #define A_RES 1e-6          /* m/s2: acceleration error input round-off may cause */
 #define GAIN_POSITIONS 187.0 /* max sum |l_i''| of the 6-node quintic (unit spacing) */
 #define NEVER 1e300         /* t_invalid while the model is valid */
+#define Z_HYSTERESIS 1e-10  /* event indicators' hysteresis, relative to the ball's weight m max(g, 1 m/s2) */
 
 /* one sample of the inputs (in the order of turning/reconstruction.py's NAMES after t); the
  * fields after ay are used with motion = 2 only (0 with motion = 1) */
@@ -87,6 +88,7 @@ typedef struct {
     bmg_problem G;   /* motion = 2: the integrator settings (G.base) and the general model's constants */
     int mode, points, correct;
     double max_step, R, d, mu, omega_small, a_tol;
+    double z_eps; /* N: the event indicators' hysteresis (Model Exchange: me_eval) */
     /* caches, not state (a calloc'ed instance starts them empty): the last fit's system, by
      * its size, derivative orders and nodes, with its inverse (fit_inverse; memo_n 0: empty),
      * and the powers hs^2 .. hs^5 of the last node spacing (hs_powers; memo_hs 0: empty) */
@@ -1217,6 +1219,7 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
     b->R = R;
     b->d = d;
     b->mu = mu;
+    b->z_eps = Z_HYSTERESIS * m * fmax(g, 1.0);
     double n[3] = {x0 / d, y0 / d, -sqrt(fmax(0.0, 1.0 - rho2 / (d * d)))};
     memset(&b->state, 0, sizeof b->state);
     b->state.t = t;
@@ -1452,21 +1455,44 @@ static fmi2Status check(fmu_instance *fi, const void *data, const double *v)
  * outputs bm_outputs' at that instant; the event indicators N (loss of contact) and
  * mu N - Ft (onset of slip) cross 0 where co-simulation's report() would flag them, and the
  * event update runs report() itself: the validity latch (valid, t_invalid) as in
- * co-simulation, at the event's time. */
+ * co-simulation, at the event's time.
+ * Hysteresis (as the FMI standard recommends for event indicators): each indicator is shifted
+ * by z_eps (1e-10 of the ball's weight) towards the side report() last judged (confirmed_contact,
+ * confirmed_rolling): it crosses 0 only z_eps past the physical boundary, and after the event
+ * update, which flips the judgement, it is about -2 z_eps, so an importer that restarts exactly
+ * at the root it located does not meet the same crossing again. The event time moves by
+ * z_eps / |dz/dt| (5e-11 s for the default ball's slip). */
 static const int ME_STATES[6] = {VR_n_x, VR_n_y, VR_n_z, VR_w_x, VR_w_y, VR_w_z};
 
 static fmi2Status me_start(fmu_instance *fi, void *data, double *v, double t)
 {
     ball_in_shell *b = data;
-    char msg[512];
+    char msg[768];
     (void)t;
     if (b->P.form != BM_VECTOR || b->motion != 1 || (b->mode != 1 && b->mode != 4)) {
-        snprintf(msg, sizeof msg, "Model Exchange integrates the vector formulation of a translating chamber from "
-                 "the acceleration inputs as set: it needs formulation = 1, motion = 1 and input_mode = 1 or 4, "
-                 "got formulation = %d, motion = %d, input_mode = %d (input_mode 2 differentiates positions and "
-                 "3 holds the inputs over a communication step: co-simulation only)",
-                 b->P.form == BM_VECTOR ? 1 : 2, b->motion, b->mode);
-        return init_error(fi, msg, "");
+        /* each unsupported parameter with its value and what is supported */
+        size_t n = 0;
+        if (b->P.form != BM_VECTOR)
+            n += (size_t)snprintf(msg + n, sizeof msg - n, "formulation = 2 (supported: formulation = 1, the vector "
+                                  "formulation); ");
+        if (b->motion != 1)
+            n += (size_t)snprintf(msg + n, sizeof msg - n, "motion = %d (supported: motion = 1, a translating "
+                                  "chamber; a chamber that moves in 3-D and turns is co-simulation only); ", b->motion);
+        if (b->mode != 1 && b->mode != 4 && n < sizeof msg)
+            n += (size_t)snprintf(msg + n, sizeof msg - n, "input_mode = %d (supported: input_mode = 1 or 4, the "
+                                  "accelerations as set; %s); ", b->mode,
+                                  b->mode == 2 ? "2 differentiates the positions by a fit over the communication points"
+                                               : "3 holds the inputs over a communication step");
+        if (n < sizeof msg)
+            snprintf(msg + n, sizeof msg - n, "Model Exchange integrates the vector formulation of a translating "
+                     "chamber from the acceleration inputs as set; run this configuration through co-simulation");
+        if (fmu_is_me(fi)) return init_error(fi, msg, "");
+        /* co-simulation reads its Model Exchange variables (n_x .. w_z, their derivatives,
+         * z_contact, z_rolling) through this check: they exist where Model Exchange does */
+        fmu_log(fi, fmi2Error, "BallInShell '%s': the Model Exchange variables (n_x .. w_z, der(n_x) .. "
+                "der(w_z), z_contact, z_rolling) exist only in the configurations Model Exchange runs: %s",
+                fmu_instance_name(fi), msg);
+        return fmi2Error;
     }
     for (int i = 0; i < 6; i++) v[ME_STATES[i]] = b->state.y[i];
     return fmi2OK;
@@ -1498,9 +1524,9 @@ static fmi2Status me_eval(fmu_instance *fi, void *data, double *v, double t, dou
     bm_derivative(&b->P, y, v[VR_ax1O], v[VR_ay1O], f);
     for (int i = 0; i < 6; i++) v[der_vr[i]] = f[i];
     publish(v, o);
-    if (z) {
-        z[0] = o[O_N];
-        z[1] = b->mu * o[O_N] - o[O_FT];
+    if (z) { /* with hysteresis: on the side of the last event (report()'s judgement), shifted by z_eps */
+        z[0] = o[O_N] + (b->confirmed_contact ? b->z_eps : -b->z_eps);
+        z[1] = b->mu * o[O_N] - o[O_FT] + (b->confirmed_rolling ? b->z_eps : -b->z_eps);
     }
     return fmi2OK;
 }
@@ -1518,7 +1544,7 @@ static fmi2Status me_event(fmu_instance *fi, void *data, double *v, double t, fm
 
 static const fmu_me ME = {
     FMU_N_STATES, FMU_N_INDICATORS, FMU_STATE_VRS, FMU_DERIVATIVE_VRS, FMU_STATE_NOMINALS, FMU_INDICATOR_VRS,
-    me_start, me_eval, me_event,
+    me_start, me_eval, me_event, NULL,
 };
 
 const fmu_model FMU_MODEL = {

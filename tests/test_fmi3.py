@@ -10,6 +10,8 @@ Exchange) through fmpy, checked against the FMI 2.0 archives and the library.
   (interpolated linearly) converges to 0.188323678 s (1e-8 s off at 0.1 ms, measured).
 """
 
+import functools
+
 import numpy as np
 import pytest
 from fmpy import extract, read_model_description
@@ -49,7 +51,7 @@ def test_fmi3_archive_validates_with_both_interfaces(fmi3, model):
     assert validate_fmu(str(fmi3[model])) == []
     md = read_model_description(str(fmi3[model]))
     assert md.fmiVersion == "3.0"
-    assert md.coSimulation.hasEventMode and not md.coSimulation.mightReturnEarlyFromDoStep
+    assert md.coSimulation.hasEventMode and md.coSimulation.mightReturnEarlyFromDoStep
     assert md.modelExchange is not None
 
 
@@ -60,6 +62,8 @@ SHORT = {"BallInShell": dict(xC0=0.05), "MotorStartup": {}, "InductionMotor": {}
 @pytest.mark.parametrize("model", MODELS)
 @pytest.mark.parametrize("event_mode", [False, True])
 def test_fmi3_co_simulation_is_fmi2_bit_for_bit(fmi2, fmi3, model, event_mode):
+    """with and without event mode; early return allowed with event mode: these runs meet no
+    event, and a step without one is the step without early return"""
     outputs = [v.name for v in INTERFACES[model].variables if v.causality == "output" and v.type == "Real"]
     kw = dict(fmi_type="CoSimulation", stop_time=0.4, output_interval=2e-3, start_values=SHORT[model],
               output=outputs)
@@ -73,7 +77,7 @@ def test_fmi3_co_simulation_is_fmi2_bit_for_bit(fmi2, fmi3, model, event_mode):
         assert np.array_equal(a[name], b[name]), name
 
 
-def _slave(path, name, event_mode):
+def _slave(path, name, event_mode, early=False):
     md = read_model_description(str(path))
     log = []
 
@@ -81,7 +85,7 @@ def _slave(path, name, event_mode):
         log.append((status, message.decode()))
     slave = FMU3Slave(guid=md.guid, unzipDirectory=extract(str(path)), modelIdentifier=md.coSimulation.modelIdentifier,
                       instanceName=name)
-    slave.instantiate(loggingOn=True, eventModeUsed=event_mode, earlyReturnAllowed=event_mode,
+    slave.instantiate(loggingOn=True, eventModeUsed=event_mode, earlyReturnAllowed=early,
                       logMessage=on_message)
     vr = {v.name: v.valueReference for v in md.modelVariables}
     return slave, vr, log
@@ -112,6 +116,91 @@ def test_event_mode_reports_the_step_where_validity_is_lost(fmi3):
     finally:
         slave.terminate()
         slave.freeInstance()
+
+
+@functools.lru_cache(maxsize=None)
+def _slip_library_time():
+    """the library's first slip of the ball spun at wy0 = -20 rad/s with mu = 0.1 in a fixed
+    chamber (0.188323678 s: the module's docstring)"""
+    m = BallModel(Ball(mu=0.1), tol=1e-12)
+    return simulate(m, Fixed(), 0.3, 1e-4, m.initial(w0=(0.0, -20.0, 0.0))).t_first_slip
+
+
+@pytest.mark.parametrize("event_mode", [False, True])
+def test_early_return_ends_the_step_at_the_slip(fmi3, event_mode):
+    """the step that meets the slip returns early at its time, located where the library has it
+    (the co-simulation's integrator at 1e-8 against the library's 1e-12: measured 5e-12 s apart;
+    1e-8 s is the library's own sampling error), with the outputs right at it: |F_t|/N = mu;
+    with event mode the importer then enters event mode; the next step goes on from there"""
+    slave, vr, log = _slave(fmi3["BallInShell"], "early", event_mode, early=True)
+    try:
+        slave.setFloat64([vr["wy0"], vr["mu"]], [-20.0, 0.1])
+        slave.enterInitializationMode(startTime=0.0)
+        slave.exitInitializationMode()
+        if event_mode:
+            slave.updateDiscreteStates()
+            slave.enterStepMode()
+        t, h, returns = 0.0, 2e-3, []
+        while t < 0.3 - 1e-12:
+            step = min(h, 0.3 - t)
+            needed, terminate, early, last = slave.doStep(t, step)
+            assert not terminate
+            if early:
+                returns.append((t, last, needed, slave.getBoolean([vr["valid"], vr["rolling"]]),
+                                slave.getFloat64([vr["t_invalid"], vr["N"], vr["Ft"]])))
+            else:
+                assert last == t + step and not needed
+            if needed:
+                slave.enterEventMode()
+                slave.updateDiscreteStates()
+                slave.enterStepMode()
+            t = last
+        assert len(returns) == 1, returns
+        t0, last, needed, (valid, rolling), (t_invalid, n, ft) = returns[0]
+        assert t0 < last < t0 + h and needed == event_mode
+        assert last == pytest.approx(_slip_library_time(), abs=1e-8)
+        assert not valid and not rolling and t_invalid == last
+        assert ft / n == pytest.approx(0.1, rel=1e-9)  # slip sets in right there
+        assert any(s == 1 and f"valid = false from t = {last:.9g} s" in m for s, m in log)
+        assert t == 0.3
+    finally:
+        slave.terminate()
+        slave.freeInstance()
+
+
+def test_early_return_ends_the_step_at_a_time_event(fmi3):
+    """MotorStartup's law reaches n0 at t0 = 10.5 ms (its jerk jumps): the step over it returns
+    early at t0 exactly, psi_dot = n0 there; a master that does not allow it steps over t0"""
+    for early in (True, False):
+        slave, vr, log = _slave(fmi3["MotorStartup"], "time", False, early=early)
+        try:
+            slave.setFloat64([vr["t0"]], [0.0105])
+            slave.enterInitializationMode(startTime=0.0)
+            slave.exitInitializationMode()
+            ends = []
+            t = 0.0
+            while t < 0.014 - 1e-12:
+                needed, terminate, returned, last = slave.doStep(t, 2e-3)
+                ends.append((last, returned))
+                t = last
+            if early:
+                assert ends[5] == (0.0105, True) and ends[6][0] == pytest.approx(0.0125, abs=1e-15)
+                assert slave.getFloat64([vr["psi_dot"]])[0] == pytest.approx(60.0 * 2 * np.pi / 60.0, rel=1e-15)
+            else:
+                assert not any(r for _, r in ends) and ends[5][0] == pytest.approx(0.012, abs=1e-15)
+        finally:
+            slave.terminate()
+            slave.freeInstance()
+
+
+def test_fmpy_simulate_with_early_return_samples_the_slip(fmi3):
+    """fmpy's own FMI 3 master, with event mode and early return: a row at the slip's time"""
+    r = simulate_fmu(str(fmi3["BallInShell"]), fmi_type="CoSimulation", stop_time=0.2, output_interval=2e-3,
+                     start_values=dict(wy0=-20.0, mu=0.1), use_event_mode=True, early_return_allowed=True,
+                     output=["valid", "t_invalid"])
+    off_grid = [t for t in r["time"] if abs(t / 2e-3 - round(t / 2e-3)) > 1e-6]
+    assert off_grid == [pytest.approx(_slip_library_time(), abs=1e-8)] * len(off_grid) and off_grid
+    assert r["t_invalid"][-1] == off_grid[0] and not r["valid"][-1]
 
 
 def test_fmi3_serialised_state_with_a_byte_changed_is_refused(fmi3):

@@ -125,3 +125,81 @@ def test_cli_me_configuration_the_fmu_refuses_stops_the_run_with_its_reason(fmu_
     err = capsys.readouterr().err
     assert rc == 1
     assert "input_mode = 3" in err and "Model Exchange" in err
+
+
+# --------------------------------------------------------------------------- work bounds
+def _announcing(monkeypatch, model, first, gap):
+    """A fault planted in one FMU as the master sees it: every fmi2NewDiscreteStates of `model`
+    also announces a time event, at `first` s, then `gap` s after the one before (gap 0: the same
+    instant again and again, an event loop; 1e-9 s: events a little apart, Zeno behaviour)."""
+    from ballmill.scenario import me
+    real_bare = me._bare
+    due, now = [first], [0.0]
+
+    def bare(fmu, name):
+        fun = real_bare(fmu, name)
+        if model not in str(fmu.modelIdentifier):
+            return fun
+        if name == "fmi2SetTime":  # the FMU's time, as the master sets it
+            def set_time(comp, t):
+                now[0] = t.value
+                return fun(comp, t)
+            return set_time
+        if name != "fmi2NewDiscreteStates":
+            return fun
+
+        def announcing(comp, pinfo):
+            status = fun(comp, pinfo)
+            if now[0] >= due[0]:
+                due[0] += gap
+            info = pinfo._obj
+            info.nextEventTimeDefined, info.nextEventTime = 1, due[0]
+            return status
+        return announcing
+    monkeypatch.setattr(me, "_bare", bare)
+
+
+@pytest.mark.parametrize("gap, bound, text", [
+    (0.0, "MAX_EVENTS_AT_ONE_TIME", "events at t = 0.3 s without time advancing (MAX_EVENTS_AT_ONE_TIME): the "
+     "model chatters; the last was instance drive (model MotorStartup)'s time event (nextEventTime = 0.3 s)"),
+    (1e-9, "MAX_EVENTS_PER_INTERVAL", "30 events from t = 0.3 s to 0.30000003 s without reaching the next output "
+     "point 0.302 s (MAX_EVENTS_PER_INTERVAL): instance drive (model MotorStartup)'s time event")])
+def test_me_event_loop_stops_the_run_naming_time_instance_and_event(fmu_build_dir, monkeypatch, gap, bound, text):
+    from ballmill.scenario import me
+    monkeypatch.setattr(me, bound, 30)
+    _announcing(monkeypatch, "MotorStartup", 0.3, gap)
+    sc, models, paths = _prepared(fmu_build_dir, stop=0.5)
+    res = runner.run(sc, models, paths, progress=False, echo=False, interface="me")
+    assert not res.success
+    assert res.message.startswith("the Model Exchange run stopped: ") and text in res.message, res.message
+    t = res.column("time")
+    assert t[-1] == pytest.approx(0.3, abs=1e-12)  # recorded up to the event, kept
+
+
+def test_me_step_limit_stops_the_run_naming_the_fastest_state(fmu_build_dir, monkeypatch, tmp_path, capsys):
+    """Derivatives that are not a function of (t, x) (planted: BallInShell's with noise of 1e-3
+    rad/s2, as an input read before its source was set would make them) drive the integrator's
+    step down: the run stops at the bound, naming the time and the state, with exit status 1."""
+    from ballmill.scenario import me
+    monkeypatch.setattr(me, "MAX_STEPS_PER_INTERVAL", 300)
+    real_bare, rng = me._bare, np.random.default_rng(1)
+
+    def bare(fmu, name):
+        fun = real_bare(fmu, name)
+        if name != "fmi2GetDerivatives" or "BallInShell" not in str(fmu.modelIdentifier):
+            return fun
+
+        def noisy(comp, pdx, nx):
+            status = fun(comp, pdx, nx)
+            for i in range(3, nx.value):
+                pdx[i] += 1e-3 * rng.standard_normal()
+            return status
+        return noisy
+    monkeypatch.setattr(me, "_bare", bare)
+    rc = cli.main(["run", "fast_start", "--interface", "me", "--quiet", "--set", "drive.t0=0.5",
+                   "--build-dir", str(fmu_build_dir), "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert rc == 1
+    assert "integrator took 300 steps from t = 0.0 s" in err and "without reaching the next output point 0.002 s" \
+        in err, err
+    assert "the fastest state is instance ball (model BallInShell)'s state w_" in err, err

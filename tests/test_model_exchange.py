@@ -198,3 +198,45 @@ def test_structure_me_is_the_library_structure(native):
     x = np.asarray(lib.data["xO"])
     assert np.abs(r["x_rel"] - x).max() < 2e-7 * np.abs(x).max()
     assert np.abs(r["W_exc"] - np.asarray(lib.data["W_exc"])).max() < 1e-6 * np.abs(lib.data["W_exc"]).max()
+
+
+@pytest.mark.parametrize("model, start", [("BallInShell", dict(xC0=0.05, wz0=2.0)), ("InductionMotor", {}),
+                                          ("Structure", {})])
+def test_derivatives_declare_the_inputs_they_depend_on(native, model, start):
+    """ModelStructure/Derivatives lists, for each derivative, the inputs it depends on (with every
+    state): changing one input at a time changes only derivatives that list it, and the ball's
+    der(n) (kinematics of rolling) lists none while its der(w) lists ax1O, ay1O."""
+    md = read_model_description(str(native[model]))
+    declared = {d.variable.name: {v.name for v in d.dependencies} for d in md.derivatives}
+    inputs = [v.name for v in md.modelVariables if v.causality == "input"]
+    f = Fmu(native[model], "deps", interface="me", **start)
+    try:
+        assert f.set(**{name: 0.3 for name in inputs if not name.startswith("Q")}) == 0
+        assert f.init() == 0, f.messages()
+        f.fmu.newDiscreteStates()
+        f.fmu.enterContinuousTimeMode()
+        f.fmu.setTime(0.01)
+        nx = len(md.derivatives)
+        dx = np.zeros(nx)
+        p = dx.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+        f.fmu.getDerivatives(p, nx)
+        base = dx.copy()
+        seen = set()
+        for name in inputs:
+            if name.startswith("Q"):  # the rotation matrix (motion = 2) stays a rotation
+                continue
+            old = f.get(name)
+            assert f.set(**{name: old + 0.7}) == 0
+            f.fmu.getDerivatives(p, nx)
+            assert f.set(**{name: old}) == 0
+            for d, a, b in zip(md.derivatives, base, dx):
+                if a != b:
+                    seen.add((d.variable.name, name))
+                    assert name in declared[d.variable.name], (d.variable.name, name)
+        assert seen  # the inputs do act on the derivatives
+        if model == "BallInShell":
+            assert {n for n, i in seen} == {"der(w_x)", "der(w_y)", "der(w_z)"}
+            assert all(declared[f"der(n_{a})"] == {"n_x", "n_y", "n_z", "w_x", "w_y", "w_z"} for a in "xyz")
+            assert declared["der(w_x)"] >= {"ax1O", "ay1O"} and "x1O" not in declared["der(w_x)"]
+    finally:
+        f.free()

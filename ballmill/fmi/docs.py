@@ -74,7 +74,10 @@ def model_exchange_table(interface: Interface) -> list[str]:
         lines.append(f"- in Model Exchange {', '.join(f'`{o}`' for o in outs)} depend directly on "
                      f"{', '.join(f'`{i}`' for i in ins)} (not declared in ModelStructure/Outputs, which is "
                      "co-simulation's)")
-    return lines + ([""] if me.indicators or me.direct else [])
+    for states, ins in me.derivative_inputs:
+        lines.append(f"- {', '.join(f'`der({x})`' for x in states)} depend directly on "
+                     f"{', '.join(f'`{i}`' for i in ins)} (declared in ModelStructure/Derivatives, with every state)")
+    return lines + ([""] if me.indicators or me.direct or me.derivative_inputs else [])
 
 
 def reference() -> str:

@@ -199,9 +199,17 @@ class ModelExchange:
     # (the archive's one, read by co-simulation masters to find algebraic loops) does not list
     # them; an ME importer that sorts its equations must add them
     direct: tuple = ()
+    # the inputs each state's derivative depends on directly ((state names, input names) rows; a
+    # state in no row: none): ModelStructure/Derivatives lists them with every state (declared
+    # conservatively), so an ME importer sorting its equations sees, e.g., the ball's der(w) on
+    # the platform acceleration. Only ME importers read Derivatives: co-simulation is unaffected
+    derivative_inputs: tuple = ()
 
     def direct_inputs(self, output: str) -> tuple:
         return tuple(i for outs, ins in self.direct if output in outs for i in ins)
+
+    def derivative_dependencies(self, state: str) -> tuple:
+        return tuple(i for states, ins in self.derivative_inputs if state in states for i in ins)
 
     def variables(self) -> tuple:
         rows = [Variable(name, "local", 0.0, desc, unit=unit) for name, unit, desc, _ in self.states]
@@ -379,6 +387,7 @@ INDUCTION_MOTOR = _interface(
                 ("s_flux_rq", "Wb", "Rotor flux linkage, q axis (dq model; stays 0 with Kloss)", 1.0),
                 ("s_W_motor", "J", "Mechanical work of the motor since the start (the output W_motor)", 1.0)),
         direct=((("psi_ddot", "ax1O", "ay1O"), ("M_reaction",)),),
+        derivative_inputs=((("s_psi_dot",), ("M_reaction",)),),
         notes="M_reaction is read as set at every call (M_input, tolerance: co-simulation's); time "
               "events at t = 0 (the supply is switched on) and, with a voltage or frequency ramp, at "
               "t = ramp_time (the ramp ends: the supply's slope jumps)"))
@@ -711,6 +720,7 @@ BALL_IN_SHELL = _interface(
                 ("w_x", "rad/s", "Ball angular velocity x (the state of the output wx)", 1.0),
                 ("w_y", "rad/s", "Ball angular velocity y", 1.0),
                 ("w_z", "rad/s", "Ball angular velocity z", 1.0)),
+        derivative_inputs=((("w_x", "w_y", "w_z"), ("ax1O", "ay1O")),),
         indicators=(("z_contact", "N", "N, the normal force; it crosses 0 from above where the ball loses "
                      "contact"),
                     ("z_rolling", "N", "mu N - Ft; it crosses 0 from above where the rolling ball would begin "
@@ -719,7 +729,9 @@ BALL_IN_SHELL = _interface(
               "acceleration ax1O, ay1O and position x1O, y1O are read directly at every call (no "
               "reconstruction: the importer supplies them); input_mode 2 (positions alone, "
               "differentiated by a fit) and 3 (inputs held over a communication step) are "
-              "co-simulation rules and are refused, as are formulation = 2 and motion = 2; "
+              "co-simulation rules and are refused, as are formulation = 2 and motion = 2 (a chamber "
+              "that moves in 3-D and turns: its equations take the chamber's motion from co-simulation's "
+              "reconstruction; the refusal names each parameter, its value and what is supported); "
               "integrator, tolerance, h_fixed, max_step, corrector, input_tol and coupling_warn "
               "belong to co-simulation's internal integration and are not used (coupling_error "
               "stays 0: there is no coupling error). valid and t_invalid latch at the state event "
@@ -842,6 +854,11 @@ STRUCTURE = _interface(
             + [row for a in AXES for row in ((f"s_{a}g", "m", f"Ground displacement {a}", 1.0),
                                                (f"s_v{a}g", "m/s", f"Ground velocity {a}", 1.0))]
             + [(f"s_{w}", "J", f"The work integral {w}", 1.0) for w in ("W_exc", "W_damp", "W_ball")]),
+        derivative_inputs=(
+            (tuple(f"s_qd_{a}{j}" for a in AXES for j in range(1, STRUCTURE_MODES + 1)) + ("s_W_exc",),
+             ("Fx_ball", "Fy_ball", "ag_x", "ag_y")),
+            (("s_vxg", "s_vyg"), ("ag_x", "ag_y")),
+            (("s_W_ball",), ("Fx_ball", "Fy_ball"))),
         notes="Fx_ball, Fy_ball, ag_x, ag_y are read as set at every call (h_max, input_order: "
               "co-simulation's). With BallInShell the coupling is an algebraic loop: ax1O, ay1O "
               "depend directly on Fx_ball, Fy_ball (ModelStructure/Outputs) and BallInShell's Fx, Fy "

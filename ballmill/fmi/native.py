@@ -277,8 +277,10 @@ def model_description(interface: Interface, guid_: str, sources: list[str]) -> s
             SubElement(out_el, "Unknown", index=str(index[v.name]), dependencies=" ".join(deps))
     if states:
         der_el = SubElement(structure, "Derivatives")
-        for n in states:  # every derivative may depend on every state and input
-            SubElement(der_el, "Unknown", index=str(index[f"der({n})"]))
+        for n in states:  # on every state (conservatively) and the inputs the declaration names
+            deps = [int(d) for d in state_deps] + [index[i] for i in me.derivative_dependencies(n)]
+            SubElement(der_el, "Unknown", index=str(index[f"der({n})"]),
+                       dependencies=" ".join(str(d) for d in sorted(deps)))
     init = SubElement(structure, "InitialUnknowns")
     for v in outputs:
         SubElement(init, "Unknown", index=str(index[v.name]),
@@ -312,7 +314,7 @@ def model_description_fmi3(interface: Interface, token: str) -> str:
         SubElement(root, "ModelExchange", dict(common, needsCompletedIntegratorStep="false"))
     SubElement(root, "CoSimulation", dict(
         common, canHandleVariableCommunicationStepSize="true", maxOutputDerivativeOrder="0",
-        providesIntermediateUpdate="false", mightReturnEarlyFromDoStep="false",
+        providesIntermediateUpdate="false", mightReturnEarlyFromDoStep="true",
         canReturnEarlyAfterIntermediateUpdate="false", hasEventMode="true",
         providesEvaluateDiscreteStates="false"))
     _units_categories_experiment(root, interface, variables)
@@ -348,8 +350,10 @@ def model_description_fmi3(interface: Interface, token: str) -> str:
     for v in outputs:  # as the FMI 2.0 archive's (co-simulation's direct dependencies, the states)
         deps = [str(vr_of[d]) for d in v.feedthrough] + (state_deps if v.fmi_variability == "continuous" else [])
         SubElement(structure, "Output", valueReference=str(vr_of[v.name]), dependencies=" ".join(deps))
-    for n in states:
-        SubElement(structure, "ContinuousStateDerivative", valueReference=str(vr_of[f"der({n})"]))
+    for n in states:  # as the FMI 2.0 archive's: every state and the declared inputs
+        deps = sorted([int(d) for d in state_deps] + [vr_of[i] for i in me.derivative_dependencies(n)])
+        SubElement(structure, "ContinuousStateDerivative", valueReference=str(vr_of[f"der({n})"]),
+                   dependencies=" ".join(str(d) for d in deps))
     for v in outputs:
         SubElement(structure, "InitialUnknown", valueReference=str(vr_of[v.name]),
                    dependencies=" ".join(str(vr_of[d]) for d in v.depends))

@@ -37,7 +37,11 @@ The outputs are recorded on the co-simulation's grid (start + k step), from the 
 output of the step that covers each point (states set, connections resolved, every
 recorded variable read), so that results, plots and summary are those of a co-simulation
 run. A call refused with fmi2Discard or worse ends the run cleanly, everything recorded up
-to then kept, as a refused step does in co-simulation.
+to then kept, as a refused step does in co-simulation; so does a work bound (MeError), which
+names the time, the instance and what repeated instead of letting the run hang: rounds of
+fmi2NewDiscreteStates at one instant, events at one time (a chattering model) or between two
+output points (Zeno behaviour), and integrator steps between two output points (an input read
+before its source was set, a stiff or wrong model: the message names the fastest state).
 """
 from __future__ import annotations
 
@@ -49,6 +53,11 @@ import numpy as np
 EVENT_TOL = 1e-12  # [s] width of the bracket to which a state event's time is located (relative to max(1, |t|))
 MAX_EVENT_ITERATIONS = 100  # rounds of fmi2NewDiscreteStates at one event instant
 MAX_EVENTS_AT_ONE_TIME = 1000  # successive events without time advancing: a chattering model
+# work bounds between two points of the output grid (the co-simulation's step apart): a run that
+# exceeds one stops with MeError naming the time, the instance and what repeated, instead of
+# hanging (an input read before its source was set, an event loop, a stiff or wrong model)
+MAX_STEPS_PER_INTERVAL = 100_000  # integrator steps (the fast start takes about 10 per interval)
+MAX_EVENTS_PER_INTERVAL = 10_000  # events (times advancing by a little each time: Zeno behaviour)
 
 
 class MeError(RuntimeError):
@@ -157,7 +166,8 @@ class Driver:
         master = c.master
         self.solver_name = str(master["solver"])
         self.rtol, self.atol = float(master["rtol"]), float(master["atol"])
-        self.fmus = [c.fmus[n] for n in c.order if n in c.fmus]
+        self.names = [n for n in c.order if n in c.fmus]
+        self.fmus = [c.fmus[n] for n in self.names]
         self.nx = [len(f.md.derivatives) for f in self.fmus]
         self.nz = [int(f.md.numberOfEventIndicators or 0) for f in self.fmus]
         NX, NZ = sum(self.nx), sum(self.nz)
@@ -197,6 +207,30 @@ class Driver:
         self.events = 0
         self.steps = 0
         self.t_next_event = math.inf
+        self.next_event_owner = ""  # which FMU announced t_next_event
+
+    # -- naming what happened, for the work bounds' messages ---------------------------
+    def _who(self, i: int) -> str:
+        return f"instance {self.names[i]} (model {self.fmus[i].md.modelName})"
+
+    def _indicator(self, j: int) -> str:
+        """the global event indicator j as "<instance> (model M)'s event indicator k of n" """
+        for i, nz in enumerate(self.nz):
+            if j < nz:
+                return f"{self._who(i)}'s event indicator {j} of {nz}"
+            j -= nz
+        return f"event indicator {j}"
+
+    def _fastest_state(self, t, y) -> str:
+        """the state whose derivative at (t, y) is largest against its nominal value"""
+        rate = np.abs(self.rhs(t, y)) / self.nominal
+        j = k = int(np.argmax(rate))
+        for i, nx in enumerate(self.nx):
+            if j < nx:
+                name = self.fmus[i].md.derivatives[j].variable.derivative.name
+                return f"{self._who(i)}'s state {name}: |der({name})| / nominal = {rate[k]:.3g} 1/s"
+            j -= nx
+        return "no state"
 
     # -- the building blocks ------------------------------------------------
     def _call(self, f, fname, fun, *args):
@@ -328,12 +362,15 @@ class Driver:
         ctypes.memmove(c.record_at + k * c.row_bytes, ctypes.addressof(c.bus), c.row_bytes)
 
     def completed_step(self) -> tuple[bool, bool]:
-        """fmi2CompletedIntegratorStep on every FMU: (enter event mode, terminate)."""
+        """fmi2CompletedIntegratorStep on every FMU: (enter event mode, terminate); the FMU that
+        asked for the event is `step_event_owner`."""
         enter, term, any_enter, any_term = ctypes.c_int(0), ctypes.c_int(0), False, False
         no_prior = ctypes.c_int(1)
-        for f, comp, _, _, _, _, _, fn in self.per_fmu:
+        for i, (f, comp, _, _, _, _, _, fn) in enumerate(self.per_fmu):
             self._call(f, "fmi2CompletedIntegratorStep", fn["fmi2CompletedIntegratorStep"], comp, no_prior,
                        ctypes.byref(enter), ctypes.byref(term))
+            if enter.value and not any_enter:
+                self.step_event_owner = f"{self._who(i)}'s step event (fmi2CompletedIntegratorStep)"
             any_enter |= bool(enter.value)
             any_term |= bool(term.value)
         return any_enter, any_term
@@ -352,22 +389,25 @@ class Driver:
         changed, terminate = False, False
         for rounds in range(MAX_EVENT_ITERATIONS):
             self.connect()
-            again = False
-            self.t_next_event = math.inf
-            for f, comp, _, _, _, _, _, fn in self.per_fmu:
+            again = []  # the FMUs that need another round
+            self.t_next_event, self.next_event_owner = math.inf, ""
+            for i, (f, comp, _, _, _, _, _, fn) in enumerate(self.per_fmu):
                 info.newDiscreteStatesNeeded = 1
                 info.nextEventTimeDefined = 0
                 self._call(f, "fmi2NewDiscreteStates", fn["fmi2NewDiscreteStates"], comp, ctypes.byref(info))
-                again |= bool(info.newDiscreteStatesNeeded)
+                if info.newDiscreteStatesNeeded:
+                    again.append(self._who(i))
                 terminate |= bool(info.terminateSimulation)
                 changed |= bool(info.valuesOfContinuousStatesChanged)
-                if info.nextEventTimeDefined:
-                    self.t_next_event = min(self.t_next_event, float(info.nextEventTime))
+                if info.nextEventTimeDefined and float(info.nextEventTime) < self.t_next_event:
+                    self.t_next_event = float(info.nextEventTime)
+                    self.next_event_owner = f"{self._who(i)}'s time event (nextEventTime = {self.t_next_event:.9g} s)"
             if terminate or not again:
                 break
         else:
             raise MeError(f"the event iteration at t = {c.bus[0]:.9g} s did not settle after "
-                          f"{MAX_EVENT_ITERATIONS} rounds of fmi2NewDiscreteStates")
+                          f"{MAX_EVENT_ITERATIONS} rounds of fmi2NewDiscreteStates: {', '.join(again)} still "
+                          f"returned newDiscreteStatesNeeded = true in the last round")
         for f, comp, _, _, _, _, _, fn in self.per_fmu:
             self._call(f, "fmi2EnterContinuousTimeMode", fn["fmi2EnterContinuousTimeMode"], comp)
             f.state = "continuousTimeMode"
@@ -406,6 +446,8 @@ class Driver:
         self.k = 0
         try:
             return self._run(bar, every)
+        except MeError as e:  # a work bound: what was recorded up to then is kept
+            return self.k, False, f"the Model Exchange run stopped: {e}"
         except FMICallException as e:
             f = getattr(e, "owner", None)
             if f is None:
@@ -422,7 +464,8 @@ class Driver:
         _, terminate = self.event_iteration(first=True)
         y = self.states()
         nominal = np.abs(self.nominals()) if self.NX else np.zeros(0)
-        self.atol_vec = self.atol * np.where(nominal > 0, nominal, 1.0)
+        self.nominal = np.where(nominal > 0, nominal, 1.0)
+        self.atol_vec = self.atol * self.nominal
         self.set_point(t, y)
         self.record(0, grid[0])
         self.k = 1  # the next grid point to record
@@ -430,9 +473,12 @@ class Driver:
             return self.k, True, ended.format(t)
         z = self.indicators()
         same_time, last_event = 0, -math.inf
+        # the work since the last output point (the work bounds) and what caused the events
+        interval_k, interval_t, interval_steps, interval_events = self.k, t, 0, {}
         while self.k <= n_points:
             t_end = min(sc.stop, self.t_next_event)
             event = t_end <= t  # a time event now
+            cause = self.next_event_owner if event else ""
             solver = self._solver(t, y, t_end) if not event else None
             while not event:
                 sol = None
@@ -445,11 +491,25 @@ class Driver:
                         return self.k, False, (f"the {self.solver_name} integrator failed at t = {solver.t:.9g} s: "
                                                f"{message}")
                     self.steps += 1
+                    if self.k != interval_k:
+                        interval_k, interval_t, interval_steps, interval_events = self.k, t, 0, {}
+                    interval_steps += 1
+                    if interval_steps > MAX_STEPS_PER_INTERVAL:
+                        raise MeError(
+                            f"the {self.solver_name} integrator took {MAX_STEPS_PER_INTERVAL} steps from t = "
+                            f"{interval_t!r} s to {solver.t:.9g} s without reaching the next output point "
+                            f"{grid[self.k]:.9g} s (MAX_STEPS_PER_INTERVAL; its step is now {solver.step_size:.3g} s); "
+                            f"the fastest state is {self._fastest_state(solver.t, solver.y)}: check that model's "
+                            f"inputs and connections (an input read before its source was set makes the "
+                            f"derivatives inconsistent) and the tolerances rtol = {self.rtol:g}, atol = {self.atol:g}")
                     t_new, y_new = solver.t, solver.y
                 z_new = self.indicators_at(t_new, y_new)
                 if self.NZ and np.any((z_new > 0) != (z > 0)):
                     sol = sol or solver.dense_output()
                     t_new, y_new = self.locate(t, t_new, z, sol)
+                    z_at = self.indicators_at(t_new, y_new)
+                    crossed = np.flatnonzero((z_at > 0) != (z > 0))
+                    cause = f"{self._indicator(int(crossed[0]) if len(crossed) else 0)}'s state event"
                     event = True
                 # the grid points this step covers, from its dense output
                 last = self.k
@@ -476,8 +536,10 @@ class Driver:
                 c.logger.now = t
                 if terminate:
                     return self.k, True, ended.format(t)
-                if enter or t >= self.t_next_event:
-                    event = True
+                if not event and enter:
+                    cause, event = self.step_event_owner, True
+                if not event and t >= self.t_next_event:
+                    cause, event = self.next_event_owner, True
                 if t >= t_end or self.k > n_points:
                     break
             if self.k > n_points:
@@ -485,8 +547,19 @@ class Driver:
             if event:
                 same_time = same_time + 1 if t <= last_event else 0
                 last_event = t
+                if self.k != interval_k:
+                    interval_k, interval_t, interval_steps, interval_events = self.k, t, 0, {}
+                interval_events[cause] = interval_events.get(cause, 0) + 1
                 if same_time > MAX_EVENTS_AT_ONE_TIME:
-                    raise MeError(f"{same_time} events at t = {t:.9g} s without time advancing: the model chatters")
+                    raise MeError(f"{same_time} events at t = {t:.9g} s without time advancing "
+                                  f"(MAX_EVENTS_AT_ONE_TIME): the model chatters; the last was {cause}")
+                if sum(interval_events.values()) > MAX_EVENTS_PER_INTERVAL:
+                    top = max(interval_events, key=interval_events.get)
+                    raise MeError(f"{MAX_EVENTS_PER_INTERVAL} events from t = {interval_t:.9g} s to {t:.9g} s "
+                                  f"without reaching the next output point {grid[self.k]:.9g} s "
+                                  f"(MAX_EVENTS_PER_INTERVAL): {top} repeated {interval_events[top]} times "
+                                  f"(an event loop: a state event whose handling does not move its indicator away "
+                                  f"from 0, or time events a little apart)")
                 changed, terminate = self.event_iteration(first=False)
                 if terminate:
                     return self.k, True, ended.format(t)

@@ -4,10 +4,13 @@
  * their format version and checksum, the semantics documented there). FMI 3.0's own parts:
  *   - co-simulation with event mode (hasEventMode): a step in which a Boolean output changed
  *     (BallInShell's valid latching, contact, rolling) returns eventHandlingNeeded = true; the
- *     event's time is the output t_invalid (a communication point: co-simulation judges validity
- *     there); the importer enters event mode (nothing to update: the step latched it), then step
- *     mode. Without event mode the step behaves as in FMI 2.0. Steps never return early (the
- *     model steps are atomic), which mightReturnEarlyFromDoStep = false declares;
+ *     importer enters event mode (nothing to update: the step latched it), then step mode.
+ *     Without event mode the step behaves as in FMI 2.0;
+ *   - early return (mightReturnEarlyFromDoStep): when the importer allows it
+ *     (earlyReturnAllowed), a step that meets an event (a time event of a drive law, a Boolean
+ *     output changing) ends there: earlyReturn = true, lastSuccessfulTime = the event's time,
+ *     the outputs those at that time (fmu_instance.c's step_to_event); without an event, and for
+ *     an importer that does not allow it, the step is FMI 2.0's;
  *   - the types: Float64 (Real), Int32 (Integer), Boolean; no other type has variables;
  *   - what these FMUs do not provide (clocks, configuration mode, directional and adjoint
  *     derivatives, output derivatives, scheduled execution, per-element dependencies): refused
@@ -74,14 +77,16 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
 {
     (void)resourcePath;
     (void)visible;
-    (void)earlyReturnAllowed; /* steps never return early */
     (void)requiredIntermediateVariables;
     (void)nRequiredIntermediateVariables;
     (void)intermediateUpdate; /* providesIntermediateUpdate = false */
     fmu_instance *fi = fmu_instantiate("fmi3InstantiateCoSimulation", instanceName, instantiationToken, 0, 3,
                                        logMessage ? emit : NULL, (void *)logMessage, instanceEnvironment,
                                        loggingOn);
-    if (fi) fi->cs_event_mode = eventModeUsed ? 1 : 0;
+    if (fi) {
+        fi->cs_event_mode = eventModeUsed ? 1 : 0;
+        fi->cs_early_return = earlyReturnAllowed ? 1 : 0;
+    }
     return fi;
 }
 
@@ -529,7 +534,7 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
     fmi2Status s = fmu_do_step(fi, "fmi3DoStep", currentCommunicationPoint, communicationStepSize);
     if (eventHandlingNeeded) *eventHandlingNeeded = fi && s <= fmi2Warning && fi->cs_event_mode && fi->step_event;
     if (terminateSimulation) *terminateSimulation = fmi3False;
-    if (earlyReturn) *earlyReturn = fmi3False;
+    if (earlyReturn) *earlyReturn = fi && s <= fmi2Warning && fi->returned_early;
     if (lastSuccessfulTime && fi) *lastSuccessfulTime = fi->t;
     return ST(s);
 }

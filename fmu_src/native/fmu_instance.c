@@ -25,7 +25,10 @@
  *   - a step whose outputs are not all finite: fmi2Discard, state kept;
  *   - fmi2Discard from a step leaves the instance in stepComplete at the last good
  *     state, so that a master may retry (with other inputs or a shorter step) or
- *     restore an FMU state.
+ *     restore an FMU state;
+ *   - FMI 3 early return (the importer allows it): a step ends at its first event, a time event
+ *     or a Boolean output's change located by bisection (step_to_event), as if the master had
+ *     asked for the step to that time.
  *
  * Model Exchange (models with an fmu_me; FMI 2.0 section 3.2.3 for the allowed calls): the
  * continuous states and their derivatives are variables (value references after the declared
@@ -38,7 +41,9 @@
  *     output or derivative: fmi2Error naming it, the last good values kept;
  *   - fmi2NewDiscreteStates runs the model's event update (the validity latch, the next
  *     time event); with no event pending it changes nothing;
- *   - reading a state or derivative in co-simulation: fmi2Error (they are Model Exchange's).
+ *   - reading a continuous state, derivative or event indicator in co-simulation: the value at the
+ *     co-simulation's own state (cs_locals), the same number Model Exchange gives at that time,
+ *     state and inputs.
  */
 #include <math.h>
 #include <stdarg.h>
@@ -110,6 +115,14 @@ void fmu_log(fmu_instance *fi, fmi2Status status, const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
+    if (fi->holding) { /* emitted later (step_to_event), or dropped with the trial step */
+        if (fi->n_held < (int)(sizeof fi->held / sizeof fi->held[0])) {
+            fi->held[fi->n_held].status = status;
+            snprintf(fi->held[fi->n_held].text, sizeof fi->held[0].text, "%s", msg);
+            fi->n_held++;
+        }
+        return;
+    }
     /* the host's logger takes the message as a printf format: '%' travels as "%%" */
     size_t j = 0;
     for (size_t i = 0; msg[i] && j + 2 < sizeof esc; i++) {
@@ -165,6 +178,8 @@ int fmu_allowed(fmu_instance *fi, const char *function, int states)
 #define T_REL 1e-13
 
 #define ME_RUNNING (S_EVENT | S_CONT | S_TERMINATED) /* Model Exchange after initialisation */
+/* co-simulation after initialisation (a refused step keeps the last good state) */
+#define CS_RUNNING (S_STEP_COMPLETE | S_STEP_FAILED | S_EVENT | S_TERMINATED | S_ERROR)
 
 /* ------------------------------------------------------------------ set up */
 static void start_values(fmu_instance *fi)
@@ -295,6 +310,47 @@ static fmi2Status me_evaluate(fmu_instance *fi, const char *function)
     fi->z_work = tz;
     fi->dirty = 0;
     return fmi2OK;
+}
+
+/* Co-simulation: the Model Exchange variables (continuous states, derivatives, event
+ * indicators) that the model description publishes for both interfaces, from the
+ * co-simulation's own state: the model's `start` writes the continuous states its data holds
+ * (the state at the last communication point) into a copy of v, `eval` gives the derivatives
+ * there with the inputs as set now, and the event indicators: the numbers a Model Exchange
+ * instance gives at the same time, states and inputs. On the work copies (the result in
+ * v_work): the co-simulation's values and data stay as they are. A configuration Model
+ * Exchange does not support has none of these variables: fmi2Error after the model said why. */
+static fmi2Status cs_locals(fmu_instance *fi, const char *function, const unsigned int vr[], size_t nvr)
+{
+    const fmu_me *me = FMU_MODEL.me;
+    size_t nv = (size_t)FMU_MODEL.n_vars * sizeof(double);
+    const char *name = FMU_MODEL.vars[vr[0]].name;
+    for (size_t i = 0; i < nvr; i++)
+        if (FMU_MODEL.vars[vr[i]].causality == FMU_LOCAL) {
+            name = FMU_MODEL.vars[vr[i]].name;
+            break;
+        }
+    fmi2Status s = fmi2Error;
+    if (me) {
+        memcpy(fi->v_work, fi->v, nv);
+        memcpy(fi->data_work, fi->data, FMU_MODEL.data_size);
+        s = me->start(fi, fi->data_work, fi->v_work, fi->t);
+        if (s <= fmi2Warning) s = me->eval(fi, fi->data_work, fi->v_work, fi->t, fi->z_work);
+        memcpy(fi->data_work, fi->data, FMU_MODEL.data_size); /* keep the copies equal */
+        for (int i = 0; s <= fmi2Warning && i < me->n_indicators; i++) fi->v_work[me->indicator_vr[i]] = fi->z_work[i];
+        for (size_t i = 0; s <= fmi2Warning && i < nvr; i++)
+            if (FMU_MODEL.vars[vr[i]].causality == FMU_LOCAL && !isfinite(fi->v_work[vr[i]])) {
+                char a[32], b[32];
+                fmu_log(fi, fmi2Error, "%s '%s': %s: %s would be %s at t = %s s", FMU_MODEL.identifier, fi->name,
+                        function, FMU_MODEL.vars[vr[i]].name, fmu_repr(fi->v_work[vr[i]], a), fmu_repr(fi->t, b));
+                s = fmi2Error;
+            }
+    }
+    if (s <= fmi2Warning) return fmi2OK;
+    fmu_log(fi, fmi2Error, "%s '%s': %s: %s refused: this co-simulation instance could not evaluate its Model "
+            "Exchange variables at t = %.17g s (see the message before)", FMU_MODEL.identifier, fi->name, function,
+            name, fi->t);
+    return fmi2Error;
 }
 
 /* ------------------------------------------------------------------ life cycle */
@@ -463,18 +519,26 @@ fmi2Status fmu_get(fmu_instance *fi, const char *function, const unsigned int vr
     if (nvr && (!vr || !out)) return fmi2Error;
     for (size_t i = 0; i < nvr; i++)
         if (check_vr(fi, function, vr[i], type) != fmi2OK) return fmi2Error;
+    int local = 0;
     for (size_t i = 0; i < nvr; i++) {
         const fmu_variable *var = &FMU_MODEL.vars[vr[i]];
-        if (var->causality != FMU_LOCAL || (fi->me && (fi->state & ME_RUNNING))) continue;
-        fmu_log(fi, fmi2Error, "%s '%s': %s: %s is a Model Exchange variable (a continuous state or its "
-                "derivative): %s", FMU_MODEL.identifier, fi->name, function, var->name,
-                fi->me ? "it is known at the end of initialisation"
-                       : "co-simulation does not compute it; read the outputs");
+        if (var->causality != FMU_LOCAL) continue;
+        local = 1;
+        if (fi->built && (fi->state & (fi->me ? ME_RUNNING : CS_RUNNING))) continue;
+        fmu_log(fi, fmi2Error, "%s '%s': %s: %s is a Model Exchange variable (a continuous state, its "
+                "derivative or an event indicator): it is known from the end of initialisation on, not in "
+                "state %s", FMU_MODEL.identifier, fi->name, function, var->name, fmu_state_name(fi, fi->state));
         return fmi2Error;
     }
     if (fi->state == S_INIT && build(fi, FMU_SETUP_PREVIEW) > fmi2Warning) /* outputs consistent with the inputs set so far */
         return fmi2Error;
     if (fi->me && (fi->state & ME_RUNNING) && me_evaluate(fi, function) != fmi2OK) return fmi2Error;
+    if (!fi->me && local) { /* co-simulation: the Model Exchange variables of its own state */
+        if (cs_locals(fi, function, vr, nvr) != fmi2OK) return fmi2Error;
+        for (size_t i = 0; i < nvr; i++)
+            out[i] = FMU_MODEL.vars[vr[i]].causality == FMU_LOCAL ? fi->v_work[vr[i]] : fi->v[vr[i]];
+        return fmi2OK;
+    }
     for (size_t i = 0; i < nvr; i++) out[i] = fi->v[vr[i]];
     return fmi2OK;
 }
@@ -543,6 +607,68 @@ fmi2Status fmu_set(fmu_instance *fi, const char *function, const unsigned int vr
 
 
 /* ------------------------------------------------------------------ stepping */
+/* one step from the committed state (fi->t) to t_end on the work copies: the model's step and
+ * the check of its outputs. The configuration part of the data is the same in both copies
+ * (build and fmi2SetFMUstate write both), so only the dynamic part is copied. */
+static fmi2Status try_step(fmu_instance *fi, double t_end)
+{
+    size_t nv = (size_t)FMU_MODEL.n_vars * sizeof(double);
+    memcpy(fi->v_work, fi->v, nv);
+    memcpy(fi->data_work + FMU_MODEL.dyn_offset, fi->data + FMU_MODEL.dyn_offset,
+           FMU_MODEL.data_size - FMU_MODEL.dyn_offset);
+    fmi2Status s = FMU_MODEL.step(fi, fi->data_work, fi->v_work, fi->t, t_end);
+    if (s <= fmi2Warning && check_outputs(fi, fi->v_work, t_end) != fmi2OK) s = fmi2Discard;
+    return s;
+}
+
+/* the step on the work copies changed a Boolean output (validity, contact, rolling): an event */
+static int boolean_changed(const fmu_instance *fi)
+{
+    for (int i = 0; i < FMU_MODEL.n_vars; i++)
+        if (FMU_MODEL.vars[i].causality == FMU_OUTPUT && FMU_MODEL.vars[i].type == FMU_BOOLEAN &&
+            fi->v[i] != fi->v_work[i])
+            return 1;
+    return 0;
+}
+
+/* the located event time: within T_EVENT max(1 s, |t|) after the last step end without it */
+#define T_EVENT 1e-12
+
+/* FMI 3 early return: the step to *t_end, ended at the first event in it instead: a time event
+ * (the model's next_time), else where a Boolean output changes, located by bisection over the
+ * step's end: each trial is a step from the committed state to a shorter end, as if the master
+ * had asked for it, and the step kept is the shortest one with the change. Only the kept step's
+ * messages reach the host. Without an event the step is the one without early return. */
+static fmi2Status step_to_event(fmu_instance *fi, double *t_end)
+{
+    const double t = fi->t, tol = T_EVENT * fmax(1.0, fabs(*t_end));
+    double hi = *t_end;
+    if (FMU_MODEL.me && FMU_MODEL.me->next_time) {
+        double next = FMU_MODEL.me->next_time(fi->data, t);
+        if (next > t + tol && next < hi - tol) hi = next;
+    }
+    fi->holding = 1;
+    fi->n_held = 0;
+    fmi2Status s = try_step(fi, hi);
+    if (s <= fmi2Warning && boolean_changed(fi)) {
+        double lo = t;
+        while (hi - lo > tol) {
+            double mid = lo + 0.5 * (hi - lo);
+            fi->n_held = 0;
+            fmi2Status m = try_step(fi, mid);
+            if (m > fmi2Warning) break; /* a shorter step failed: keep the longer one found */
+            if (boolean_changed(fi)) hi = mid; else lo = mid;
+        }
+        fi->n_held = 0;
+        s = try_step(fi, hi);
+    }
+    fi->holding = 0;
+    for (int i = 0; i < fi->n_held; i++) fmu_log(fi, fi->held[i].status, "%s", fi->held[i].text);
+    fi->n_held = 0;
+    *t_end = hi;
+    return s;
+}
+
 fmi2Status fmu_do_step(fmu_instance *fi, const char *fn, double currentCommunicationPoint,
                        double communicationStepSize)
 {
@@ -573,22 +699,17 @@ fmi2Status fmu_do_step(fmu_instance *fi, const char *fn, double currentCommunica
                 "state unchanged", FMU_MODEL.identifier, fi->name, fn, fmu_repr(t_end, a), fmu_repr(fi->t, b));
         return fmi2Error;
     }
-    /* the step runs on the work copies; the configuration part of the data is the same in
-     * both (build and fmi2SetFMUstate write both), so only the dynamic part is copied */
-    size_t nv = (size_t)FMU_MODEL.n_vars * sizeof(double);
-    memcpy(fi->v_work, fi->v, nv);
-    memcpy(fi->data_work + FMU_MODEL.dyn_offset, fi->data + FMU_MODEL.dyn_offset,
-           FMU_MODEL.data_size - FMU_MODEL.dyn_offset);
     fi->call_t = t;
     fi->call_h = h;
-    /* from the FMU's time to the master's end of the step (slave.Slave.do_step) */
-    fmi2Status s = FMU_MODEL.step(fi, fi->data_work, fi->v_work, fi->t, t_end);
-    if (s <= fmi2Warning && check_outputs(fi, fi->v_work, t_end) != fmi2OK) s = fmi2Discard;
+    fi->returned_early = 0;
+    /* from the FMU's time to the master's end of the step (slave.Slave.do_step), or, when the
+     * importer allows early return, to the first event in it */
+    double t_stop = t_end;
+    fmi2Status s = fi->cs_early_return ? step_to_event(fi, &t_stop) : try_step(fi, t_end);
     if (s > fmi2Warning) return s == fmi2Discard ? fmi2Discard : fmi2Error; /* the last good state stays */
-    fi->step_event = 0; /* a Boolean output changed: an event FMI 3's event mode reports */
-    for (int i = 0; i < FMU_MODEL.n_vars && !fi->step_event; i++)
-        fi->step_event = FMU_MODEL.vars[i].causality == FMU_OUTPUT && FMU_MODEL.vars[i].type == FMU_BOOLEAN &&
-                         fi->v[i] != fi->v_work[i];
+    fi->step_event = boolean_changed(fi) || t_stop < t_end; /* an event FMI 3's event mode reports */
+    fi->returned_early = t_stop < t_end;
+    t_end = t_stop;
     double *tv = fi->v;
     fi->v = fi->v_work;
     fi->v_work = tv;
@@ -785,12 +906,17 @@ fmi2Status fmu_update_discrete_states(fmu_instance *fi, const char *fn, fmu_even
     size_t nv = (size_t)FMU_MODEL.n_vars * sizeof(double);
     memcpy(fi->v_work, fi->v, nv);
     fmu_event ev = {0, 0, 0, 0.0};
-    fmi2Status s = FMU_MODEL.me->event(fi, fi->data, fi->v_work, fi->t, &ev);
+    fmi2Status s = FMU_MODEL.me->event ? FMU_MODEL.me->event(fi, fi->data, fi->v_work, fi->t, &ev) : fmi2OK;
     if (s > fmi2Warning) return fmi2Error;
+    double next = FMU_MODEL.me->next_time ? FMU_MODEL.me->next_time(fi->data, fi->t) : INFINITY;
+    if (isfinite(next)) {
+        ev.next_time_defined = 1;
+        ev.next_time = next;
+    }
     double *tv = fi->v;
     fi->v = fi->v_work;
     fi->v_work = tv;
-    if (ev.states_changed) fi->dirty = 1;
+    fi->dirty = 1; /* the discrete state may have changed (the indicators' hysteresis side): evaluate again */
     fi->t_accepted = fi->t;
     *info = ev; /* one update settles every event of these models */
     return s;

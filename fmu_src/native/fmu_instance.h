@@ -54,6 +54,12 @@ struct fmu_instance {
     /* co-simulation events (FMI 3 event mode): a Boolean output changed in the last step */
     int step_event;
     int cs_event_mode;   /* FMI 3 co-simulation: the importer uses event mode */
+    int cs_early_return; /* FMI 3 co-simulation: the importer allows early return */
+    int returned_early;  /* the last step ended before the master's end, at an event (fi->t) */
+    /* messages held back while a step's end is searched (early return): only the messages of
+     * the step that is kept reach the host */
+    int holding, n_held;
+    struct { fmi2Status status; char text[2048]; } held[8];
     char fn_buf[4][64];  /* fmu_fn's names */
     int fn_next;
 };

@@ -64,8 +64,12 @@ typedef struct {
      * fmu_log said why (an input or state it cannot use); the plumbing then keeps v as it was */
     fmi2Status (*eval)(fmu_instance *fi, void *data, double *v, double t, double *z);
     /* event mode at time t, after eval: update the discrete state (e.g. a validity latch,
-     * logging why), say when the next time event is due. fmi2OK / fmi2Warning. */
+     * logging why). fmi2OK / fmi2Warning. NULL: no discrete state. */
     fmi2Status (*event)(fmu_instance *fi, void *data, double *v, double t, fmu_event *ev);
+    /* the first time event strictly after t (a drive law's kink or switch), INFINITY when none;
+     * NULL: no time events. Model Exchange's event update announces it (next_time); FMI 3
+     * co-simulation with early return ends a step there */
+    double (*next_time)(const void *data, double t);
 } fmu_me;
 
 typedef struct {

@@ -170,8 +170,10 @@ def test_non_finite_input_refuses_the_evaluation(native_paths):
 
 
 @pytest.mark.parametrize("parameters, expected", [
-    (dict(input_mode=2), "input_mode = 2"), (dict(input_mode=3), "input_mode = 3"),
-    (dict(formulation=2), "formulation = 2"), (dict(motion=2, input_mode=3), "motion = 2")])
+    (dict(input_mode=2), "input_mode = 2 (supported: input_mode = 1 or 4"),
+    (dict(input_mode=3), "input_mode = 3 (supported: input_mode = 1 or 4"),
+    (dict(formulation=2), "formulation = 2 (supported: formulation = 1"),
+    (dict(motion=2, input_mode=3), "motion = 2 (supported: motion = 1, a translating chamber")])
 def test_configurations_me_cannot_run_are_refused_at_initialisation(me_paths, version, parameters, expected):
     f = _open(me_paths["BallInShell"], "me", version, **parameters)
     try:
@@ -181,14 +183,81 @@ def test_configurations_me_cannot_run_are_refused_at_initialisation(me_paths, ve
         f.free()
 
 
-def test_me_variables_are_not_read_in_co_simulation(native_paths):
-    f = Fmu(native_paths["BallInShell"], "cs")
+# co-simulation answers the Model Exchange variables the archive publishes for both interfaces
+# from its own state: (parameters, inputs while stepping, inputs set before the read)
+CS_LOCALS = {
+    "BallInShell": (dict(xC0=0.05, wy0=0.5), {}, dict(ax1O=0.3, ay1O=-0.2)),
+    "InductionMotor": ({}, dict(M_reaction=2.0), dict(M_reaction=-3.0)),
+    "Structure": ({}, dict(Fx_ball=4.0, Fy_ball=-2.0), dict(Fx_ball=-1.0, Fy_ball=5.0)),
+}
+
+
+def _cs_locals(f):
+    """the co-simulation instance's continuous states, derivatives and event indicators, read by name"""
+    md = f.md
+    states = [d.variable.derivative.name for d in md.derivatives]
+    ders = [d.variable.name for d in md.derivatives]
+    indicators = [v.name for v in md.modelVariables if v.name.startswith("z_")]
+    return [np.array([f.get(n) for n in names]) for names in (states, ders, indicators)]
+
+
+@pytest.mark.parametrize("model", STATEFUL)
+def test_co_simulation_reads_its_model_exchange_variables_from_its_own_state(me_paths, version, model):
+    """a co-simulation instance's states are those it steps (their central difference over its
+    own steps is its derivative), and its derivatives and event indicators are bit for bit what a
+    Model Exchange instance set to the same time, states and inputs gives"""
+    parameters, u_step, u_read = CS_LOCALS[model]
+    cs = (Fmu if version == 2 else Fmu3)(me_paths[model], "cs", **parameters)
+    me = None
     try:
-        assert f.init() == OK
+        assert cs.set(**u_step) == OK and cs.init() == OK
+        h = 1e-3
+        for _ in range(20):
+            assert cs.step(h) == OK
+        x0 = _cs_locals(cs)[0]
+        assert cs.step(h) == OK
+        x1, dx1, z1 = _cs_locals(cs)
+        assert cs.step(h) == OK
+        x2 = _cs_locals(cs)[0]
+        # the derivative over the co-simulation's steps: central difference, error (h w)^2 / 6 for
+        # the fastest rate w of the states that move (measured: 5e-6 of the largest derivative,
+        # 8e-5 for the induction motor's fluxes); a state from elsewhere is off by order 1
+        scale = np.abs(dx1).max()
+        assert np.allclose((x2 - x0) / (2 * h), dx1, rtol=0, atol=5e-4 * scale), ((x2 - x0) / (2 * h), dx1)
+        assert [m for s, m in cs.log if s > OK] == []
+        # the inputs set now, the state of the last communication point
+        dx_before = _cs_locals(cs)[1]
+        assert cs.set(**u_read) == OK
+        x, dx, z = _cs_locals(cs)
+        assert np.array_equal(x, x2) and not np.array_equal(dx, dx_before)  # the inputs set now count
+        me = _running(me_paths[model], version=version, **parameters)
+        assert me.set(**u_read) == OK
+        assert me.call("setTime", cs.time)[0] == OK
+        assert me.call("setContinuousStates", _ptr(x), len(x))[0] == OK
+        dx_me = np.zeros(len(x))
+        assert me.call("getDerivatives", _ptr(dx_me), len(x))[0] == OK
+        assert np.array_equal(dx, dx_me), (dx, dx_me)
+        if len(z):
+            z_me = np.zeros(len(z))
+            assert me.call("getEventIndicators", _ptr(z_me), len(z))[0] == OK
+            assert np.array_equal(z, z_me), (z, z_me)
+    finally:
+        cs.free()
+        if me is not None:
+            me.free()
+
+
+def test_co_simulation_refuses_model_exchange_variables_of_a_configuration_me_does_not_run(native_paths):
+    f = Fmu(native_paths["BallInShell"], "cs", formulation=2, xC0=0.05)
+    try:
+        assert f.init() == OK and f.step(0.01) == OK
+        good = f.outputs()
         v = f.vars["der(w_x)"]
         st, _ = f.call("getReal", [v.valueReference])
         assert st == ERROR
-        assert "der(w_x) is a Model Exchange variable" in f.messages()
+        msg = f.messages()
+        assert "der(w_x) refused" in msg and "formulation = 2" in msg and "formulation = 1" in msg, msg
+        assert f.outputs() == good and f.step(0.01) == OK
     finally:
         f.free()
 
@@ -238,5 +307,53 @@ def test_a_non_finite_input_is_refused_at_the_next_read(me_paths, version, model
         assert text in f.messages(n), f.messages(n)
         assert f.set(**{name: 0.0}) == OK
         assert f.outputs() == good
+    finally:
+        f.free()
+
+
+def test_event_indicators_have_hysteresis_so_a_restart_at_the_root_does_not_retrigger():
+    """The ball spun at wy0 = -20 rad/s begins to slip (mu = 0.1): an importer (scipy's
+    solve_ivp on the FMU's derivatives) locates the root of the slip indicator, handles the event
+    there and restarts at that very state. The indicator carries the hysteresis the FMI standard
+    recommends: before the event it is mu N - |F_t| + eps (so its root lies eps past the boundary,
+    where the ball does slip), after the event update mu N - |F_t| - eps, clearly negative: no
+    second crossing at the restart. eps = 1e-10 m g (the ball's weight)."""
+    from scipy.integrate import solve_ivp
+    from ballmill.physics.params import Ball
+    f = _running(_native_paths()["BallInShell"], wy0=-20.0, mu=0.1)
+    try:
+        eps = 1e-10 * Ball().m * Ball().g
+        x, dx, z = np.zeros(6), np.zeros(6), np.zeros(2)
+
+        def at(t, y):
+            x[:] = y
+            assert f.call("setTime", t)[0] == OK
+            assert f.call("setContinuousStates", _ptr(x), 6)[0] == OK
+
+        def rhs(t, y):
+            at(t, y)
+            f.call("getDerivatives", _ptr(dx), 6)
+            return dx.copy()
+
+        def slip(t, y):
+            at(t, y)
+            f.call("getEventIndicators", _ptr(z), 2)
+            return z[1]
+        slip.terminal = True
+        sol = solve_ivp(rhs, (0.0, 0.3), _states(f), method="DOP853", rtol=1e-10, atol=1e-12, events=slip)
+        (t_root,), (y_root,) = sol.t_events[0], sol.y_events[0]
+        assert 0.188 < t_root < 0.189
+        at(t_root, y_root)
+        raw = 0.1 * f.get("N") - f.get("Ft")
+        assert slip(t_root, y_root) == pytest.approx(raw + eps, abs=1e-15)
+        assert abs(raw + eps) < 1e-3 * eps  # the root: eps past the boundary
+        assert f.call("enterEventMode")[0] == OK and f.call("newDiscreteStates")[0] == OK
+        assert f.call("enterContinuousTimeMode")[0] == OK
+        assert not f.get("valid") and f.get("t_invalid") == t_root
+        after = slip(t_root, y_root)
+        assert after == pytest.approx(raw - eps, abs=1e-15) and after < -1.9 * eps
+        # the contact indicator is on its own side, shifted the other way (N > 0: no event)
+        f.call("getEventIndicators", _ptr(z), 2)
+        assert z[0] == pytest.approx(f.get("N") + eps, abs=1e-15)
     finally:
         f.free()
