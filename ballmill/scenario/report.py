@@ -261,9 +261,13 @@ def mill_indicators(res: RunResult, models, ball: str) -> dict:
     series = {c: res.data[:, j] for j, c in enumerate(res.columns) if c != "time"}
     drive = next((si for si, sv, di, dv in sc.connections if di == ball and dv == "x1O"), None)
     mu = _parameter(res, models, ball, "mu")
-    rec = ind.Record(t, series, ball, drive, mu,
-                     {"start": float(t[0]), "stop": float(t[-1]), "after": _after_time(res, models),
-                      **{f"{ball}.{p}": _parameter(res, models, ball, p) for p in ("r", "R")}})
+    refs = {"start": float(t[0]), "stop": float(t[-1]), "after": _after_time(res, models)}
+    for p in ("r", "R"):  # the radii the swept area needs (a model without them: not reported)
+        try:
+            refs[f"{ball}.{p}"] = _parameter(res, models, ball, p)
+        except KeyError:
+            pass
+    rec = ind.Record(t, series, ball, drive, mu, refs)
     N = series[f"{ball}.N"]
     fr = series.get(f"{ball}.friction_ratio", np.zeros_like(N))
     n_valid = ind.validity(t, N, fr, mu)[2]
