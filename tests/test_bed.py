@@ -263,7 +263,7 @@ def test_a_design_that_loses_contact_reports_the_margin_it_failed_by():
     assert t_invalid == pytest.approx(4.77)
 
 
-def path_record(theta, phi, in_bed, R=0.25, r=0.025):
+def path_record(theta, phi, in_bed, R=0.25, r=0.025, bed=1):
     """A Record whose contact point runs over the chamber's shell along the polar angle theta(t)
     (from the bottom) and the longitude phi(t) (t = 0 .. 10 s by 0.005 s, the window after 2 s),
     in the bed where in_bed(t); the ball rolls (N = 5 N, no friction force)."""
@@ -277,7 +277,8 @@ def path_record(theta, phi, in_bed, R=0.25, r=0.025):
     series.update({f"b.{k}C": C[:, j] + (0.0, 0.0, R)[j] for j, k in enumerate("xyz")})
     series.update({"b.s_bed": np.where(in_bed(t), 0.4, 0.0), "b.N": np.full_like(t, 5.0), "b.Ft": 0.0 * t,
                    "b.friction_ratio": 0.0 * t, "b.P_grind": 0.0 * t})
-    return Record(t, series, "b", None, 0.3, {"start": 0.0, "stop": 10.0, "after": 2.0, "b.R": R, "b.r": r})
+    return Record(t, series, "b", None, 0.3, {"start": 0.0, "stop": 10.0, "after": 2.0, "b.R": R, "b.r": r,
+                                              "b.bed": bed})
 
 
 def swept(rec):
@@ -323,6 +324,35 @@ def test_the_shell_area_swept_inside_the_bed_against_closed_forms():
     assert swept(path_record(lambda t: 0.7 + 0 * t, turn, lambda t: t < 0.0)) == 0.0
     # in the bed during the start-up only: nothing after it
     assert swept(path_record(lambda t: 0.7 + 0 * t, turn, lambda t: t < 1.5)) == 0.0
+    # no bed (bed = 0, the material everywhere): not reported
+    assert swept(path_record(lambda t: 0.7 + 0 * t, turn, always, bed=0)) is None
+
+
+def test_the_swept_area_of_a_wandering_path_against_a_monte_carlo_count():
+    """A path that wanders in polar angle (0.6 + 0.2 sin 2.3 t rad) while it goes round (3.77
+    rad/s), in the bed on the half of the circle where sin(longitude) > 0: its footprints'
+    union counted by 100000 random points of the zone it can reach, each within alpha of the
+    path (densely sampled) or not. The count's standard error is 0.4 %, the grid's error 0.5 %."""
+    from scipy.spatial import cKDTree
+
+    R, r = 0.25, 0.025
+    alpha = math.asin(r / (R - r))
+    theta = lambda t: 0.6 + 0.2 * np.sin(2.3 * t)  # noqa: E731
+    phi = lambda t: 3.77 * t  # noqa: E731
+    in_bed = lambda t: np.sin(phi(t)) > 0.0  # noqa: E731
+    area = swept(path_record(theta, phi, in_bed))
+    t = np.linspace(2.0, 10.0, 40001)  # the window after the start-up, 0.1 mm apart on the shell
+    t = t[in_bed(t)]
+    th, ph = theta(t), phi(t)
+    tree = cKDTree(np.column_stack([np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), -np.cos(th)]))
+    rng = np.random.default_rng(7)
+    lo, hi = 0.4 - alpha, 0.8 + alpha
+    z = rng.uniform(-math.cos(lo), -math.cos(hi), 100000)  # uniform on the sphere's zone
+    lon = rng.uniform(0.0, 2 * math.pi, z.size)
+    q = np.column_stack([np.sqrt(1 - z * z) * np.cos(lon), np.sqrt(1 - z * z) * np.sin(lon), z])
+    near = np.isfinite(tree.query(q, distance_upper_bound=2 * math.sin(alpha / 2))[0])
+    count = near.mean() * 2 * math.pi * R ** 2 * (math.cos(lo) - math.cos(hi))
+    assert area == pytest.approx(count, rel=0.02)
 
 
 def test_the_run_summary_reports_the_mill_indicators_with_units(fmu_build_dir):

@@ -262,7 +262,7 @@ def mill_indicators(res: RunResult, models, ball: str) -> dict:
     drive = next((si for si, sv, di, dv in sc.connections if di == ball and dv == "x1O"), None)
     mu = _parameter(res, models, ball, "mu")
     refs = {"start": float(t[0]), "stop": float(t[-1]), "after": _after_time(res, models)}
-    for p in ("r", "R"):  # the radii the swept area needs (a model without them: not reported)
+    for p in ("r", "R", "bed"):  # what the swept area needs (a model without them: not reported)
         try:
             refs[f"{ball}.{p}"] = _parameter(res, models, ball, p)
         except KeyError:

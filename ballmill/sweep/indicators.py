@@ -31,7 +31,10 @@ material bed (s_bed > 0), the grinding work per crank revolution (that integral
 divided by the drive's revolutions psi / 2 pi over the same window) and the shell area
 swept inside the bed (`swept_area`: the union of the ball's footprints, the shell points
 within its angular radius asin(r / (R - r)) of the contact point, along the path while
-s_bed > 0; it needs the references "BALL.r" and "BALL.R"). The margins
+s_bed > 0; it needs the references "BALL.r" and "BALL.R", and is reported only for a ball
+with a bed, "BALL.bed" = 1: with the material everywhere it would be the area of the whole
+path, a different measure, and on the wide rings of the bed-less scenarios it costs several
+times the point's run). The margins
 (slip_margin_min, N_min) are taken over the run up to and including the first sample
 where the model stopped holding, so that a design that fails reports the margin it failed
 by (<= 0) instead of nothing: what an optimiser's constraint needs.
@@ -262,7 +265,8 @@ def mill(rec: Record, n_valid: int) -> dict:
 def grinding(rec: Record, sl) -> dict:
     """P_grind_mean [W], bed_fraction [1], W_grind_rev [J] and A_swept_bed [m2] over the samples sl
     (None: not reported; also when the ball's P_grind, resp. s_bed, resp. the drive's psi, resp.
-    the ball's radii "BALL.r", "BALL.R" among the record's references, is not recorded)."""
+    the ball's radii "BALL.r", "BALL.R" among the record's references, is not recorded; the swept
+    area also when the ball has no bed, "BALL.bed" != 1)."""
     b = rec.ball + "."
     out = dict.fromkeys(("P_grind_mean", "bed_fraction", "W_grind_rev", "A_swept_bed"))
     if sl is None or sl.stop - sl.start < 2:
@@ -273,7 +277,9 @@ def grinding(rec: Record, sl) -> dict:
         inside = in_bed.astype(float)
         out["bed_fraction"] = float((0.5 * (inside[1:] + inside[:-1])).dot(np.diff(t)) / (t[-1] - t[0]))
         r, R = rec.refs.get(b + "r"), rec.refs.get(b + "R")
-        if r is not None and R is not None and all(b + v in rec.series for v in ("xP", "yP", "zP", "xC", "yC", "zC")):
+        bed = rec.refs.get(b + "bed") == 1  # a bed of depth h_bed (with bed = 0 the material is everywhere)
+        if bed and r is not None and R is not None and all(b + v in rec.series
+                                                           for v in ("xP", "yP", "zP", "xC", "yC", "zC")):
             s = rec.series
             u = np.column_stack([s[b + "xP"][sl] - s[b + "xC"][sl], s[b + "yP"][sl] - s[b + "yC"][sl],
                                  s[b + "zP"][sl] - s[b + "zC"][sl]])
@@ -311,8 +317,9 @@ def swept_area(u, inside, R: float, alpha: float) -> float:
     cap (the cap's half-width in longitude at the band's middle theta, closed form), and the
     area is the covered share of each band times the band's zone area 2 pi R^2 (cos theta_a -
     cos theta_b). The bands start and end at the path's extreme theta -+ alpha, so a zone of
-    latitude comes out exact; a circle about a tilted axis within 1.1 % of its closed form, the
-    mill's paths within 0.5 % of a Monte Carlo count (tests/test_bed.py)."""
+    latitude comes out within the sag of the arcs between kept samples (0.1 %); a circle about a
+    tilted axis within 1.1 % of its closed form, a wandering path within 0.2 % of a Monte Carlo
+    count (tests/test_bed.py)."""
     u = np.asarray(u, float)
     inside = np.asarray(inside, bool)
     if not inside.any() or alpha <= 0.0:
@@ -374,11 +381,12 @@ def swept_area(u, inside, R: float, alpha: float) -> float:
     a = np.mod(a, cols)
     b = a + n  # one past the last, up to 2 cols - 1 (the rest wraps to the band's start)
     row = band * (cols + 1)
-    diff = np.bincount(np.concatenate([row + a, row + np.minimum(b, cols), row, row + np.maximum(b - cols, 0)]),
-                       np.concatenate([np.ones(a.size), -np.ones(a.size), (b > cols).astype(float),
-                                       -(b > cols).astype(float)]), minlength=nb * (cols + 1))
+    wrap = b > cols
+    size = nb * (cols + 1)
+    diff = (np.bincount(np.concatenate([row + a, row[wrap]]), minlength=size)
+            - np.bincount(np.concatenate([row + np.minimum(b, cols), (row + b - cols)[wrap]]), minlength=size))
     # each row's marks sum to 0 (every interval ends in its own band): one running sum over all
-    covered = np.count_nonzero((np.cumsum(diff) > 0.5).reshape(nb, cols + 1), axis=1)
+    covered = np.count_nonzero((np.cumsum(diff) > 0).reshape(nb, cols + 1), axis=1)
     return float(zone.dot(covered) / cols)
 
 
