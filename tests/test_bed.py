@@ -263,6 +263,98 @@ def test_a_design_that_loses_contact_reports_the_margin_it_failed_by():
     assert t_invalid == pytest.approx(4.77)
 
 
+def path_record(theta, phi, in_bed, R=0.25, r=0.025, bed=1):
+    """A Record whose contact point runs over the chamber's shell along the polar angle theta(t)
+    (from the bottom) and the longitude phi(t) (t = 0 .. 10 s by 0.005 s, the window after 2 s),
+    in the bed where in_bed(t); the ball rolls (N = 5 N, no friction force)."""
+    from ballmill.sweep.indicators import Record
+
+    t = np.round(np.arange(0.0, 10.0 + 0.0025, 0.005), 12)
+    th, ph = theta(t), phi(t)
+    n = np.column_stack([np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), -np.cos(th)])
+    P, C = R * n, (R - r) * n  # from the chamber's centre
+    series = {f"b.{k}P": P[:, j] + (0.0, 0.0, R)[j] for j, k in enumerate("xyz")}
+    series.update({f"b.{k}C": C[:, j] + (0.0, 0.0, R)[j] for j, k in enumerate("xyz")})
+    series.update({"b.s_bed": np.where(in_bed(t), 0.4, 0.0), "b.N": np.full_like(t, 5.0), "b.Ft": 0.0 * t,
+                   "b.friction_ratio": 0.0 * t, "b.P_grind": 0.0 * t})
+    return Record(t, series, "b", None, 0.3, {"start": 0.0, "stop": 10.0, "after": 2.0, "b.R": R, "b.r": r,
+                                              "b.bed": bed})
+
+
+def swept(rec):
+    from ballmill.sweep import indicators as ind
+
+    return ind.mill(rec, len(rec.t))["A_swept_bed"]
+
+
+def test_the_shell_area_swept_inside_the_bed_against_closed_forms():
+    """The ball's footprint has the angular radius alpha = asin(r / (R - r)) (0.1113 rad for the
+    paper's ball); the points within alpha of a latitude circle at theta form the zone between
+    theta -+ alpha, area 2 pi R^2 (cos(theta - alpha) - cos(theta + alpha)) (Archimedes; the cap
+    below theta + alpha when theta < alpha); of a
+    circle about a tilted axis, the same; of half a latitude circle, half that zone plus a whole
+    cap 2 pi R^2 (1 - cos alpha) (the two ends' half caps, each cut in half by its meridian);
+    a path that never enters the bed sweeps nothing. Tolerances: the path between the samples
+    kept (alpha / 4 apart) is their great-circle arc, which sags some 3e-4 rad off a latitude
+    circle (0.1 % of the zone at 0.3 rad), and the grid's bands and cells (alpha / 8, alpha / 10)
+    resolve a tilted circle's edges to about 1 %."""
+    R, r = 0.25, 0.025
+    alpha = math.asin(r / (R - r))
+    assert alpha == pytest.approx(0.11134, abs=1e-5)
+    zone = lambda th: 2 * math.pi * R ** 2 * (math.cos(th - alpha) - math.cos(th + alpha))  # noqa: E731
+    turn = lambda t: 2 * np.pi * 0.4 * t  # noqa: E731  (0.4 revolutions per second: 3.2 in the window)
+    always = lambda t: t >= 0.0  # noqa: E731
+    for theta in (0.3, 0.7):
+        assert swept(path_record(lambda t: theta + 0 * t, turn, always)) == pytest.approx(zone(theta), rel=2e-3)
+    # closer to the bottom than alpha: the footprints cover the cap below theta + alpha
+    assert swept(path_record(lambda t: 0.05 + 0 * t, turn, always)) == \
+        pytest.approx(2 * math.pi * R ** 2 * (1 - math.cos(0.05 + alpha)), rel=2e-3)
+    # a circle of angular radius beta about the axis a, tilted 0.3 rad from the downward vertical:
+    # n = cos beta a + sin beta (cos s e1 + sin s e2)
+    tilt, beta = 0.3, 0.5
+    a, e1 = np.array([math.sin(tilt), 0.0, -math.cos(tilt)]), np.array([math.cos(tilt), 0.0, math.sin(tilt)])
+    n = lambda t: (math.cos(beta) * a[:, None] + math.sin(beta) * (np.cos(turn(t)) * e1[:, None]  # noqa: E731
+                                                                   + np.sin(turn(t)) * np.array([0, 1.0, 0])[:, None]))
+    theta_t = lambda t: np.arccos(-n(t)[2])  # noqa: E731
+    phi_t = lambda t: np.arctan2(n(t)[1], n(t)[0])  # noqa: E731
+    assert swept(path_record(theta_t, phi_t, always)) == pytest.approx(zone(beta), rel=0.015)
+    # half of each revolution in the bed, the other half above it (sin of the longitude > 0)
+    half = swept(path_record(lambda t: 0.7 + 0 * t, turn, lambda t: np.sin(turn(t)) > 0.0))
+    assert half == pytest.approx(zone(0.7) / 2 + 2 * math.pi * R ** 2 * (1 - math.cos(alpha)), rel=0.01)
+    assert swept(path_record(lambda t: 0.7 + 0 * t, turn, lambda t: t < 0.0)) == 0.0
+    # in the bed during the start-up only: nothing after it
+    assert swept(path_record(lambda t: 0.7 + 0 * t, turn, lambda t: t < 1.5)) == 0.0
+    # no bed (bed = 0, the material everywhere): not reported
+    assert swept(path_record(lambda t: 0.7 + 0 * t, turn, always, bed=0)) is None
+
+
+def test_the_swept_area_of_a_wandering_path_against_a_monte_carlo_count():
+    """A path that wanders in polar angle (0.6 + 0.2 sin 2.3 t rad) while it goes round (3.77
+    rad/s), in the bed on the half of the circle where sin(longitude) > 0: its footprints'
+    union counted by 100000 random points of the zone it can reach, each within alpha of the
+    path (densely sampled) or not. The count's standard error is 0.4 %, the grid's error 0.5 %."""
+    from scipy.spatial import cKDTree
+
+    R, r = 0.25, 0.025
+    alpha = math.asin(r / (R - r))
+    theta = lambda t: 0.6 + 0.2 * np.sin(2.3 * t)  # noqa: E731
+    phi = lambda t: 3.77 * t  # noqa: E731
+    in_bed = lambda t: np.sin(phi(t)) > 0.0  # noqa: E731
+    area = swept(path_record(theta, phi, in_bed))
+    t = np.linspace(2.0, 10.0, 40001)  # the window after the start-up, 0.1 mm apart on the shell
+    t = t[in_bed(t)]
+    th, ph = theta(t), phi(t)
+    tree = cKDTree(np.column_stack([np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), -np.cos(th)]))
+    rng = np.random.default_rng(7)
+    lo, hi = 0.4 - alpha, 0.8 + alpha
+    z = rng.uniform(-math.cos(lo), -math.cos(hi), 100000)  # uniform on the sphere's zone
+    lon = rng.uniform(0.0, 2 * math.pi, z.size)
+    q = np.column_stack([np.sqrt(1 - z * z) * np.cos(lon), np.sqrt(1 - z * z) * np.sin(lon), z])
+    near = np.isfinite(tree.query(q, distance_upper_bound=2 * math.sin(alpha / 2))[0])
+    count = near.mean() * 2 * math.pi * R ** 2 * (math.cos(lo) - math.cos(hi))
+    assert area == pytest.approx(count, rel=0.02)
+
+
 def test_the_run_summary_reports_the_mill_indicators_with_units(fmu_build_dir):
     """The scenario summary's indicators (ballmill run: summary.json) by hand from the run's own
     columns: the grinding scenario's first 8 s (the start-up ends at 2.5 s)."""
@@ -286,3 +378,8 @@ def test_the_run_summary_reports_the_mill_indicators_with_units(fmu_build_dir):
     assert ind["N_min"]["value"] == pytest.approx(res.column("ball.N").min(), rel=1e-3)
     assert ind["T_drive_peak"]["value"] >= np.abs(res.column("drive.T_drive")).max()
     assert ind["slip_margin_min"]["unit"] == "N" and ind["slip_margin_min"]["value"] > 0.0
+    # the footprints (angular radius asin(r / (R - r)) = 0.1113 rad) along the path below the 9 cm
+    # surface: more than one footprint, less than the shell below the surface widened by one
+    assert ind["A_swept_bed"]["unit"] == "m2"
+    alpha = math.asin(0.025 / 0.225)
+    assert math.pi * (0.25 * alpha) ** 2 < ind["A_swept_bed"]["value"] < 2 * math.pi * 0.25 * (0.09 + 0.25 * alpha)

@@ -355,3 +355,41 @@ def test_a_cosimulated_point_repeats_no_build_check(tmp_path, monkeypatch):
         assert [r["status"] for r in res.rows] == ["ok"] * n
         counts.append(len(calls))
     assert counts[0] == counts[1], counts
+
+
+# -- the design guide's shipped studies (docs/design_guide.md) ------------------------------------
+GUIDE_STUDIES = ["grinding_design", "grinding_optimum", "grinding_optimum_r20", "grinding_optimum_r30",
+                 "grinding_sensitivity"]
+
+
+def test_the_design_guide_ships_its_studies_and_cites_each():
+    """Every grinding study file in scenarios/studies/ is one the guide runs, by its command."""
+    shipped = sorted(p.stem for p in (ROOT / "scenarios" / "studies").glob("grinding_*.toml"))
+    assert shipped == sorted(GUIDE_STUDIES)
+    guide = (ROOT / "docs" / "design_guide.md").read_text(encoding="utf-8")
+    for name in GUIDE_STUDIES:
+        command = "sensitivity" if name.endswith("sensitivity") else "optimize"
+        assert f"ballmill {command} scenarios/studies/{name}.toml" in guide, name
+    for scenario in ("grinding_design", "grinding_design_motor"):
+        assert f"ballmill run {scenario} --out" in guide, scenario
+
+
+@needs_kernel
+@pytest.mark.parametrize("name", GUIDE_STUDIES)
+def test_the_design_guide_studies_run(tmp_path, capsys, name):
+    """Each study file parses, passes the scenario's checks at its bounds' corners, and runs on
+    the kernel evaluator (shrunk: 5 designs of one generation, or N = 2 for Sobol, 2 s runs);
+    each design comes out valid and meets the study's constraints or reports its margins."""
+    text = (ROOT / "scenarios" / "studies" / f"{name}.toml").read_text(encoding="utf-8")
+    text = text.replace("stop = 20.0", "stop = 4.0")
+    path = study_file(tmp_path, text.replace('scenario = "grinding"', f'scenario = "{ROOT / "scenarios" / "grinding.toml"}"'),
+                      name)
+    out = tmp_path / "out"
+    if name.endswith("sensitivity"):
+        args = ["sensitivity", str(path), "--N", "2"]
+    else:
+        args = ["optimize", str(path), "--population", "5", "--generations", "1"]
+    assert cli.main(args + ["--out", str(out), "--in-process", "--quiet", "--no-plots"]) == 0, capsys.readouterr().err
+    got = rows(out / "results.parquet")
+    assert got and all(r["status"] == "ok" for r in got)
+    assert all(r["A_swept_bed"] is None or r["A_swept_bed"] >= 0.0 for r in got)

@@ -250,7 +250,8 @@ def summarise(res: RunResult, models, bare: RunResult | None = None) -> dict:
 def mill_indicators(res: RunResult, models, ball: str) -> dict:
     """The mill's design indicators (ballmill.sweep.indicators.mill: the drive's peak torque and
     power, the mean grinding power after the start-up, the fraction of time in the bed, the
-    grinding work per crank revolution, the slip and lift-off margins), computed as the sweep
+    grinding work per crank revolution, the shell area swept inside the bed, the slip and
+    lift-off margins), computed as the sweep
     computes them, each {"value": ..., "unit": ..., "description": ...} (value None where the run
     does not say: not recorded, or past the model's validity)."""
     from ..sweep import indicators as ind
@@ -260,8 +261,13 @@ def mill_indicators(res: RunResult, models, ball: str) -> dict:
     series = {c: res.data[:, j] for j, c in enumerate(res.columns) if c != "time"}
     drive = next((si for si, sv, di, dv in sc.connections if di == ball and dv == "x1O"), None)
     mu = _parameter(res, models, ball, "mu")
-    rec = ind.Record(t, series, ball, drive, mu,
-                     {"start": float(t[0]), "stop": float(t[-1]), "after": _after_time(res, models)})
+    refs = {"start": float(t[0]), "stop": float(t[-1]), "after": _after_time(res, models)}
+    for p in ("r", "R", "bed"):  # what the swept area needs (a model without them: not reported)
+        try:
+            refs[f"{ball}.{p}"] = _parameter(res, models, ball, p)
+        except KeyError:
+            pass
+    rec = ind.Record(t, series, ball, drive, mu, refs)
     N = series[f"{ball}.N"]
     fr = series.get(f"{ball}.friction_ratio", np.zeros_like(N))
     n_valid = ind.validity(t, N, fr, mu)[2]

@@ -27,8 +27,14 @@ outputs.validity) [N].
 The grinding indicators (docs/design.md section 13): the mean grinding power after
 the start-up (the ball's P_grind integrated over [after, stop] by the trapezoidal rule,
 divided by that time), the fraction of that time the contact point spends in the
-material bed (s_bed > 0), and the grinding work per crank revolution (that integral
-divided by the drive's revolutions psi / 2 pi over the same window). The margins
+material bed (s_bed > 0), the grinding work per crank revolution (that integral
+divided by the drive's revolutions psi / 2 pi over the same window) and the shell area
+swept inside the bed (`swept_area`: the union of the ball's footprints, the shell points
+within its angular radius asin(r / (R - r)) of the contact point, along the path while
+s_bed > 0; it needs the references "BALL.r" and "BALL.R", and is reported only for a ball
+with a bed, "BALL.bed" = 1: with the material everywhere it would be the area of the whole
+path, a different measure, and on the wide rings of the bed-less scenarios it costs several
+times the point's run). The margins
 (slip_margin_min, N_min) are taken over the run up to and including the first sample
 where the model stopped holding, so that a design that fails reports the margin it failed
 by (<= 0) instead of nothing: what an optimiser's constraint needs.
@@ -64,6 +70,9 @@ BUILTIN = {
                           "(s_bed > 0)"),
     "W_grind_rev": ("J", "grinding work per crank revolution after the start-up: integral of P_grind over "
                          "[after, stop] / the revolutions psi / 2 pi made in it"),
+    "A_swept_bed": ("m2", "shell area swept inside the bed after the start-up: the union of the ball's footprints "
+                          "(shell points within the ball's angular radius asin(r / (R - r)) of the contact point, "
+                          "seen from the chamber's centre) along the path while s_bed > 0"),
     "slip_margin_min": ("N", "smallest rolling margin mu N - |F_t| (N where N <= 0) up to the first failure "
                              "(> 0: the ball kept rolling)"),
     "N_min": ("N", "smallest normal force up to the first failure, the lift-off margin (> 0: the ball kept "
@@ -227,7 +236,8 @@ def builtin(rec: Record, n_valid: int) -> dict:
     return {name: out[name] for name in BUILTIN}
 
 
-MILL = ("T_drive_peak", "P_drive_peak", "P_grind_mean", "bed_fraction", "W_grind_rev", "slip_margin_min", "N_min")
+MILL = ("T_drive_peak", "P_drive_peak", "P_grind_mean", "bed_fraction", "W_grind_rev", "A_swept_bed",
+        "slip_margin_min", "N_min")
 
 
 def mill(rec: Record, n_valid: int) -> dict:
@@ -253,16 +263,27 @@ def mill(rec: Record, n_valid: int) -> dict:
 
 
 def grinding(rec: Record, sl) -> dict:
-    """P_grind_mean [W], bed_fraction [1] and W_grind_rev [J] over the samples sl (None: not
-    reported; also when the ball's P_grind, resp. s_bed, resp. the drive's psi, is not recorded)."""
+    """P_grind_mean [W], bed_fraction [1], W_grind_rev [J] and A_swept_bed [m2] over the samples sl
+    (None: not reported; also when the ball's P_grind, resp. s_bed, resp. the drive's psi, resp.
+    the ball's radii "BALL.r", "BALL.R" among the record's references, is not recorded; the swept
+    area also when the ball has no bed, "BALL.bed" != 1)."""
     b = rec.ball + "."
-    out = dict.fromkeys(("P_grind_mean", "bed_fraction", "W_grind_rev"))
+    out = dict.fromkeys(("P_grind_mean", "bed_fraction", "W_grind_rev", "A_swept_bed"))
     if sl is None or sl.stop - sl.start < 2:
         return out
     t = rec.t[sl]
     if b + "s_bed" in rec.series:
-        inside = (rec.series[b + "s_bed"][sl] > 0.0).astype(float)
+        in_bed = rec.series[b + "s_bed"][sl] > 0.0
+        inside = in_bed.astype(float)
         out["bed_fraction"] = float((0.5 * (inside[1:] + inside[:-1])).dot(np.diff(t)) / (t[-1] - t[0]))
+        r, R = rec.refs.get(b + "r"), rec.refs.get(b + "R")
+        bed = rec.refs.get(b + "bed") == 1  # a bed of depth h_bed (with bed = 0 the material is everywhere)
+        if bed and r is not None and R is not None and all(b + v in rec.series
+                                                           for v in ("xP", "yP", "zP", "xC", "yC", "zC")):
+            s = rec.series
+            u = np.column_stack([s[b + "xP"][sl] - s[b + "xC"][sl], s[b + "yP"][sl] - s[b + "yC"][sl],
+                                 s[b + "zP"][sl] - s[b + "zC"][sl]])
+            out["A_swept_bed"] = swept_area(u, in_bed, R, footprint(r, R))
     if b + "P_grind" not in rec.series:
         return out
     work = _stat(rec.t, rec.series[b + "P_grind"], "integral", sl)
@@ -272,6 +293,101 @@ def grinding(rec: Record, sl) -> dict:
         turns = abs(float(psi[sl][-1] - psi[sl][0])) / (2.0 * math.pi)
         out["W_grind_rev"] = work / turns if turns > 0.0 else None
     return out
+
+
+BANDS_PER_FOOTPRINT = 8  # swept_area's bands of polar angle per footprint radius
+CELLS_PER_FOOTPRINT = 10  # its cells of longitude per footprint radius (on the equator)
+
+
+def footprint(r: float, R: float) -> float:
+    """The ball's footprint on the shell [rad]: its angular radius seen from the chamber's centre,
+    asin(r / (R - r)) (the shell points whose radius from the centre passes through the ball)."""
+    return math.asin(min(1.0, r / (R - r)))
+
+
+def swept_area(u, inside, R: float, alpha: float) -> float:
+    """Area [m2] of the set of points of the sphere of radius R within angular distance alpha of
+    the path u (unit vectors from the sphere's centre, rows) where ``inside`` holds, the arc
+    between two consecutive inside samples included (great-circle arcs, subdivided to alpha / 4:
+    between two caps so spaced the union's edge dips by at most 0.8 % of alpha).
+
+    Computed on a grid of the sphere: bands of polar angle theta (from the bottom, -z)
+    alpha / BANDS_PER_FOOTPRINT high, each cut into equal cells of longitude
+    (alpha / CELLS_PER_FOOTPRINT on the equator); a cell is covered when its middle lies in a
+    cap (the cap's half-width in longitude at the band's middle theta, closed form), and the
+    area is the covered share of each band times the band's zone area 2 pi R^2 (cos theta_a -
+    cos theta_b). The bands start and end at the path's extreme theta -+ alpha, so a zone of
+    latitude comes out within the sag of the arcs between kept samples (0.1 %); a circle about a
+    tilted axis within 1.1 % of its closed form, a wandering path within 0.2 % of a Monte Carlo
+    count (tests/test_bed.py)."""
+    u = np.asarray(u, float)
+    inside = np.asarray(inside, bool)
+    if not inside.any() or alpha <= 0.0:
+        return 0.0
+    u = u / np.linalg.norm(u, axis=1)[:, None]
+    step = alpha / 4.0
+    ang = np.arccos(np.clip(np.einsum("ij,ij->i", u[:-1], u[1:]), -1.0, 1.0))
+    both = inside[:-1] & inside[1:]
+    # samples closer than step along the path add nothing: keep one per step of arc length, and
+    # every run's ends
+    arc = np.cumsum(np.concatenate([[0.0], np.where(both, ang, 0.0)]))
+    run = np.cumsum(np.concatenate([[1], ~both]))  # samples i, i + 1 lie in one run of the bed when both[i]
+    ends = np.ones(len(u), bool)
+    ends[1:-1] = ~(both[:-1] & both[1:])
+    cell = np.floor(arc / step)
+    keep = inside & (ends | np.concatenate([[True], cell[1:] != cell[:-1]]))
+    u, run = u[keep], run[keep]
+    # the arcs between consecutive kept samples of one run, subdivided to step (chords normalised
+    # onto the sphere)
+    both = run[:-1] == run[1:]
+    ang = np.arccos(np.clip(np.einsum("ij,ij->i", u[:-1], u[1:]), -1.0, 1.0))
+    k = np.where(both, np.ceil(ang / step).astype(int), 0)
+    pts = [u]
+    extra = np.maximum(k - 1, 0)  # points inserted in each arc
+    if extra.any():
+        seg = np.repeat(np.arange(len(k)), extra)
+        j = np.arange(len(seg)) - np.repeat(np.cumsum(extra) - extra, extra) + 1  # 1 .. k - 1 in each arc
+        frac = j / np.repeat(k, extra)
+        mid = u[seg] + frac[:, None] * (u[seg + 1] - u[seg])
+        pts.append(mid / np.linalg.norm(mid, axis=1)[:, None])
+    p = np.concatenate(pts)
+    theta = np.arccos(np.clip(-p[:, 2], -1.0, 1.0))
+    phi = np.arctan2(p[:, 1], p[:, 0])
+    order = np.argsort(theta)
+    theta, phi = theta[order], phi[order]
+    lo, hi = max(0.0, theta[0] - alpha), min(math.pi, theta[-1] + alpha)
+    nb = max(1, int(math.ceil((hi - lo) / (alpha / BANDS_PER_FOOTPRINT))))
+    edges = np.linspace(lo, hi, nb + 1)
+    mids = 0.5 * (edges[:-1] + edges[1:])
+    zone = 2.0 * math.pi * R * R * (np.cos(edges[:-1]) - np.cos(edges[1:]))  # each band's area
+    # every (band, point) pair whose cap reaches the band's middle circle: the cap's half-width in
+    # longitude there, cos(half) = (cos alpha - cos theta_b cos theta) / (sin theta_b sin theta)
+    # (<= -1: the whole circle, also for a point at the pole within alpha; >= 1: none)
+    first = np.searchsorted(theta, mids - alpha, side="left")
+    count = np.searchsorted(theta, mids + alpha, side="right") - first
+    band = np.repeat(np.arange(nb), count)
+    j = np.arange(band.size) - np.repeat(np.cumsum(count) - count, count) + np.repeat(first, count)
+    st, ct = np.sin(theta), np.cos(theta)
+    c = (math.cos(alpha) - np.cos(mids)[band] * ct[j]) / np.maximum(np.sin(mids)[band] * st[j], 1e-300)
+    hit = c < 1.0
+    band, half, ph = band[hit], np.arccos(np.maximum(c[hit], -1.0)), phi[j[hit]]
+    # each band's circle cut into cols cells of longitude; a cell is covered when its middle
+    # lies in an interval [phi - half, phi + half] (counted on a difference array, summed along the band)
+    cols = int(math.ceil(2.0 * math.pi / (alpha / CELLS_PER_FOOTPRINT)))
+    width = 2.0 * math.pi / cols
+    a = np.ceil((ph - half) / width - 0.5).astype(np.int64)  # first covered cell (may be < 0: wraps)
+    n = np.floor((ph + half) / width - 0.5).astype(np.int64) - a + 1  # cells covered
+    n = np.minimum(n, cols)
+    a = np.mod(a, cols)
+    b = a + n  # one past the last, up to 2 cols - 1 (the rest wraps to the band's start)
+    row = band * (cols + 1)
+    wrap = b > cols
+    size = nb * (cols + 1)
+    diff = (np.bincount(np.concatenate([row + a, row[wrap]]), minlength=size)
+            - np.bincount(np.concatenate([row + np.minimum(b, cols), (row + b - cols)[wrap]]), minlength=size))
+    # each row's marks sum to 0 (every interval ends in its own band): one running sum over all
+    covered = np.count_nonzero((np.cumsum(diff) > 0).reshape(nb, cols + 1), axis=1)
+    return float(zone.dot(covered) / cols)
 
 
 def evaluate(rec: Record, custom=()) -> dict:
