@@ -679,18 +679,205 @@ static void bm_lerr_see(bm_lerr *E, double t, const double *y, const double *f)
 /* Integrator.advance (the small-system path) from t to t_end. y and *h are
  * updated only on success (return 1); 0: Python must do this interval (it
  * fails there, or needs the initial step). */
+typedef struct bm_events bm_events;
 static int bm_advance_seen(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, const void *ctx, double t,
-                           double *y_io, double t_end, double *h_io, bm_stats *st, bm_lerr *seen);
+                           double *y_io, double t_end, double *h_io, bm_stats *st, bm_lerr *seen,
+                           bm_events *ev);
 
 static int bm_advance(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, const void *ctx, double t,
                       double *y_io, double t_end, double *h_io, bm_stats *st)
 {
-    return bm_advance_seen(P, T, rhs, ctx, t, y_io, t_end, h_io, st, NULL);
+    return bm_advance_seen(P, T, rhs, ctx, t, y_io, t_end, h_io, st, NULL, NULL);
 }
 
-/* bm_advance, showing `seen` (when not NULL) every state a fixed-step run starts a step from */
+/* ------------------------------------------------------------------ events.py
+ * Event location on the integrator's accepted steps, as events.integrate does it: after
+ * each accepted step the armed guards are scanned on the step's cubic Hermite interpolant
+ * (`_detect`), and a guard that changes sign is located on the method's own step from the
+ * step's start (`_locate`, `Integrator.single_step`) by the Illinois variant of regula falsi
+ * (`illinois`). bm_advance_seen with an event set stops at the first event (returns 2). */
+#define BM_NG_MAX 4 /* guards of a mode, at most */
+typedef void (*bm_guard_fn)(const void *ctx, double t, const double *y, double *g);
+
+struct bm_events {
+    /* the mode's guards: ng values G(ctx, t, y), each armed once above its level */
+    int ng;
+    bm_guard_fn G;
+    const void *gctx;
+    double levels[BM_NG_MAX];
+    int armed[BM_NG_MAX];
+    int scan;    /* interior points of the Hermite scan (events.integrate's scan) */
+    double xtol; /* the root finder's bracket [s] */
+    /* the event found: guard j at time t, the state y there, the bracket's width, the step's size */
+    int j;
+    double t, y[BM_NYMAX], width, h_used;
+};
+
+/* Step.hermite: y(t) on the cubic through (t0, y0, f0) and (t1, y1, f1) */
+static void bm_hermite(int ny, double t0, const double *y0, const double *f0, double t1, const double *y1,
+                       const double *f1, double t, double *out)
+{
+    double h = t1 - t0;
+    double s = (t - t0) / h;
+    double s2 = s * s, s3 = s * s * s;
+    double h00 = 2.0 * s3 - 3.0 * s2 + 1.0, h10 = s3 - 2.0 * s2 + s, h01 = -2.0 * s3 + 3.0 * s2, h11 = s3 - s2;
+    double a = h * h10, b = h * h11;
+    for (int i = 0; i < ny; i++) out[i] = h00 * y0[i] + h01 * y1[i] + a * f0[i] + b * f1[i];
+}
+
+/* the state of a step at t (events._locate's state(t)): the ends as they are, inside one step
+ * of the method from the start (Integrator.single_step: the stages, then the projection) */
+typedef struct {
+    const bm_problem *P;
+    const bm_tab *T;
+    bm_rhs_fn rhs;
+    const void *ctx;
+    double t0, t1;
+    const double *y0, *f0, *y1;
+    bm_events *ev;
+    double K[(BM_NS_MAX + 1) * BM_NYMAX];
+} bm_stepx;
+
+static void bm_stepx_state(bm_stepx *x, double t, double *y)
+{
+    int ny = x->P->ny;
+    if (t == x->t0) {
+        memcpy(y, x->y0, (size_t)ny * sizeof(double));
+        return;
+    }
+    if (t == x->t1) {
+        memcpy(y, x->y1, (size_t)ny * sizeof(double));
+        return;
+    }
+    memcpy(x->K, x->f0, (size_t)ny * sizeof(double));
+    bm_stages(x->P, x->T, x->rhs, x->ctx, x->t0, x->y0, t - x->t0, x->K, y);
+    bm_project(x->P, y);
+}
+
+static double bm_phi(bm_stepx *x, int j, double t)
+{
+    double y[BM_NYMAX], g[BM_NG_MAX];
+    bm_stepx_state(x, t, y);
+    x->ev->G(x->ev->gctx, t, y, g);
+    return g[j];
+}
+
+/* events.illinois on guard j: the root's end where phi <= 0 (*t), the final bracket (*width) */
+static void bm_illinois(bm_stepx *x, int j, double a, double fa, double b, double fb, double xtol, double *t,
+                        double *width)
+{
+    int side = 0;
+    for (int it = 0; it < 200; it++) {
+        if (b - a <= xtol || fb == 0.0) break;
+        double c;
+        if (it % 3 == 2 || fa == fb) {
+            c = 0.5 * (a + b);
+        } else {
+            c = (a * fb - b * fa) / (fb - fa);
+            if (!(a < c && c < b)) c = 0.5 * (a + b);
+        }
+        double fc = bm_phi(x, j, c);
+        if (fc > 0.0) {
+            a = c; fa = fc;
+            if (side == 1) fb *= 0.5;
+            side = 1;
+        } else {
+            b = c; fb = fc;
+            if (side == -1) fa *= 0.5;
+            side = -1;
+        }
+    }
+    *t = b;
+    *width = fb == 0.0 ? 0.0 : b - a;
+}
+
+/* events._locate: 1 and (*t, *width) when guard j changes sign in [ta, tb] on the method's
+ * own step, 0 when it does not there (the Hermite scan saw a crossing the step has not) */
+static int bm_locate(bm_stepx *x, int j, double ta, double tb, double *t, double *width)
+{
+    double t0 = x->t0, xtol = x->ev->xtol;
+    double fa = bm_phi(x, j, ta), fb = bm_phi(x, j, tb);
+    if (!(fa > 0.0)) {
+        ta = t0;
+        fa = bm_phi(x, j, t0);
+    }
+    if (!(fa > 0.0) && fb <= 0.0) { /* armed at t0 without a positive value: where it is positive */
+        for (int k = 1; k < 80; k++) {
+            double tm = t0 + (tb - t0) * ldexp(1.0, -k);
+            if (tm - t0 <= xtol) break;
+            double fm = bm_phi(x, j, tm);
+            if (fm > 0.0) {
+                ta = tm; fa = fm;
+                break;
+            }
+        }
+    }
+    if (!(fb <= 0.0)) {
+        tb = x->t1;
+        fb = bm_phi(x, j, x->t1);
+    }
+    if (!(fa > 0.0 && fb <= 0.0)) return 0;
+    bm_illinois(x, j, ta, fa, tb, fb, xtol, t, width);
+    return 1;
+}
+
+/* events._detect and the choice of events.integrate on one accepted step (t0, y0, f0) ->
+ * (t1, y1, f1; f1 NULL: not computed by the method, RK4): 1 with the earliest event in ev */
+static int bm_event_step(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, const void *ctx, bm_events *ev,
+                         double t0, const double *y0, const double *f0, double t1, const double *y1,
+                         const double *f1)
+{
+    int ny = P->ny, ng = ev->ng, nh = 0, hj[BM_NG_MAX];
+    double h = t1 - t0, f1c[BM_NYMAX], yk[BM_NYMAX], g[BM_NG_MAX], prev[BM_NG_MAX], ha[BM_NG_MAX], hb[BM_NG_MAX];
+    if (!f1) {
+        rhs(P, ctx, t1, y1, f1c);
+        f1 = f1c;
+    }
+    for (int j = 0; j < ng; j++) prev[j] = t0;
+    for (int k = 1; k <= ev->scan + 1 && !nh; k++) {
+        double tk;
+        if (k <= ev->scan) {
+            tk = t0 + h * (double)k / (double)(ev->scan + 1);
+            bm_hermite(ny, t0, y0, f0, t1, y1, f1, tk, yk);
+        } else {
+            tk = t1;
+            memcpy(yk, y1, (size_t)ny * sizeof(double));
+        }
+        ev->G(ev->gctx, tk, yk, g);
+        for (int j = 0; j < ng; j++) {
+            if (g[j] > 0.0) {
+                if (g[j] > ev->levels[j]) ev->armed[j] = 1;
+                prev[j] = tk;
+            } else if (ev->armed[j]) {
+                hj[nh] = j; ha[nh] = prev[j]; hb[nh] = tk;
+                nh++;
+            }
+        }
+    }
+    if (!nh) return 0;
+    bm_stepx x = {P, T, rhs, ctx, t0, t1, y0, f0, y1, ev, {0}};
+    int found = 0;
+    for (int q = 0; q < nh; q++) {
+        double te, w;
+        if (bm_locate(&x, hj[q], ha[q], hb[q], &te, &w) && (!found || te < ev->t)) {
+            found = 1;
+            ev->j = hj[q];
+            ev->t = te;
+            ev->width = w;
+        }
+    }
+    if (!found) return 0;
+    bm_stepx_state(&x, ev->t, ev->y);
+    ev->h_used = t1 - t0;
+    return 1;
+}
+
+/* bm_advance, showing `seen` (when not NULL) every state a fixed-step run starts a step from,
+ * and stopping at the first event of `ev` (when not NULL): returns 2 with the event in ev,
+ * y_io and h_io unchanged */
 static int bm_advance_seen(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, const void *ctx, double t,
-                           double *y_io, double t_end, double *h_io, bm_stats *st, bm_lerr *seen)
+                           double *y_io, double t_end, double *h_io, bm_stats *st, bm_lerr *seen,
+                           bm_events *ev)
 {
     double K[(BM_NS_MAX + 1) * BM_NYMAX], y[BM_NYMAX], ynew[BM_NYMAX];
     size_t bytes = (size_t)P->ny * sizeof(double);
@@ -716,9 +903,11 @@ static int bm_advance_seen(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, 
             bm_stages(P, T, rhs, ctx, ti, y, hh, K, ynew);
             st->nfev += ns - 1;
             if (!bm_all_finite(ynew, P->ny)) return 0;
-            memcpy(y, ynew, bytes);
-            if (!bm_project(P, y)) return 0;
+            if (!bm_project(P, ynew)) return 0;
             st->steps++;
+            if (ev && bm_event_step(P, T, rhs, ctx, ev, ti, y, K, i == count - 1 ? t_end : ti + hh, ynew, NULL))
+                return 2;
+            memcpy(y, ynew, bytes);
         }
         memcpy(y_io, y, bytes);
         *h_io = P->h_fixed;
@@ -746,11 +935,13 @@ static int bm_advance_seen(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, 
         }
         if (err <= 1.0) {
             double factor = err == 0.0 ? 10.0 : bm_pymin(10.0, 0.9 * pow(err, -1.0 / order));
+            double t0 = t;
             t = last ? t_end : t + hh;
-            memcpy(y, ynew, bytes);
-            if (!bm_project(P, y)) return 0;
-            memcpy(K, BM_K(K, ns, P->ny), bytes);
+            if (!bm_project(P, ynew)) return 0;
             st->steps++;
+            if (ev && bm_event_step(P, T, rhs, ctx, ev, t0, y, K, t, ynew, BM_K(K, ns, P->ny))) return 2;
+            memcpy(y, ynew, bytes);
+            memcpy(K, BM_K(K, ns, P->ny), bytes);
             h = last ? bm_pymax(h, hh * factor) : hh * factor;
         } else {
             st->rejected++;
@@ -837,7 +1028,7 @@ BM_EXPORT long long bm_simulate_study(const bm_problem *P, const double *times, 
     for (; i < n; i++) {
         if (i > start) {
             bm_stats st = {0, 0, 0};
-            if (!bm_advance_seen(P, &T, bm_ball_rhs_cached, &cache, times[i - 1], y, times[i], h, &st, seen)) {
+            if (!bm_advance_seen(P, &T, bm_ball_rhs_cached, &cache, times[i - 1], y, times[i], h, &st, seen, NULL)) {
                 last = i - 1;
                 break;
             }
@@ -1462,6 +1653,596 @@ BM_EXPORT long long bma_simulate(const bma_problem *A, const double *times, long
 BM_EXPORT void bma_eval_rhs(const bma_problem *A, double t, const double *z, double *dz) { bma_rhs(A, t, z, dz); }
 BM_EXPORT int bma_eval_project(const bma_problem *A, double *z) { return bm_project(&A->base, z); }
 BM_EXPORT size_t bma_problem_size(void) { return sizeof(bma_problem); }
+
+/* ======================================================================
+ * The hybrid ball: rolling, sliding, flight and impacts in a translating chamber
+ * (hybrid.py HybridBall on events.integrate; docs/design.md section 14). Functions bmh_*,
+ * reached through fast.py (`hybrid_run`). Rolling is the vector formulation above (state
+ * n, omega, and with `energy` the quadratures W, E_friction); sliding and flight carry
+ * (C, v_C, omega, W, E_friction) in fixed axes. The modes' right-hand sides, guards and
+ * maps are written in hybrid.py's operation order (with the chamber's Omega = 0 carried
+ * through its expressions, as the Python has it), and the grid loop with its events is
+ * events.integrate's, on bm_advance_seen's event location: the same floats, events and
+ * bookkeeping as the Python run.
+ * ====================================================================== */
+enum { BMH_FLIGHT = 0, BMH_ROLLING = 1, BMH_SLIDING = 2 };
+enum { BMH_SLIP = 0, BMH_LEAVE = 1, BMH_STICK = 2, BMH_IMPACT = 3 }; /* event kinds */
+#define BMH_NZ 11   /* a free state: C, v_C, omega, W, E_friction */
+#define BMH_NCOL 25 /* HybridBall.COLUMNS */
+#define BMH_NEV 18  /* doubles of an event record (hybrid_run's EVENT_FIELDS) */
+#define BMH_NBOOK 11 /* E_impact, n_impacts, v_impact_max, t_first_slip, t_first_flight, Q[2], seed[3], rebound */
+
+/* Everything a hybrid run needs; filled by fast.py (ctypes mirror: _HProblem). */
+typedef struct {
+    bm_problem roll; /* the rolling mode: motion, ball, integrator of ny = 6 (8 with energy), form BM_VECTOR */
+    bm_problem free; /* sliding and flight: the integrator of ny = 11, form BM_GENERIC */
+    double R, r, d, m, g, Ib, lam, /* Ib, not I: <complex.h> makes I a macro */
+           mu, mu_k, e_n, v_rest, slip_eps, kt, gap_res;
+    int energy;
+    int scan, burst;
+    double xtol, max_rate;
+} bmh_problem;
+
+/* the run's bookkeeping (HybridBall.book, _seed, _rebound) */
+typedef struct {
+    const bmh_problem *H;
+    double E_impact, n_impacts, v_impact_max, t_first_slip, t_first_flight, Q[2];
+    double seed[3];
+    int rebound;
+} bmh_run;
+
+static void bmh_cross(const double *a, const double *b, double *c)
+{
+    c[0] = a[1] * b[2] - a[2] * b[1];
+    c[1] = a[2] * b[0] - a[0] * b[2];
+    c[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+static double bmh_dot(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+/* HybridBall.chamber: A, v_A, a_A, Omega, Omega' of the translating chamber; also ax, ay, xO, yO */
+static void bmh_chamber(const bmh_problem *H, double t, double *A, double *vA, double *aA, double *Om, double *m6)
+{
+    double m[6];
+    bm_motion_state(&H->roll, t, m);
+    A[0] = m[0]; A[1] = m[1]; A[2] = H->R;
+    vA[0] = m[2]; vA[1] = m[3]; vA[2] = 0.0;
+    aA[0] = m[4]; aA[1] = m[5]; aA[2] = 0.0;
+    Om[0] = 0.0; Om[1] = 0.0; Om[2] = 0.0;
+    if (m6) memcpy(m6, m, sizeof m);
+}
+
+/* HybridBall.wall_velocity: v_A + Omega x R n */
+static void bmh_wall_velocity(const bmh_problem *H, double t, const double *n, double *vW)
+{
+    double A[3], vA[3], aA[3], Om[3], c[3];
+    bmh_chamber(H, t, A, vA, aA, Om, NULL);
+    bmh_cross(Om, n, c);
+    for (int i = 0; i < 3; i++) vW[i] = vA[i] + H->R * c[i];
+}
+
+/* HybridBall._roll_out's N and |F_t| (outputs.evaluate) of a rolling state (n, omega) */
+static void bmh_roll_out(const bmh_problem *H, double t, const double *y, double *N, double *Ft)
+{
+    double m[6], o[BM_NOUT];
+    bm_motion_state(&H->roll, t, m);
+    bm_outputs(&H->roll, y, m[4], m[5], 0.0, 0.0, o);
+    *N = o[9];
+    *Ft = o[17];
+}
+
+/* HybridBall._slide_forces: N, the friction force Ft, the slip speed, n, v_W (seed NULL: the run's) */
+static double bmh_slide_forces(const bmh_run *run, double t, const double *y, const double *seed, double *Ft,
+                               double *s_out, double *n, double *vW)
+{
+    const bmh_problem *H = run->H;
+    double A[3], vA[3], aA[3], Om[3], rho[3], vrel[3], wr[3], on[3], u[3], ut[3], e[3];
+    bmh_chamber(H, t, A, vA, aA, Om, NULL);
+    for (int i = 0; i < 3; i++) rho[i] = y[i] - A[i];
+    double dist = sqrt(bmh_dot(rho, rho));
+    for (int i = 0; i < 3; i++) n[i] = rho[i] / dist;
+    for (int i = 0; i < 3; i++) vrel[i] = y[3 + i] - vA[i];
+    double N = H->m * (-H->g * n[2] - bmh_dot(n, aA) + bmh_dot(vrel, vrel) / dist);
+    bmh_cross(y + 6, n, wr);
+    bmh_cross(Om, n, on);
+    for (int i = 0; i < 3; i++) u[i] = vrel[i] + H->r * wr[i] - H->R * on[i];
+    double un = bmh_dot(u, n);
+    for (int i = 0; i < 3; i++) ut[i] = u[i] - un * n[i];
+    double s = sqrt(bmh_dot(ut, ut));
+    if (s > 1e-3 * H->slip_eps) {
+        for (int i = 0; i < 3; i++) e[i] = ut[i] / s;
+    } else {
+        const double *sd = seed ? seed : run->seed;
+        for (int i = 0; i < 3; i++) e[i] = sd[i];
+    }
+    double f = -H->mu_k * N;
+    for (int i = 0; i < 3; i++) Ft[i] = f * e[i];
+    for (int i = 0; i < 3; i++) vW[i] = vA[i] + H->R * on[i];
+    *s_out = s;
+    return N;
+}
+
+/* the modes' right-hand sides (ctx: the bmh_run) */
+static void bmh_rhs_roll_q(const bm_problem *P, const void *ctx, double t, const double *y, double *f)
+{
+    const bmh_run *run = ctx;
+    const bmh_problem *H = run->H;
+    double m[6], c1[3], c2[3];
+    bm_motion_state(P, t, m);
+    bm_derivative(P, y, m[4], m[5], f);
+    bmh_cross(f, y + 3, c1);
+    bmh_cross(y, f + 3, c2);
+    double dl = H->d * H->lam;
+    double Fx = H->m * (m[4] + dl * (c1[0] + c2[0]));
+    double Fy = H->m * (m[5] + dl * (c1[1] + c2[1]));
+    f[6] = Fx * m[2] + Fy * m[3];
+    f[7] = 0.0;
+}
+
+static void bmh_rhs_flight(const bm_problem *P, const void *ctx, double t, const double *y, double *f)
+{
+    const bmh_run *run = ctx;
+    (void)P; (void)t;
+    f[0] = y[3]; f[1] = y[4]; f[2] = y[5];
+    f[3] = 0.0; f[4] = 0.0; f[5] = -run->H->g;
+    for (int i = 6; i < BMH_NZ; i++) f[i] = 0.0;
+}
+
+static void bmh_rhs_slide(const bm_problem *P, const void *ctx, double t, const double *y, double *f)
+{
+    const bmh_run *run = ctx;
+    const bmh_problem *H = run->H;
+    double Ft[3], n[3], vW[3], F[3], tq[3], s;
+    (void)P;
+    double N = bmh_slide_forces(run, t, y, NULL, Ft, &s, n, vW);
+    for (int i = 0; i < 3; i++) F[i] = Ft[i] - N * n[i];
+    bmh_cross(n, Ft, tq);
+    double c = H->r / H->Ib;
+    f[0] = y[3]; f[1] = y[4]; f[2] = y[5];
+    f[3] = F[0] / H->m; f[4] = F[1] / H->m; f[5] = F[2] / H->m - H->g;
+    f[6] = c * tq[0]; f[7] = c * tq[1]; f[8] = c * tq[2];
+    f[9] = bmh_dot(F, vW);
+    f[10] = H->mu_k * N * s;
+}
+
+/* the guards (ctx: the bmh_run): rolling (mu N - |F_t|, N), sliding (|u| - slip_eps, N), flight (gap) */
+static void bmh_g_rolling(const void *ctx, double t, const double *y, double *g)
+{
+    const bmh_run *run = ctx;
+    double N, Ft;
+    bmh_roll_out(run->H, t, y, &N, &Ft);
+    g[0] = run->H->mu * N - Ft;
+    g[1] = N;
+}
+
+static void bmh_g_sliding(const void *ctx, double t, const double *y, double *g)
+{
+    const bmh_run *run = ctx;
+    double Ft[3], n[3], vW[3], s;
+    double N = bmh_slide_forces(run, t, y, NULL, Ft, &s, n, vW);
+    g[0] = s - run->H->slip_eps;
+    g[1] = N;
+}
+
+static double bmh_gap(const bmh_problem *H, double t, const double *y)
+{
+    double A[3], vA[3], aA[3], Om[3];
+    bmh_chamber(H, t, A, vA, aA, Om, NULL);
+    return H->d - sqrt(bm_sq(y[0] - A[0]) + bm_sq(y[1] - A[1]) + bm_sq(y[2] - A[2]));
+}
+
+static void bmh_g_flight(const void *ctx, double t, const double *y, double *g)
+{
+    const bmh_run *run = ctx;
+    g[0] = bmh_gap(run->H, t, y);
+}
+
+/* HybridBall._normal_motion: v_n (> 0 towards the wall) and the free flight's a_n */
+static void bmh_normal_motion(const bmh_problem *H, double t, const double *y, double *vn, double *an)
+{
+    double A[3], vA[3], aA[3], Om[3], rho[3], n[3];
+    bmh_chamber(H, t, A, vA, aA, Om, NULL);
+    for (int i = 0; i < 3; i++) rho[i] = y[i] - A[i];
+    double dist = sqrt(bmh_dot(rho, rho));
+    for (int i = 0; i < 3; i++) n[i] = rho[i] / dist;
+    *vn = (y[3] - vA[0]) * n[0] + (y[4] - vA[1]) * n[1] + (y[5] - vA[2]) * n[2];
+    *an = -H->g * n[2] - bmh_dot(aA, n);
+}
+
+/* HybridBall.free_state: (C, v_C, omega, W, E_friction) of any mode's state */
+static void bmh_free_state(const bmh_run *run, int mode, double t, const double *y, double *z)
+{
+    const bmh_problem *H = run->H;
+    if (mode != BMH_ROLLING) {
+        memcpy(z, y, BMH_NZ * sizeof(double));
+        return;
+    }
+    double A[3], vA[3], aA[3], Om[3], nw[3], vW[3];
+    bmh_chamber(H, t, A, vA, aA, Om, NULL);
+    bmh_cross(y, y + 3, nw);
+    bmh_wall_velocity(H, t, y, vW);
+    for (int i = 0; i < 3; i++) {
+        z[i] = A[i] + H->d * y[i];
+        z[3 + i] = vW[i] + H->r * nw[i];
+        z[6 + i] = y[3 + i];
+    }
+    z[9] = H->energy ? y[6] : run->Q[0];
+    z[10] = H->energy ? y[7] : run->Q[1];
+}
+
+/* HybridBall._rolling_state: the rolling state of n, omega and the quadratures; its size */
+static int bmh_rolling_state(bmh_run *run, const double *n, const double *w, double W, double Ef, double *y)
+{
+    memcpy(y, n, 3 * sizeof(double));
+    memcpy(y + 3, w, 3 * sizeof(double));
+    if (run->H->energy) {
+        y[6] = W;
+        y[7] = Ef;
+        return 8;
+    }
+    run->Q[0] = NAN; /* W is not followed while rolling */
+    run->Q[1] = Ef;
+    return 6;
+}
+
+/* HybridBall._impulse: J (on the ball, at P) applied to z in place; the kinetic energy lost in
+ * the frame of the wall's material point at P, J.v_W added to W */
+static double bmh_impulse(const bmh_problem *H, double t, double *z, const double *J, const double *n)
+{
+    double vW[3], tq[3], v[3];
+    bmh_wall_velocity(H, t, n, vW);
+    for (int i = 0; i < 3; i++) v[i] = z[3 + i] - vW[i];
+    double before = 0.5 * H->m * bmh_dot(v, v) + 0.5 * H->Ib * (bm_sq(z[6]) + bm_sq(z[7]) + bm_sq(z[8]));
+    bmh_cross(n, J, tq);
+    for (int i = 0; i < 3; i++) {
+        z[3 + i] += J[i] / H->m;
+        z[6 + i] += H->r * tq[i] / H->Ib;
+    }
+    z[9] += bmh_dot(J, vW);
+    for (int i = 0; i < 3; i++) v[i] = z[3 + i] - vW[i];
+    return before - (0.5 * H->m * bmh_dot(v, v) + 0.5 * H->Ib * (bm_sq(z[6]) + bm_sq(z[7]) + bm_sq(z[8])));
+}
+
+/* HybridBall._slip: the tangential slip of a free state at the wall point C + r n */
+static void bmh_slip(const bmh_problem *H, double t, const double *z, const double *n, double *ut)
+{
+    double vW[3], wr[3], u[3];
+    bmh_wall_velocity(H, t, n, vW);
+    bmh_cross(z + 6, n, wr);
+    for (int i = 0; i < 3; i++) u[i] = z[3 + i] - vW[i] + H->r * wr[i];
+    double un = bmh_dot(u, n);
+    for (int i = 0; i < 3; i++) ut[i] = u[i] - un * n[i];
+}
+
+/* HybridBall._friction_free_slip_accel */
+static void bmh_ff_slip_accel(const bmh_problem *H, double t, const double *z, const double *n, double *out)
+{
+    double A[3], vA[3], aA[3], Om[3], Omd[3] = {0.0, 0.0, 0.0}, vrel[3], aC[3], nd[3], wnd[3], c1[3], c2[3],
+                                       aW[3], a[3];
+    bmh_chamber(H, t, A, vA, aA, Om, NULL);
+    for (int i = 0; i < 3; i++) vrel[i] = z[3 + i] - vA[i];
+    double N = H->m * (-H->g * n[2] - bmh_dot(n, aA) + bmh_dot(vrel, vrel) / H->d);
+    aC[0] = -N * n[0] / H->m;
+    aC[1] = -N * n[1] / H->m;
+    aC[2] = -H->g - N * n[2] / H->m;
+    double vn = bmh_dot(vrel, n);
+    for (int i = 0; i < 3; i++) nd[i] = (vrel[i] - vn * n[i]) / H->d;
+    bmh_cross(z + 6, nd, wnd);
+    bmh_cross(Omd, n, c1);
+    bmh_cross(Om, nd, c2);
+    for (int i = 0; i < 3; i++) aW[i] = aA[i] + H->R * (c1[i] + c2[i]);
+    for (int i = 0; i < 3; i++) a[i] = aC[i] - aW[i] + H->r * wnd[i];
+    double an = bmh_dot(a, n);
+    for (int i = 0; i < 3; i++) out[i] = a[i] - an * n[i];
+}
+
+/* details of an event (an event record's fields 8..17; NAN: absent) */
+enum { BMH_D_VN = 8, BMH_D_SLIP, BMH_D_STICK, BMH_D_ELOSS, BMH_D_REST, BMH_D_REMOVED, BMH_D_SEED,
+       BMH_D_GRAZING = BMH_D_SEED + 3 };
+
+/* HybridBall._start_sliding */
+static int bmh_start_sliding(bmh_run *run, double t, const double *z, const double *n, double *rec)
+{
+    double a[3];
+    bmh_ff_slip_accel(run->H, t, z, n, a);
+    double s = sqrt(bmh_dot(a, a));
+    for (int i = 0; i < 3; i++) run->seed[i] = s > 0.0 ? a[i] / s : 0.0;
+    if (isnan(run->t_first_slip)) run->t_first_slip = t;
+    memcpy(rec + BMH_D_SEED, run->seed, sizeof run->seed);
+    return BMH_SLIDING;
+}
+
+/* HybridBall.on_wall: the mode and state (y, *ny) of a ball on the wall with no normal
+ * relative velocity (free state z), its slip removed if below slip_eps, then the stick test */
+static int bmh_on_wall(bmh_run *run, double t, const double *z_in, double *y, int *ny, double *rec)
+{
+    const bmh_problem *H = run->H;
+    double A[3], vA[3], aA[3], Om[3], z[BMH_NZ], rho[3], n[3], ut[3];
+    bmh_chamber(H, t, A, vA, aA, Om, NULL);
+    memcpy(z, z_in, sizeof z);
+    for (int i = 0; i < 3; i++) rho[i] = z[i] - A[i];
+    double q = sqrt(bmh_dot(rho, rho));
+    for (int i = 0; i < 3; i++) n[i] = rho[i] / q;
+    for (int i = 0; i < 3; i++) z[i] = A[i] + H->d * n[i];
+    bmh_slip(H, t, z, n, ut);
+    double s = sqrt(bmh_dot(ut, ut));
+    memcpy(y, z, sizeof z);
+    *ny = BMH_NZ;
+    if (s <= H->slip_eps) {
+        double J[3], nw[6], N, Ft;
+        for (int i = 0; i < 3; i++) J[i] = -H->m * ut[i] / H->kt;
+        double loss = bmh_impulse(H, t, z, J, n);
+        z[10] += loss;
+        rec[BMH_D_REMOVED] = s;
+        memcpy(y, z, sizeof z);
+        memcpy(nw, n, sizeof n);
+        memcpy(nw + 3, z + 6, 3 * sizeof(double));
+        bmh_roll_out(H, t, nw, &N, &Ft);
+        if (N <= 0.0) return BMH_FLIGHT;
+        if (Ft <= H->mu * N) {
+            *ny = bmh_rolling_state(run, n, z + 6, z[9], z[10], y);
+            return BMH_ROLLING;
+        }
+        return bmh_start_sliding(run, t, z, n, rec);
+    }
+    double zero[3] = {0.0, 0.0, 0.0}, Ftv[3], nn[3], vW[3], ss;
+    double N = bmh_slide_forces(run, t, z, zero, Ftv, &ss, nn, vW);
+    if (N <= 0.0) return BMH_FLIGHT;
+    if (isnan(run->t_first_slip)) run->t_first_slip = t;
+    return BMH_SLIDING;
+}
+
+/* HybridBall._onto_wall: C put on |C - A| = d and the normal relative velocity removed */
+static void bmh_onto_wall(const bmh_problem *H, double t, double *z)
+{
+    double A[3], vA[3], aA[3], Om[3], rho[3], n[3], v[3];
+    bmh_chamber(H, t, A, vA, aA, Om, NULL);
+    for (int i = 0; i < 3; i++) rho[i] = z[i] - A[i];
+    double q = sqrt(bmh_dot(rho, rho));
+    for (int i = 0; i < 3; i++) n[i] = rho[i] / q;
+    for (int i = 0; i < 3; i++) z[i] = A[i] + H->d * n[i];
+    for (int i = 0; i < 3; i++) v[i] = z[3 + i] - vA[i];
+    double vn = bmh_dot(v, n);
+    for (int i = 0; i < 3; i++) z[3 + i] -= vn * n[i];
+}
+
+/* HybridBall._impact */
+static int bmh_impact(bmh_run *run, double t, const double *z_in, double *y, int *ny, double *rec)
+{
+    const bmh_problem *H = run->H;
+    double A[3], vA[3], aA[3], Om[3], z[BMH_NZ], rho[3], n[3], ut[3], Jt[3], J[3];
+    bmh_chamber(H, t, A, vA, aA, Om, NULL);
+    memcpy(z, z_in, sizeof z);
+    for (int i = 0; i < 3; i++) rho[i] = z[i] - A[i];
+    double q = sqrt(bmh_dot(rho, rho));
+    for (int i = 0; i < 3; i++) n[i] = rho[i] / q;
+    for (int i = 0; i < 3; i++) z[i] = A[i] + H->d * n[i];
+    double vn = (z[3] - vA[0]) * n[0] + (z[4] - vA[1]) * n[1] + (z[5] - vA[2]) * n[2];
+    rec[BMH_D_VN] = vn;
+    memcpy(y, z, sizeof z);
+    *ny = BMH_NZ;
+    if (vn <= 0.0) { /* touching without approaching: no impulse */
+        rec[BMH_D_GRAZING] = 1.0;
+        return BMH_FLIGHT;
+    }
+    double Jn = (1.0 + H->e_n) * H->m * vn;
+    bmh_slip(H, t, z, n, ut);
+    double s = sqrt(bmh_dot(ut, ut));
+    int stick = s / H->kt <= H->mu * (1.0 + H->e_n) * vn;
+    if (stick) {
+        for (int i = 0; i < 3; i++) Jt[i] = -H->m * ut[i] / H->kt;
+    } else {
+        double c = -H->mu_k * Jn / s;
+        for (int i = 0; i < 3; i++) Jt[i] = c * ut[i];
+    }
+    for (int i = 0; i < 3; i++) J[i] = Jt[i] - Jn * n[i];
+    double loss = bmh_impulse(H, t, z, J, n);
+    run->n_impacts += 1.0;
+    run->v_impact_max = bm_pymax(run->v_impact_max, vn);
+    rec[BMH_D_SLIP] = s;
+    rec[BMH_D_STICK] = stick;
+    rec[BMH_D_ELOSS] = loss;
+    double vn_, an;
+    bmh_normal_motion(H, t, z, &vn_, &an);
+    double hop = an > 0.0 ? bm_sq(H->e_n * vn) / (2.0 * an) : INFINITY;
+    memcpy(y, z, sizeof z);
+    if (H->e_n * vn < H->v_rest || hop < H->gap_res) {
+        double vn2 = (z[3] - vA[0]) * n[0] + (z[4] - vA[1]) * n[1] + (z[5] - vA[2]) * n[2], Jr[3];
+        for (int i = 0; i < 3; i++) Jr[i] = -H->m * vn2 * n[i];
+        loss += bmh_impulse(H, t, z, Jr, n);
+        run->E_impact += loss;
+        rec[BMH_D_ELOSS] = loss;
+        rec[BMH_D_REST] = 1.0;
+        return bmh_on_wall(run, t, z, y, ny, rec);
+    }
+    run->E_impact += loss;
+    run->rebound = 1;
+    return BMH_FLIGHT;
+}
+
+/* HybridBall.jump: the new mode and state (y, *ny) at an event of `kind`; rec: the event record */
+static int bmh_jump(bmh_run *run, int mode, int kind, double t, const double *y_in, double *y, int *ny,
+                    double *rec)
+{
+    const bmh_problem *H = run->H;
+    double z[BMH_NZ], A[3], vA[3], aA[3], Om[3], n[3], rho[3];
+    int new_mode;
+    run->rebound = 0;
+    bmh_free_state(run, mode, t, y_in, z);
+    bmh_chamber(H, t, A, vA, aA, Om, NULL);
+    if (kind == BMH_IMPACT) {
+        new_mode = bmh_impact(run, t, z, y, ny, rec);
+    } else if (kind == BMH_LEAVE) {
+        memcpy(y, z, sizeof z);
+        bmh_onto_wall(H, t, y);
+        *ny = BMH_NZ;
+        new_mode = BMH_FLIGHT;
+    } else if (kind == BMH_SLIP) {
+        for (int i = 0; i < 3; i++) n[i] = (z[i] - A[i]) / H->d;
+        memcpy(y, z, sizeof z);
+        *ny = BMH_NZ;
+        new_mode = bmh_start_sliding(run, t, z, n, rec);
+    } else {
+        new_mode = bmh_on_wall(run, t, z, y, ny, rec);
+    }
+    if (new_mode == BMH_FLIGHT && isnan(run->t_first_flight)) run->t_first_flight = t;
+    for (int i = 0; i < 3; i++) rho[i] = z[i] - A[i];
+    double q = sqrt(bmh_dot(rho, rho));
+    for (int i = 0; i < 3; i++) rec[5 + i] = rho[i] / q;
+    return new_mode;
+}
+
+/* HybridBall.sample: one row of COLUMNS */
+static void bmh_sample(const bmh_run *run, int mode, double t, const double *y, double *row)
+{
+    const bmh_problem *H = run->H;
+    double z[BMH_NZ], A[3], vA[3], aA[3], Om[3], rho[3], n[3], N, Ft, slip;
+    bmh_free_state(run, mode, t, y, z);
+    bmh_chamber(H, t, A, vA, aA, Om, NULL);
+    for (int i = 0; i < 3; i++) rho[i] = z[i] - A[i];
+    double dist = sqrt(bmh_dot(rho, rho));
+    for (int i = 0; i < 3; i++) n[i] = rho[i] / dist;
+    if (mode == BMH_ROLLING) {
+        memcpy(n, y, sizeof n);
+        bmh_roll_out(H, t, y, &N, &Ft);
+        slip = 0.0;
+    } else if (mode == BMH_SLIDING) {
+        double Ftv[3], nn[3], vW[3];
+        N = bmh_slide_forces(run, t, z, NULL, Ftv, &slip, nn, vW);
+        Ft = sqrt(bmh_dot(Ftv, Ftv));
+    } else {
+        double ut[3];
+        N = 0.0;
+        Ft = 0.0;
+        bmh_slip(H, t, z, n, ut);
+        slip = sqrt(bmh_dot(ut, ut));
+    }
+    double E = 0.5 * H->m * bmh_dot(z + 3, z + 3) + 0.5 * H->Ib * bmh_dot(z + 6, z + 6) + H->m * H->g * z[2];
+    row[0] = mode;
+    memcpy(row + 1, n, sizeof n);
+    row[4] = z[0] - A[0]; row[5] = z[1] - A[1]; row[6] = z[2];
+    memcpy(row + 7, z + 3, 6 * sizeof(double));
+    row[13] = N; row[14] = Ft; row[15] = slip; row[16] = H->d - dist; row[17] = E;
+    row[18] = z[9]; row[19] = z[10];
+    row[20] = run->E_impact; row[21] = run->n_impacts; row[22] = run->v_impact_max;
+    row[23] = run->t_first_slip; row[24] = run->t_first_flight;
+}
+
+/* the mode's integrator problem, tableau, right-hand side and guards */
+static void bmh_mode(const bmh_problem *H, const bm_tab *Tr, const bm_tab *Tf, int mode, const bm_problem **P,
+                     const bm_tab **T, bm_rhs_fn *rhs, bm_events *ev)
+{
+    if (mode == BMH_ROLLING) {
+        *P = &H->roll; *T = Tr;
+        *rhs = H->energy ? bmh_rhs_roll_q : bm_ball_rhs;
+        ev->ng = 2; ev->G = bmh_g_rolling;
+        ev->levels[0] = 0.0; ev->levels[1] = 0.0;
+    } else {
+        *P = &H->free; *T = Tf;
+        *rhs = mode == BMH_SLIDING ? bmh_rhs_slide : bmh_rhs_flight;
+        ev->ng = mode == BMH_SLIDING ? 2 : 1;
+        ev->G = mode == BMH_SLIDING ? bmh_g_sliding : bmh_g_flight;
+        ev->levels[0] = mode == BMH_SLIDING ? 0.0 : H->gap_res;
+        ev->levels[1] = 0.0;
+    }
+}
+
+/* events.integrate for the hybrid ball over times[0..n-1] (times[0] the start time, sampled)
+ * from *mode and y (size: *mode's) with step *h (the first one from Python's initial step).
+ * book: the bookkeeping (BMH_NBOOK values: E_impact, n_impacts, v_impact_max, t_first_slip,
+ * t_first_flight, Q[2], seed[3], rebound) in and out. rows: BMH_NCOL per point reached; events:
+ * BMH_NEV per event, at most cap. Returns the number of points reached (rows) and sets
+ * *status: 0 completed; 1 a step failed (Python redoes the run and reports it); 2 a Zeno
+ * sequence (the last event is the one that made it); 3 more than cap events (Python
+ * redoes the run with more room). *n_events: the events recorded; *total: the work of the
+ * completed intervals. */
+BM_EXPORT long long bmh_simulate(const bmh_problem *H, const double *times, long long n, int *mode_io, double *y,
+                                 double *h, double *book, double *rows, double *events, long long cap,
+                                 long long *n_events, int *status, bm_stats *total)
+{
+    bm_tab Tr, Tf;
+    bm_tab_make(&H->roll, &Tr);
+    bm_tab_make(&H->free, &Tf);
+    bmh_run run = {H, book[0], book[1], book[2], book[3], book[4], {book[5], book[6]},
+                   {book[7], book[8], book[9]}, book[10] != 0.0};
+    int mode = *mode_io;
+    double t = times[0], yy[BM_NYMAX];
+    long long ne = 0, reached = 0;
+    *status = 0;
+    memcpy(yy, y, (size_t)(mode == BMH_ROLLING ? H->roll.ny : BMH_NZ) * sizeof(double));
+    if (n > 0) {
+        bmh_sample(&run, mode, t, yy, rows);
+        reached = 1;
+    }
+    for (long long i = 1; i < n && !*status; i++) {
+        double t_next = times[i];
+        bm_stats seg = {0, 0, 0};
+        while (t < t_next) {
+            const bm_problem *P;
+            const bm_tab *T;
+            bm_rhs_fn rhs;
+            bm_events ev;
+            double g[BM_NG_MAX];
+            memset(&ev, 0, sizeof ev);
+            bmh_mode(H, &Tr, &Tf, mode, &P, &T, &rhs, &ev);
+            ev.gctx = &run;
+            ev.scan = H->scan;
+            ev.xtol = H->xtol;
+            ev.G(&run, t, yy, g);
+            for (int j = 0; j < ev.ng; j++) ev.armed[j] = g[j] > ev.levels[j];
+            if (mode == BMH_FLIGHT && run.rebound) ev.armed[0] = 1; /* HybridBall.armed */
+            int code = bm_advance_seen(P, T, rhs, &run, t, yy, t_next, h, &seg, NULL, &ev);
+            if (code == 0) {
+                *status = 1;
+                break;
+            }
+            if (code == 1) {
+                t = t_next;
+                continue;
+            }
+            static const int kinds[3][2] = {{BMH_IMPACT, -1}, {BMH_SLIP, BMH_LEAVE}, {BMH_STICK, BMH_LEAVE}};
+            int kind = kinds[mode][ev.j], ny;
+            if (ne >= cap) {
+                *status = 3;
+                break;
+            }
+            double *rec = events + BMH_NEV * ne;
+            for (int q = 0; q < BMH_NEV; q++) rec[q] = NAN;
+            int new_mode = bmh_jump(&run, mode, kind, ev.t, ev.y, yy, &ny, rec);
+            rec[0] = ev.t; rec[1] = kind; rec[2] = mode; rec[3] = new_mode; rec[4] = ev.width;
+            ne++;
+            mode = new_mode;
+            t = ev.t;
+            *h = ev.h_used;
+            if (mode == BMH_FLIGHT && run.rebound) { /* HybridBall.first_step */
+                double vn, an;
+                bmh_normal_motion(H, t, yy, &vn, &an);
+                if (vn < 0.0 && an > 0.0) *h = bm_pymin(*h, bm_pymax(0.5 * -vn / an, 1e-12));
+            }
+            if (ne >= H->burst && t - events[BMH_NEV * (ne - H->burst)] < H->burst / H->max_rate) {
+                *status = 2;
+                break;
+            }
+        }
+        if (*status) break;
+        total->steps += seg.steps;
+        total->rejected += seg.rejected;
+        total->nfev += seg.nfev;
+        bmh_sample(&run, mode, t, yy, rows + BMH_NCOL * i);
+        reached = i + 1;
+        *mode_io = mode;
+        memcpy(y, yy, (size_t)(mode == BMH_ROLLING ? H->roll.ny : BMH_NZ) * sizeof(double));
+    }
+    *n_events = ne;
+    book[0] = run.E_impact; book[1] = run.n_impacts; book[2] = run.v_impact_max;
+    book[3] = run.t_first_slip; book[4] = run.t_first_flight;
+    book[5] = run.Q[0]; book[6] = run.Q[1];
+    memcpy(book + 7, run.seed, sizeof run.seed);
+    book[10] = run.rebound;
+    return reached;
+}
+
+BM_EXPORT size_t bmh_problem_size(void) { return sizeof(bmh_problem); }
 
 /* what fast.py checks before it trusts this build */
 BM_EXPORT int bm_abi(void) { return BM_ABI; }

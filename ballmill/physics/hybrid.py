@@ -623,7 +623,8 @@ class HybridTrajectory:
 def simulate_hybrid(ball: Ball, motion, t_end: float, dt: float, contact: Contact = Contact(), *,
                     initial=None, t0: float = 0.0, method: str = "DOP853", tol: float = 1e-9,
                     h_max: float | None = None, energy: bool = True, burst: int = 100,
-                    max_rate: float = 1e4, h_fixed: float = 1e-3) -> HybridTrajectory:
+                    max_rate: float = 1e4, h_fixed: float = 1e-3,
+                    kernel: str = "auto") -> HybridTrajectory:
     """The ball in a chamber moved by ``motion`` (a platform motion: translation; a
     `turning.motions.ChamberMotion`: any rigid motion) with rolling, sliding, flight and
     impacts, sampled every dt [s] from t0 to t_end.
@@ -640,7 +641,17 @@ def simulate_hybrid(ball: Ball, motion, t_end: float, dt: float, contact: Contac
         step before a grid point or an event shortened to land there); with either, events
         are located on the method's own step from the step's start (events.py).
     burst, max_rate: the Zeno guard of `events.integrate`.
+    kernel: ``"auto"`` (default) runs a translating chamber's scene in the compiled kernel
+        (`fast.hybrid_run`: the same numbers bit for bit) when it is built and covers the
+        run (`fast.hybrid_reason`), else in Python; ``"c"`` insists (`fast.KernelUnavailable`
+        with the reason); ``"python"`` never uses it. A run whose step fails is redone in
+        Python, which reports the failure.
     """
+    from . import fast
+    from .model import KERNELS
+
+    if kernel not in KERNELS:
+        raise ValueError(f"kernel must be one of {KERNELS}, got {kernel!r}")
     if not (dt > 0 and math.isfinite(dt)):
         raise ValueError(f"dt must be positive and finite, got dt = {dt!r} s")
     if not (math.isfinite(t_end) and t_end >= t0):
@@ -661,7 +672,15 @@ def simulate_hybrid(ball: Ball, motion, t_end: float, dt: float, contact: Contac
         system.book["t_first_flight"] = t0
     n_steps = int(round((t_end - t0) / dt))
     times = t0 + dt * np.arange(n_steps + 1)
-    run = integrate(system, mode, t0, y, times, burst=burst, max_rate=max_rate)
+    run = None
+    if kernel != "python":
+        why = fast.hybrid_reason(system)
+        if not why:
+            run = fast.hybrid_run(system, mode, t0, y, times, burst=burst, max_rate=max_rate)
+        elif kernel == "c":
+            raise fast.KernelUnavailable(f"simulate_hybrid(kernel='c'): {why}")
+    if run is None:
+        run = integrate(system, mode, t0, y, times, burst=burst, max_rate=max_rate)
     arr = np.array(run.rows, dtype=float).reshape(len(run.rows), len(HybridBall.COLUMNS))
     out = {name: arr[:, j] for j, name in enumerate(HybridBall.COLUMNS)}
     bk = system.book
