@@ -1,7 +1,7 @@
 """The hybrid ball (rolling, sliding, flight, impacts) in the compiled kernel (bmh_simulate in
 ballmill/physics/_kernel.c via fast.hybrid_run) against the library's Python run on the
 event-driven driver: the same grid, every output column, the same events (times, kinds, modes,
-brackets, the maps' details), the same bookkeeping and work, bit for bit, in scenes that slide,
+brackets, the maps' details), the same bookkeeping and work, bit for bit, in translating and turning chambers, in scenes that slide,
 stick, leave the wall, fly and strike it."""
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import pytest
 from ballmill.physics import (KERNEL_AVAILABLE, KERNEL_REASON, Ball, Circle, CrankStartup, Fixed, Harmonic,
                               KernelUnavailable, fast)
 from ballmill.physics.hybrid import FLIGHT, ROLLING, Contact, simulate_hybrid
-from ballmill.physics.turning.motions import Spin
+from ballmill.physics.turning.motions import Spin, Translation
 
 pytestmark = pytest.mark.skipif(not KERNEL_AVAILABLE, reason=f"compiled kernel unavailable: {KERNEL_REASON}")
 
@@ -55,6 +55,16 @@ def _identical(a, b):
      dict(method="RK4", h_fixed=2e-4), {"slip", "leave", "impact"}),
     # the rolling mode without the energy quadratures (rolling exactly as `simulate`)
     ("no-energy", (B, Fixed(), 0.3, 0.01, Contact(e_n=0.5)), dict(initial=DROP, energy=False), {"impact"}),
+    # turning chambers (the general model rolling): a turntable's ball spun up to rolling,
+    ("turntable", (Ball(R=1e6, mu=0.5), Spin(Omega=(0, 0, 2.0), A=(0, 0, 1e6)), 0.5, 0.01, Contact()),
+     dict(initial=((0.1, 0, 0.025), (0, 0, 0), (0, 0, 0))), {"stick"}),
+    # a drop into a spinning bowl, impacts until rest,
+    ("bowl-drop", (B, Spin(Omega=(0, 0, 3.0), A=(0, 0, 0.25)), 0.6, 0.01, Contact(e_n=0.5)),
+     dict(initial=((0, 0.05, 0.1), (0, 0, 0), (0, 0, 0))), {"impact"}),
+    # a chamber spun fast about a horizontal axis: the ball slips, is carried up, leaves the
+    # wall and strikes it
+    ("horizontal-spin", (Ball(mu=0.05), Spin(Omega=(12.0, 0, 0), A=(0, 0, 0.25)), 1.0, 0.01,
+                         Contact(e_n=0.5, mu_k=0.04)), {}, {"slip", "leave", "impact"}),
 ])
 def test_kernel_gives_the_library_run_bit_for_bit(name, args, kw, kinds):
     a, b = _both(*args, **kw)
@@ -84,9 +94,9 @@ def test_auto_uses_the_kernel_and_c_refuses_what_it_does_not_cover(monkeypatch):
     monkeypatch.setattr(fast, "hybrid_run", lambda *a, **k: calls.append(1) or run(*a, **k))
     tr = simulate_hybrid(B, Fixed(), 0.3, 0.01, Contact(e_n=0.5), initial=DROP)  # kernel="auto"
     assert calls == [1] and tr["mode"][0] == FLIGHT and tr["mode"][-1] == ROLLING
-    simulate_hybrid(B, Spin(), 0.05, 0.01)  # a turning chamber: Python
+    simulate_hybrid(B, Translation(CrankStartup(t0=0.5)), 0.05, 0.01)  # a motion the kernel lacks: Python
     assert calls == [1]
-    with pytest.raises(KernelUnavailable, match="turning chamber"):
-        simulate_hybrid(B, Spin(), 0.05, 0.01, kernel="c")
+    with pytest.raises(KernelUnavailable, match="chamber motion Translation"):
+        simulate_hybrid(B, Translation(CrankStartup(t0=0.5)), 0.05, 0.01, kernel="c")
     with pytest.raises(ValueError, match="kernel must be one of"):
         simulate_hybrid(B, Fixed(), 0.1, 0.01, kernel="fortran")

@@ -1655,13 +1655,14 @@ BM_EXPORT int bma_eval_project(const bma_problem *A, double *z) { return bm_proj
 BM_EXPORT size_t bma_problem_size(void) { return sizeof(bma_problem); }
 
 /* ======================================================================
- * The hybrid ball: rolling, sliding, flight and impacts in a translating chamber
- * (hybrid.py HybridBall on events.integrate; docs/design.md section 14). Functions bmh_*,
- * reached through fast.py (`hybrid_run`). Rolling is the vector formulation above (state
- * n, omega, and with `energy` the quadratures W, E_friction); sliding and flight carry
- * (C, v_C, omega, W, E_friction) in fixed axes. The modes' right-hand sides, guards and
- * maps are written in hybrid.py's operation order (with the chamber's Omega = 0 carried
- * through its expressions, as the Python has it), and the grid loop with its events is
+ * The hybrid ball: rolling, sliding, flight and impacts in a translating or a turning
+ * chamber (hybrid.py HybridBall on events.integrate; docs/design.md section 14). Functions
+ * bmh_*, reached through fast.py (`hybrid_run`). Rolling is the vector formulation above
+ * (translation) or the general model's bmg_* (turning), state n, omega, and with `energy` the
+ * quadratures W, E_friction; sliding and flight carry (C, v_C, omega, W, E_friction) in fixed
+ * axes. The modes' right-hand sides, guards and maps are written in hybrid.py's operation
+ * order (a translating chamber's Omega = 0 carried through its expressions, as the Python
+ * has it), and the grid loop with its events is
  * events.integrate's, on bm_advance_seen's event location: the same floats, events and
  * bookkeeping as the Python run.
  * ====================================================================== */
@@ -1674,7 +1675,10 @@ enum { BMH_SLIP = 0, BMH_LEAVE = 1, BMH_STICK = 2, BMH_IMPACT = 3 }; /* event ki
 
 /* Everything a hybrid run needs; filled by fast.py (ctypes mirror: _HProblem). */
 typedef struct {
-    bm_problem roll; /* the rolling mode: motion, ball, integrator of ny = 6 (8 with energy), form BM_VECTOR */
+    bm_problem roll; /* the rolling mode: motion, ball, integrator of ny = 6 (8 with energy), form BM_VECTOR
+                        (turning: its integrator part only) */
+    int turning;     /* 0: the translating chamber of roll's motion; 1: gen's turning chamber */
+    bmg_problem gen; /* turning: the chamber motion and the general model's constants */
     bm_problem free; /* sliding and flight: the integrator of ny = 11, form BM_GENERIC */
     double R, r, d, m, g, Ib, lam, /* Ib, not I: <complex.h> makes I a macro */
            mu, mu_k, e_n, v_rest, slip_eps, kt, gap_res;
@@ -1700,16 +1704,28 @@ static void bmh_cross(const double *a, const double *b, double *c)
 
 static double bmh_dot(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 
-/* HybridBall.chamber: A, v_A, a_A, Omega, Omega' of the translating chamber; also ax, ay, xO, yO */
-static void bmh_chamber(const bmh_problem *H, double t, double *A, double *vA, double *aA, double *Om, double *m6)
+/* HybridBall.chamber: A, v_A, a_A, Omega, Omega' (Omd: NULL when not needed) */
+static void bmh_chamber(const bmh_problem *H, double t, double *A, double *vA, double *aA, double *Om, double *Omd)
 {
+    if (H->turning) {
+        double cs[BMG_NCS];
+        bmg_state(&H->gen, t, cs);
+        memcpy(A, cs, 3 * sizeof(double));
+        memcpy(vA, cs + 3, 3 * sizeof(double));
+        memcpy(aA, cs + 6, 3 * sizeof(double));
+        memcpy(Om, cs + 9, 3 * sizeof(double));
+        if (Omd) memcpy(Omd, cs + 12, 3 * sizeof(double));
+        return;
+    }
     double m[6];
     bm_motion_state(&H->roll, t, m);
     A[0] = m[0]; A[1] = m[1]; A[2] = H->R;
     vA[0] = m[2]; vA[1] = m[3]; vA[2] = 0.0;
     aA[0] = m[4]; aA[1] = m[5]; aA[2] = 0.0;
     Om[0] = 0.0; Om[1] = 0.0; Om[2] = 0.0;
-    if (m6) memcpy(m6, m, sizeof m);
+    if (Omd) {
+        Omd[0] = 0.0; Omd[1] = 0.0; Omd[2] = 0.0;
+    }
 }
 
 /* HybridBall.wall_velocity: v_A + Omega x R n */
@@ -1721,9 +1737,18 @@ static void bmh_wall_velocity(const bmh_problem *H, double t, const double *n, d
     for (int i = 0; i < 3; i++) vW[i] = vA[i] + H->R * c[i];
 }
 
-/* HybridBall._roll_out's N and |F_t| (outputs.evaluate) of a rolling state (n, omega) */
+/* HybridBall._roll_out's N and |F_t| (outputs.evaluate; turning: evaluate_c) of a rolling
+ * state (n, omega) */
 static void bmh_roll_out(const bmh_problem *H, double t, const double *y, double *N, double *Ft)
 {
+    if (H->turning) {
+        double cs[BMG_NCS], go[BMG_NOUT];
+        bmg_state(&H->gen, t, cs);
+        bmg_outputs(H->gen.oc, y, cs, go);
+        *N = go[13];
+        *Ft = go[14];
+        return;
+    }
     double m[6], o[BM_NOUT];
     bm_motion_state(&H->roll, t, m);
     bm_outputs(&H->roll, y, m[4], m[5], 0.0, 0.0, o);
@@ -1768,6 +1793,16 @@ static void bmh_rhs_roll_q(const bm_problem *P, const void *ctx, double t, const
     const bmh_run *run = ctx;
     const bmh_problem *H = run->H;
     double m[6], c1[3], c2[3];
+    if (H->turning) { /* turning.derivative, and evaluate_c's P_ball */
+        double cs[BMG_NCS], go[BMG_NOUT], kin[9];
+        bmg_state(&H->gen, t, cs);
+        bmg_outputs(H->gen.oc, y, cs, go);
+        bmg_accel(&H->gen, t, kin);
+        bmg_derivative(H->gen.c, y, kin, f);
+        f[6] = go[24];
+        f[7] = 0.0;
+        return;
+    }
     bm_motion_state(P, t, m);
     bm_derivative(P, y, m[4], m[5], f);
     bmh_cross(f, y + 3, c1);
@@ -1777,6 +1812,14 @@ static void bmh_rhs_roll_q(const bm_problem *P, const void *ctx, double t, const
     double Fy = H->m * (m[5] + dl * (c1[1] + c2[1]));
     f[6] = Fx * m[2] + Fy * m[3];
     f[7] = 0.0;
+}
+
+/* the rolling model's right-hand side without the quadratures: ChamberModel.rhs (turning) */
+static void bmh_rhs_roll_g(const bm_problem *P, const void *ctx, double t, const double *y, double *f)
+{
+    const bmh_run *run = ctx;
+    (void)P;
+    bmg_rhs(&run->H->gen, t, y, f);
 }
 
 static void bmh_rhs_flight(const bm_problem *P, const void *ctx, double t, const double *y, double *f)
@@ -1917,9 +1960,8 @@ static void bmh_slip(const bmh_problem *H, double t, const double *z, const doub
 /* HybridBall._friction_free_slip_accel */
 static void bmh_ff_slip_accel(const bmh_problem *H, double t, const double *z, const double *n, double *out)
 {
-    double A[3], vA[3], aA[3], Om[3], Omd[3] = {0.0, 0.0, 0.0}, vrel[3], aC[3], nd[3], wnd[3], c1[3], c2[3],
-                                       aW[3], a[3];
-    bmh_chamber(H, t, A, vA, aA, Om, NULL);
+    double A[3], vA[3], aA[3], Om[3], Omd[3], vrel[3], aC[3], nd[3], wnd[3], c1[3], c2[3], aW[3], a[3];
+    bmh_chamber(H, t, A, vA, aA, Om, Omd);
     for (int i = 0; i < 3; i++) vrel[i] = z[3 + i] - vA[i];
     double N = H->m * (-H->g * n[2] - bmh_dot(n, aA) + bmh_dot(vrel, vrel) / H->d);
     aC[0] = -N * n[0] / H->m;
@@ -2121,6 +2163,13 @@ static void bmh_sample(const bmh_run *run, int mode, double t, const double *y, 
     row[0] = mode;
     memcpy(row + 1, n, sizeof n);
     row[4] = z[0] - A[0]; row[5] = z[1] - A[1]; row[6] = z[2];
+    if (H->turning) { /* into the chamber's axes: Q^T (C - A) + (0, 0, R) */
+        double cs[BMG_NCS], r[3] = {row[4], row[5], z[2] - A[2]};
+        const double *Q = cs + 15;
+        bmg_state(&H->gen, t, cs);
+        for (int i = 0; i < 3; i++) row[4 + i] = Q[i] * r[0] + Q[3 + i] * r[1] + Q[6 + i] * r[2];
+        row[6] = row[6] + H->R;
+    }
     memcpy(row + 7, z + 3, 6 * sizeof(double));
     row[13] = N; row[14] = Ft; row[15] = slip; row[16] = H->d - dist; row[17] = E;
     row[18] = z[9]; row[19] = z[10];
@@ -2134,7 +2183,7 @@ static void bmh_mode(const bmh_problem *H, const bm_tab *Tr, const bm_tab *Tf, i
 {
     if (mode == BMH_ROLLING) {
         *P = &H->roll; *T = Tr;
-        *rhs = H->energy ? bmh_rhs_roll_q : bm_ball_rhs;
+        *rhs = H->energy ? bmh_rhs_roll_q : H->turning ? bmh_rhs_roll_g : bm_ball_rhs;
         ev->ng = 2; ev->G = bmh_g_rolling;
         ev->levels[0] = 0.0; ev->levels[1] = 0.0;
     } else {

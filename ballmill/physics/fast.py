@@ -722,14 +722,24 @@ def eval_outputs(P: _Problem, y, ax, ay, xO=0.0, yO=0.0) -> tuple:
 
 # ----------------------------------------------------------------------------
 # the hybrid ball (hybrid.HybridBall on events.integrate) in the kernel: bmh_simulate
-class _HProblem(ctypes.Structure):
-    """ctypes mirror of bmh_problem in _kernel.c."""
+_HPROBLEM = None
 
-    _fields_ = [("roll", _Problem), ("free", _Problem)] + [
-        (name, ctypes.c_double) for name in ("R", "r", "d", "m", "g", "Ib", "lam", "mu", "mu_k", "e_n",
-                                             "v_rest", "slip_eps", "kt", "gap_res")] + [
-        ("energy", ctypes.c_int), ("scan", ctypes.c_int), ("burst", ctypes.c_int),
-        ("xtol", ctypes.c_double), ("max_rate", ctypes.c_double)]
+
+def _hproblem_type():
+    """ctypes mirror of bmh_problem in _kernel.c (built on first use: it holds turning.kernel's
+    _GProblem, and turning.kernel imports this module)."""
+    global _HPROBLEM
+    if _HPROBLEM is None:
+        from .turning.kernel import _GProblem
+
+        class _HProblem(ctypes.Structure):
+            _fields_ = [("roll", _Problem), ("turning", ctypes.c_int), ("gen", _GProblem), ("free", _Problem)] + [
+                (name, ctypes.c_double) for name in ("R", "r", "d", "m", "g", "Ib", "lam", "mu", "mu_k", "e_n",
+                                                     "v_rest", "slip_eps", "kt", "gap_res")] + [
+                ("energy", ctypes.c_int), ("scan", ctypes.c_int), ("burst", ctypes.c_int),
+                ("xtol", ctypes.c_double), ("max_rate", ctypes.c_double)]
+        _HPROBLEM = _HProblem
+    return _HPROBLEM
 
 
 HYBRID_NCOL = 25  # HybridBall.COLUMNS
@@ -742,8 +752,9 @@ _DETAILS = (("v_n", 8, 1, float), ("slip", 9, 1, float), ("stick", 10, 1, bool),
 
 
 def _hybrid_lib():
-    lib, why = model_library("bmh_problem", _HProblem, "hybrid functions", {
-        "bmh_simulate": (ctypes.c_longlong, [ctypes.POINTER(_HProblem), _dp, ctypes.c_longlong,
+    HP = _hproblem_type()
+    lib, why = model_library("bmh_problem", HP, "hybrid functions", {
+        "bmh_simulate": (ctypes.c_longlong, [ctypes.POINTER(HP), _dp, ctypes.c_longlong,
                                              ctypes.POINTER(ctypes.c_int), _dp, _dp, _dp, _dp, _dp,
                                              ctypes.c_longlong, ctypes.POINTER(ctypes.c_longlong),
                                              ctypes.POINTER(ctypes.c_int), ctypes.POINTER(_Stats)]),
@@ -757,8 +768,11 @@ def hybrid_reason(system) -> str:
     if lib is None:
         return why
     if system.turning:
-        return "a turning chamber (the kernel's hybrid ball is the translating chamber's)"
-    why = applicable(system.rolling, system.motion)
+        from .turning import kernel as tk
+
+        why = tk.applicable(system.rolling, system.motion)
+    else:
+        why = applicable(system.rolling, system.motion)
     if why:
         return why
     for integ in (system.integrator(0), system.integrator(1)):
@@ -767,10 +781,17 @@ def hybrid_reason(system) -> str:
     return ""
 
 
-def _hybrid_problem(system, scan: int, xtol: float, burst: int, max_rate: float) -> _HProblem:
+def _hybrid_problem(system, scan: int, xtol: float, burst: int, max_rate: float):
     b = system.ball
-    H = _HProblem()
-    H.roll = _problem(system.rolling, system.motion)
+    H = _hproblem_type()()
+    if system.turning:
+        from .turning import kernel as tk
+
+        H.turning = 1
+        H.gen = tk.problem(system.rolling, system.motion)
+        H.roll = _problem(tk._IntegratorOnly(system.rolling), None)
+    else:
+        H.roll = _problem(system.rolling, system.motion)
     roll = system.integrator(1)  # rolling's integrator (with the quadratures when energy)
     H.roll.ny = roll.scale.size
     fill_integrator(H.roll, roll)
