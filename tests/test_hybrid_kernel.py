@@ -80,11 +80,19 @@ def test_zeno_sequence_stops_with_the_same_message():
     _identical(a, b)
 
 
-def test_a_failing_step_is_redone_in_python_with_its_message():
-    """The library without the energy quadrature carries W = NaN out of rolling; the first
-    slide then has no finite step: the kernel hands the run back and Python reports it."""
-    a, b = _both(B, CrankStartup(t0=0.5), 1.0, 0.01, Contact(e_n=0.5), energy=False)
-    assert not b.success and "non-finite values" in b.message
+def test_a_run_the_kernel_cannot_complete_is_redone_in_python(monkeypatch):
+    """A shaking whose accelerations (1e300 m/s2) overflow the state: the kernel hands the run
+    back and the Python driver reports the failure with its message."""
+    from ballmill.physics import hybrid
+
+    calls = []
+    driver = hybrid.integrate
+    monkeypatch.setattr(hybrid, "integrate", lambda *a, **k: calls.append(1) or driver(*a, **k))
+    shake = Harmonic(x_amp=1.0, x_omega=1e150)
+    with np.errstate(all="ignore"):
+        a, b = _both(B, shake, 0.1, 0.01)
+    assert calls == [1, 1]  # the Python run, and the kernel's run redone
+    assert not b.success and "stopped at t = 0 s" in b.message
     _identical(a, b)
 
 
