@@ -53,8 +53,9 @@ def _identical(a, b):
     # RK4 (fixed step, no end slope: the scan's is computed) through impacts with slip
     ("rk4-impacts", (Ball(mu=0.2), Harmonic(x_amp=0.05, x_omega=25.0), 0.5, 0.01, Contact(e_n=0.6, mu_k=0.15)),
      dict(method="RK4", h_fixed=2e-4), {"slip", "leave", "impact"}),
-    # the rolling mode without the energy quadratures (rolling exactly as `simulate`)
-    ("no-energy", (B, Fixed(), 0.3, 0.01, Contact(e_n=0.5)), dict(initial=DROP, energy=False), {"impact"}),
+    # the rolling mode without the energy quadratures (rolling exactly as `simulate`), into
+    # sliding and back
+    ("no-energy", (B, CrankStartup(t0=0.5), 1.0, 0.01, Contact(e_n=0.5)), dict(energy=False), {"slip", "stick"}),
     # turning chambers (the general model rolling): a turntable's ball spun up to rolling,
     ("turntable", (Ball(R=1e6, mu=0.5), Spin(Omega=(0, 0, 2.0), A=(0, 0, 1e6)), 0.5, 0.01, Contact()),
      dict(initial=((0.1, 0, 0.025), (0, 0, 0), (0, 0, 0))), {"stick"}),

@@ -1671,7 +1671,8 @@ enum { BMH_SLIP = 0, BMH_LEAVE = 1, BMH_STICK = 2, BMH_IMPACT = 3 }; /* event ki
 #define BMH_NZ 11   /* a free state: C, v_C, omega, W, E_friction */
 #define BMH_NCOL 25 /* HybridBall.COLUMNS */
 #define BMH_NEV 18  /* doubles of an event record (hybrid_run's EVENT_FIELDS) */
-#define BMH_NBOOK 11 /* E_impact, n_impacts, v_impact_max, t_first_slip, t_first_flight, Q[2], seed[3], rebound */
+#define BMH_NBOOK 12 /* E_impact, n_impacts, v_impact_max, t_first_slip, t_first_flight, Q[2], seed[3], rebound,
+                        W_lost */
 
 /* Everything a hybrid run needs; filled by fast.py (ctypes mirror: _HProblem). */
 typedef struct {
@@ -1693,6 +1694,7 @@ typedef struct {
     double E_impact, n_impacts, v_impact_max, t_first_slip, t_first_flight, Q[2];
     double seed[3];
     int rebound;
+    int w_lost; /* rolling without the work quadrature happened: W_chamber is NaN from there on */
 } bmh_run;
 
 static void bmh_cross(const double *a, const double *b, double *c)
@@ -1923,8 +1925,9 @@ static int bmh_rolling_state(bmh_run *run, const double *n, const double *w, dou
         y[7] = Ef;
         return 8;
     }
-    run->Q[0] = NAN; /* W is not followed while rolling */
+    run->Q[0] = 0.0; /* W is not followed while rolling (HybridBall._rolling_state) */
     run->Q[1] = Ef;
+    run->w_lost = 1;
     return 6;
 }
 
@@ -2172,7 +2175,8 @@ static void bmh_sample(const bmh_run *run, int mode, double t, const double *y, 
     }
     memcpy(row + 7, z + 3, 6 * sizeof(double));
     row[13] = N; row[14] = Ft; row[15] = slip; row[16] = H->d - dist; row[17] = E;
-    row[18] = z[9]; row[19] = z[10];
+    row[18] = run->w_lost ? NAN : z[9];
+    row[19] = z[10];
     row[20] = run->E_impact; row[21] = run->n_impacts; row[22] = run->v_impact_max;
     row[23] = run->t_first_slip; row[24] = run->t_first_flight;
 }
@@ -2199,7 +2203,7 @@ static void bmh_mode(const bmh_problem *H, const bm_tab *Tr, const bm_tab *Tf, i
 /* events.integrate for the hybrid ball over times[0..n-1] (times[0] the start time, sampled)
  * from *mode and y (size: *mode's) with step *h (the first one from Python's initial step).
  * book: the bookkeeping (BMH_NBOOK values: E_impact, n_impacts, v_impact_max, t_first_slip,
- * t_first_flight, Q[2], seed[3], rebound) in and out. rows: BMH_NCOL per point reached; events:
+ * t_first_flight, Q[2], seed[3], rebound, W_lost) in and out. rows: BMH_NCOL per point reached; events:
  * BMH_NEV per event, at most cap. Returns the number of points reached (rows) and sets
  * *status: 0 completed; 1 a step failed (Python redoes the run and reports it); 2 a Zeno
  * sequence (the last event is the one that made it); 3 more than cap events (Python
@@ -2213,7 +2217,7 @@ BM_EXPORT long long bmh_simulate(const bmh_problem *H, const double *times, long
     bm_tab_make(&H->roll, &Tr);
     bm_tab_make(&H->free, &Tf);
     bmh_run run = {H, book[0], book[1], book[2], book[3], book[4], {book[5], book[6]},
-                   {book[7], book[8], book[9]}, book[10] != 0.0};
+                   {book[7], book[8], book[9]}, book[10] != 0.0, book[11] != 0.0};
     int mode = *mode_io;
     double t = times[0], yy[BM_NYMAX];
     long long ne = 0, reached = 0;
@@ -2288,6 +2292,7 @@ BM_EXPORT long long bmh_simulate(const bmh_problem *H, const double *times, long
     book[5] = run.Q[0]; book[6] = run.Q[1];
     memcpy(book + 7, run.seed, sizeof run.seed);
     book[10] = run.rebound;
+    book[11] = run.w_lost;
     return reached;
 }
 

@@ -834,7 +834,7 @@ def hybrid_run(system, mode: int, t: float, y, times, *, burst: int = 100, max_r
             stats.nfev += 1
     bk = system.book
     book0 = [bk["E_impact"], bk["n_impacts"], bk["v_impact_max"], bk["t_first_slip"], bk["t_first_flight"],
-             bk["Q"][0], bk["Q"][1], *system._seed, float(system._rebound)]
+             bk["Q"][0], bk["Q"][1], *system._seed, float(system._rebound), float(bk["W_lost"])]
     cap = 4096
     while True:
         book = np.array(book0, dtype=float)
@@ -853,7 +853,8 @@ def hybrid_run(system, mode: int, t: float, y, times, *, burst: int = 100, max_r
     if status.value == 1:
         return None
     bk.update(E_impact=float(book[0]), n_impacts=int(book[1]), v_impact_max=float(book[2]),
-              t_first_slip=float(book[3]), t_first_flight=float(book[4]), Q=(float(book[5]), float(book[6])))
+              t_first_slip=float(book[3]), t_first_flight=float(book[4]), Q=(float(book[5]), float(book[6])),
+              W_lost=bool(book[11]))
     system._seed = tuple(float(v) for v in book[7:10])
     system._rebound = bool(book[10])
     evs = []

@@ -153,7 +153,7 @@ class HybridBall:
         free = [ball.r] * 3 + [v_ref] * 3 + [v_ref / ball.r] * 3 + q
         self._int_free = Integrator(method, tol=tol, scale=free, h_fixed=h_fixed, h_max=h_max)
         self.book = dict(E_impact=0.0, n_impacts=0, v_impact_max=0.0, t_first_slip=math.nan,
-                         t_first_flight=math.nan, Q=(0.0, 0.0))
+                         t_first_flight=math.nan, Q=(0.0, 0.0), W_lost=False)
         self._seed = (0.0, 0.0, 0.0)
         self._rebound = False  # the last map was a rebound (the flight's gap is opening)
         A0 = self.chamber(0.0)[0]
@@ -335,7 +335,10 @@ class HybridBall:
         core = [n[0], n[1], n[2], w[0], w[1], w[2]]
         if self.energy:
             return np.array(core + list(Q))
-        self.book["Q"] = (math.nan, Q[1])  # W is not followed while rolling
+        # W is not followed while rolling: the sliding or flying state that follows carries it
+        # from 0 (a NaN there would stop the integrator) and the outputs show NaN from here on
+        self.book["Q"] = (0.0, Q[1])
+        self.book["W_lost"] = True
         return np.array(core)
 
     def _onto_wall(self, t, z):
@@ -584,8 +587,9 @@ class HybridBall:
             r = (c[0], c[1], z[2] - A[2])
             c = tuple(Q[i] * r[0] + Q[3 + i] * r[1] + Q[6 + i] * r[2] for i in range(3))
             c = (c[0], c[1], c[2] + b.R)
+        W = math.nan if bk["W_lost"] else z[9]
         return (mode, n[0], n[1], n[2], c[0], c[1], c[2], z[3], z[4], z[5], z[6], z[7], z[8], N, Ft,
-                slip, b.d - dist, E, z[9], z[10], bk["E_impact"], bk["n_impacts"],
+                slip, b.d - dist, E, W, z[10], bk["E_impact"], bk["n_impacts"],
                 bk["v_impact_max"], bk["t_first_slip"], bk["t_first_flight"])
 
 
