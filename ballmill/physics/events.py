@@ -273,10 +273,7 @@ def integrate(system, mode: int, t: float, y, times, *, h: float | None = None, 
                 if bound is not None:
                     h = min(h, bound)
                 if len(events) >= burst and t_e - events[-burst].t < burst / max_rate:
-                    raise _Zeno(f"Zeno sequence: {burst} events within "
-                                f"{t_e - events[-burst].t:.3g} s before t = {t_e:.9g} s "
-                                f"(the last: {kind!r}), more than the allowed rate "
-                                f"{max_rate:g} events/s")
+                    raise zeno(events, burst, max_rate)
         except (_Zeno, StepFailure, ArithmeticError) as e:
             success, error = False, e
             message = f"stopped at t = {t:.9g} s: {e}"
@@ -316,3 +313,12 @@ class Plain:
 
 class _Zeno(Exception):
     pass
+
+
+def zeno(events, burst: int, max_rate: float) -> _Zeno:
+    """The Zeno guard's error at the last of ``events``: ``burst`` events within less than
+    burst / max_rate seconds (also what the compiled kernel's run reports, fast.hybrid_run)."""
+    last = events[-1]
+    return _Zeno(f"Zeno sequence: {burst} events within {last.t - events[-burst].t:.3g} s before "
+                 f"t = {last.t:.9g} s (the last: {last.kind!r}), more than the allowed rate "
+                 f"{max_rate:g} events/s")

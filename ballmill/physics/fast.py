@@ -811,7 +811,7 @@ def hybrid_run(system, mode: int, t: float, y, times, *, burst: int = 100, max_r
     with `hybrid_reason`) in the kernel: the same rows, events, bookkeeping (written back to
     the system) and work, bit for bit. Returns the `events.EventRun`, or None when a step
     fails (the caller runs the Python driver, which reports the failure as it does)."""
-    from .events import Event, EventRun, _Zeno
+    from .events import Event, EventRun, zeno
 
     lib, _ = _hybrid_lib()
     H = _hybrid_problem(system, scan, xtol, burst, max_rate)
@@ -871,11 +871,8 @@ def hybrid_run(system, mode: int, t: float, y, times, *, burst: int = 100, max_r
     run_stats = StepStats(st.steps, st.rejected, st.nfev)
     success, message, error = True, "completed", None
     if status.value == 2:
-        last = evs[-1]
-        error = _Zeno(f"Zeno sequence: {burst} events within {last.t - evs[-burst].t:.3g} s before "
-                      f"t = {last.t:.9g} s (the last: {last.kind!r}), more than the allowed rate "
-                      f"{max_rate:g} events/s")
-        success, message = False, f"stopped at t = {last.t:.9g} s: {error}"
+        error = zeno(evs, burst, max_rate)
+        success, message = False, f"stopped at t = {evs[-1].t:.9g} s: {error}"
     ny = system.integrator(c_mode.value).scale.size
     return EventRun(times[:reached], out_rows, evs, success, message, run_stats, c_mode.value,
                     yy[:ny].copy(), float(hbuf[0]), float(times[reached - 1]), error)
