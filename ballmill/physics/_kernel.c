@@ -29,6 +29,14 @@
  * of the file, reached through ballmill/physics/turning/kernel.py; they run on the
  * same integrator (bm_advance) but leave the translation-only functions as they are.
  *
+ * Every run over a grid of output points (bm_simulate_study, bmg_simulate, bma_simulate,
+ * bmh_simulate) is a system of the one grid loop bm_drive (events.integrate), which
+ * integrates with the one integration routine bm_advance_seen (events located on its
+ * accepted steps when the system's mode has guards).
+ *
+ * The hybrid ball (rolling, sliding, flight, impacts; hybrid.py), bmh_* at the end of the
+ * file, reached through fast.hybrid_run.
+ *
  * Plain C99, no Python C API in the functions: ballmill/physics/fast.py calls
  * them through ctypes. Built by setup.py as the extension module
  * ballmill.physics._kernel (BALLMILL_KERNEL_MODULE defined: the PyInit at the
@@ -954,6 +962,82 @@ static int bm_advance_seen(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, 
     return 1;
 }
 
+/* ------------------------------------------------------------------ events.integrate
+ * The one grid loop of the kernel's runs (events.integrate; a model without events is its
+ * events.Plain): from grid point `start` (state y, step *h, mode *mode_io) over times[start..n-1],
+ * integrating each interval with bm_advance_seen, handling the events of the current mode's
+ * guards on the way (the system's map), recording every grid point reached (point `start`
+ * itself only if record_start). Returns the index of the last point recorded: n - 1; or where
+ * the system's record ends the run (a study's stop rule); or, with *status set, the point
+ * before the interval that could not be done (1: a step failed; the caller redoes that
+ * interval in Python, which reports the failure as it does) or where the system's map
+ * stopped the run (its own status). *total: the work of the completed intervals. */
+typedef struct bm_system bm_system;
+struct bm_system {
+    /* the mode's integrator problem, tableau, right-hand side and its context, and guards
+     * (ev: zeroed before; ng = 0 none; armed[j] = 1 arms guard j although it is not positive) */
+    void (*setup)(const bm_system *S, int mode, double t, const double *y, const bm_problem **P,
+                  const bm_tab **T, bm_rhs_fn *rhs, const void **ctx, bm_events *ev);
+    /* the map at the event in ev: the new mode, time, state and step; 0 ends the run (*status set) */
+    int (*jump)(bm_system *S, int *mode, double *t, double *y, double *h, const bm_events *ev, int *status);
+    /* grid point i reached (mode, state): record it; nonzero ends the run there */
+    int (*record)(bm_system *S, long long i, int mode, double t, const double *y);
+    bm_lerr *seen; /* bm_advance_seen's run-error estimate (NULL: none) */
+};
+
+static long long bm_drive(bm_system *S, const double *times, long long n, long long start, int record_start,
+                          int *mode_io, double *y, double *h, bm_stats *total, int *status)
+{
+    int mode = *mode_io;
+    double t = times[start];
+    long long last = n - 1;
+    *status = 0;
+    for (long long i = start; i < n; i++) {
+        if (i > start) {
+            bm_stats seg = {0, 0, 0};
+            while (t < times[i]) {
+                const bm_problem *P;
+                const bm_tab *T;
+                bm_rhs_fn rhs;
+                const void *ctx;
+                bm_events ev;
+                memset(&ev, 0, sizeof ev);
+                S->setup(S, mode, t, y, &P, &T, &rhs, &ctx, &ev);
+                if (ev.ng) {
+                    double g[BM_NG_MAX];
+                    ev.G(ev.gctx, t, y, g);
+                    for (int j = 0; j < ev.ng; j++) ev.armed[j] = ev.armed[j] || g[j] > ev.levels[j];
+                }
+                int code = bm_advance_seen(P, T, rhs, ctx, t, y, times[i], h, &seg, S->seen, ev.ng ? &ev : NULL);
+                if (code == 0) {
+                    *status = 1;
+                    break;
+                }
+                if (code == 1) {
+                    t = times[i];
+                    continue;
+                }
+                if (!S->jump(S, &mode, &t, y, h, &ev, status)) break;
+            }
+            if (*status) {
+                last = i - 1;
+                break;
+            }
+            total->steps += seg.steps;
+            total->rejected += seg.rejected;
+            total->nfev += seg.nfev;
+        } else if (!record_start) {
+            continue;
+        }
+        if (S->record(S, i, mode, t, y)) {
+            last = i;
+            break;
+        }
+    }
+    *mode_io = mode;
+    return last;
+}
+
 /* np.mean as numpy sums a short array: the first element, then the sum of the rest */
 static inline double bm_np_mean(const double *a, int n)
 {
@@ -1014,51 +1098,71 @@ static double bm_normal_force(const bm_problem *P, bm_mcache *c, double t, const
  * Below n - 1 without a stop, the run could not do the next interval: the caller redoes
  * the point on the ordinary path, which reports that failure as Python does. The platform
  * motion comes from a cache of the last times asked (the same values: bm_motion_cached). */
+typedef struct {
+    bm_system sys;
+    const bm_problem *P;
+    bm_tab T;
+    bm_mcache cache;
+    bm_lerr est;
+    const double *times;
+    int stop;
+    double mu, limit, *ys, *outs;
+} bm_study_sys;
+
+static void bm_study_setup(const bm_system *S, int mode, double t, const double *y, const bm_problem **P,
+                           const bm_tab **T, bm_rhs_fn *rhs, const void **ctx, bm_events *ev)
+{
+    const bm_study_sys *x = (const bm_study_sys *)S;
+    (void)mode; (void)t; (void)y; (void)ev;
+    *P = x->P;
+    *T = &x->T;
+    *rhs = bm_ball_rhs_cached;
+    *ctx = &x->cache;
+}
+
+static int bm_study_record(bm_system *S, long long i, int mode, double t, const double *y)
+{
+    bm_study_sys *x = (bm_study_sys *)S;
+    double m[6];
+    (void)mode; (void)t;
+    memcpy(x->ys + BM_NY * i, y, BM_NY * sizeof(double));
+    if (S->seen && x->limit > 0.0 && x->est.err_P > x->limit) return 1;
+    if (!x->outs) return 0;
+    double *o = x->outs + BM_NOUT * i;
+    bm_motion_cached(x->P, &x->cache, x->times[i], m);
+    bm_outputs(x->P, y, m[4], m[5], m[0], m[1], o);
+    return x->stop && !(o[9] > 0.0 && o[18] <= x->mu);
+}
+
 BM_EXPORT long long bm_simulate_study(const bm_problem *P, const double *times, long long n, long long start,
                                       int record_start, double *y, double *h, int stop, double mu, double *ys,
                                       double *outs, double *err, double limit, bm_stats *total)
 {
-    double m[6], f[BM_NY];
-    bm_mcache cache = {{0}, {{0}}, 0, 0};
-    bm_lerr est = {P, &cache, 0, 0, {0}, {{0}}, {{0}}, 0.0, 0.0};
-    bm_lerr *seen = err && !P->adaptive && P->ny == BM_NY ? &est : NULL;
-    bm_tab T;
-    bm_tab_make(P, &T);
-    long long i = start, last = n - 1;
-    for (; i < n; i++) {
-        if (i > start) {
-            bm_stats st = {0, 0, 0};
-            if (!bm_advance_seen(P, &T, bm_ball_rhs_cached, &cache, times[i - 1], y, times[i], h, &st, seen, NULL)) {
-                last = i - 1;
-                break;
-            }
-            total->steps += st.steps;
-            total->rejected += st.rejected;
-            total->nfev += st.nfev;
-        } else if (!record_start) {
-            continue;
-        }
-        memcpy(ys + BM_NY * i, y, BM_NY * sizeof(double));
-        if (seen && limit > 0.0 && est.err_P > limit) {
-            last = i;
-            break;
-        }
-        if (!outs) continue;
-        double *o = outs + BM_NOUT * i;
-        bm_motion_cached(P, &cache, times[i], m);
-        bm_outputs(P, y, m[4], m[5], m[0], m[1], o);
-        if (stop && !(o[9] > 0.0 && o[18] <= mu)) {
-            last = i;
-            break;
-        }
-    }
-    if (seen) { /* the last state reached, seen with its derivative: the last interval's residual */
-        bm_ball_rhs_cached(P, &cache, times[last], y, f);
+    double f[BM_NY];
+    bm_study_sys x;
+    memset(&x, 0, sizeof x);
+    x.sys.setup = bm_study_setup;
+    x.sys.record = bm_study_record;
+    x.P = P;
+    x.est.P = P;
+    x.est.cache = &x.cache;
+    x.sys.seen = err && !P->adaptive && P->ny == BM_NY ? &x.est : NULL;
+    x.times = times;
+    x.stop = stop;
+    x.mu = mu;
+    x.limit = limit;
+    x.ys = ys;
+    x.outs = outs;
+    bm_tab_make(P, &x.T);
+    int mode = 0, status;
+    long long last = bm_drive(&x.sys, times, n, start, record_start, &mode, y, h, total, &status);
+    if (x.sys.seen) { /* the last state reached, seen with its derivative: the last interval's residual */
+        bm_ball_rhs_cached(P, &x.cache, times[last], y, f);
         total->nfev++;
-        bm_lerr_see(seen, times[last], y, f);
-        bm_lerr_end(seen);
-        err[0] = est.err_P;
-        err[1] = est.err_N;
+        bm_lerr_see(x.sys.seen, times[last], y, f);
+        bm_lerr_end(x.sys.seen);
+        err[0] = x.est.err_P;
+        err[1] = x.est.err_N;
     }
     return last;
 }
@@ -1355,31 +1459,54 @@ static void bmg_rhs_cb(const bm_problem *P, const void *ctx, double t, const dou
     bmg_rhs(ctx, t, y, f);
 }
 
-/* turning.simulate_general's loop, as bm_simulate (same contract; outputs: 28 per point) */
+/* turning.simulate_general's loop, as bm_simulate (same contract; outputs: 28 per point), on bm_drive */
+typedef struct {
+    bm_system sys;
+    const bmg_problem *G;
+    bm_tab T;
+    const double *times;
+    double *ys, *outs;
+} bmg_sim_sys;
+
+static void bmg_sim_setup(const bm_system *S, int mode, double t, const double *y, const bm_problem **P,
+                          const bm_tab **T, bm_rhs_fn *rhs, const void **ctx, bm_events *ev)
+{
+    const bmg_sim_sys *x = (const bmg_sim_sys *)S;
+    (void)mode; (void)t; (void)y; (void)ev;
+    *P = &x->G->base;
+    *T = &x->T;
+    *rhs = bmg_rhs_cb;
+    *ctx = x->G;
+}
+
+static int bmg_sim_record(bm_system *S, long long i, int mode, double t, const double *y)
+{
+    bmg_sim_sys *x = (bmg_sim_sys *)S;
+    double cs[BMG_NCS];
+    (void)mode; (void)t;
+    memcpy(x->ys + BM_NY * i, y, BM_NY * sizeof(double));
+    if (x->outs) {
+        bmg_state(x->G, x->times[i], cs);
+        bmg_outputs(x->G->oc, y, cs, x->outs + BMG_NOUT * i);
+    }
+    return 0;
+}
+
 BM_EXPORT long long bmg_simulate(const bmg_problem *G, const double *times, long long n, long long start,
                                  int record_start, double *y, double *h, double *ys, double *outs,
                                  bm_stats *total)
 {
-    double cs[BMG_NCS];
-    bm_tab T;
-    bm_tab_make(&G->base, &T);
-    for (long long i = start; i < n; i++) {
-        if (i > start) {
-            bm_stats st = {0, 0, 0};
-            if (!bm_advance(&G->base, &T, bmg_rhs_cb, G, times[i - 1], y, times[i], h, &st)) return i - 1;
-            total->steps += st.steps;
-            total->rejected += st.rejected;
-            total->nfev += st.nfev;
-        } else if (!record_start) {
-            continue;
-        }
-        memcpy(ys + BM_NY * i, y, BM_NY * sizeof(double));
-        if (outs) {
-            bmg_state(G, times[i], cs);
-            bmg_outputs(G->oc, y, cs, outs + BMG_NOUT * i);
-        }
-    }
-    return n - 1;
+    bmg_sim_sys x;
+    memset(&x, 0, sizeof x);
+    x.sys.setup = bmg_sim_setup;
+    x.sys.record = bmg_sim_record;
+    x.G = G;
+    x.times = times;
+    x.ys = ys;
+    x.outs = outs;
+    bm_tab_make(&G->base, &x.T);
+    int mode = 0, status;
+    return bm_drive(&x.sys, times, n, start, record_start, &mode, y, h, total, &status);
 }
 
 /* ---------------------------------------------------- turning/reconstruction.py
@@ -1633,21 +1760,46 @@ static void bma_rhs_cb(const bm_problem *P, const void *ctx, double t, const dou
 /* simulate_absorber's loop over output points times[1..n-1] from the state y (at times[0])
  * with step *h: ys[i] for every point reached; returns the index of the last point reached
  * (y and *h are the state and step there; *total the work). Stops at the first interval
- * it cannot complete (Python redoes that one). */
+ * it cannot complete (Python redoes that one). On bm_drive. */
+typedef struct {
+    bm_system sys;
+    const bma_problem *A;
+    bm_tab T;
+    double *ys;
+} bma_sim_sys;
+
+static void bma_sim_setup(const bm_system *S, int mode, double t, const double *y, const bm_problem **P,
+                          const bm_tab **T, bm_rhs_fn *rhs, const void **ctx, bm_events *ev)
+{
+    const bma_sim_sys *x = (const bma_sim_sys *)S;
+    (void)mode; (void)t; (void)y; (void)ev;
+    *P = &x->A->base;
+    *T = &x->T;
+    *rhs = bma_rhs_cb;
+    *ctx = x->A;
+}
+
+static int bma_sim_record(bm_system *S, long long i, int mode, double t, const double *y)
+{
+    bma_sim_sys *x = (bma_sim_sys *)S;
+    size_t ny = (size_t)x->A->base.ny;
+    (void)mode; (void)t;
+    memcpy(x->ys + ny * (size_t)i, y, ny * sizeof(double));
+    return 0;
+}
+
 BM_EXPORT long long bma_simulate(const bma_problem *A, const double *times, long long n, double *y, double *h,
                                  double *ys, bm_stats *total)
 {
-    bm_tab T;
-    bm_tab_make(&A->base, &T);
-    for (long long i = 1; i < n; i++) {
-        bm_stats st = {0, 0, 0};
-        if (!bm_advance(&A->base, &T, bma_rhs_cb, A, times[i - 1], y, times[i], h, &st)) return i - 1;
-        total->steps += st.steps;
-        total->rejected += st.rejected;
-        total->nfev += st.nfev;
-        memcpy(ys + (size_t)A->base.ny * (size_t)i, y, (size_t)A->base.ny * sizeof(double));
-    }
-    return n - 1;
+    bma_sim_sys x;
+    memset(&x, 0, sizeof x);
+    x.sys.setup = bma_sim_setup;
+    x.sys.record = bma_sim_record;
+    x.A = A;
+    x.ys = ys;
+    bm_tab_make(&A->base, &x.T);
+    int mode = 0, status;
+    return bm_drive(&x.sys, times, n, 0, 0, &mode, y, h, total, &status);
 }
 
 BM_EXPORT void bma_eval_rhs(const bma_problem *A, double t, const double *z, double *dz) { bma_rhs(A, t, z, dz); }
@@ -2181,118 +2333,127 @@ static void bmh_sample(const bmh_run *run, int mode, double t, const double *y, 
     row[23] = run->t_first_slip; row[24] = run->t_first_flight;
 }
 
-/* the mode's integrator problem, tableau, right-hand side and guards */
-static void bmh_mode(const bmh_problem *H, const bm_tab *Tr, const bm_tab *Tf, int mode, const bm_problem **P,
-                     const bm_tab **T, bm_rhs_fn *rhs, bm_events *ev)
+/* the hybrid ball as a system of bm_drive (events.integrate's HybridBall) */
+typedef struct {
+    bm_system sys;
+    bmh_run run;
+    bm_tab Tr, Tf;
+    double *rows, *events, *y_out;
+    long long cap, ne;
+    int mode_out;
+} bmh_sys;
+
+/* the mode's integrator problem, tableau, right-hand side and guards (HybridBall.integrator,
+ * rhs, guards, armed) */
+static void bmh_setup(const bm_system *S, int mode, double t, const double *y, const bm_problem **P,
+                      const bm_tab **T, bm_rhs_fn *rhs, const void **ctx, bm_events *ev)
 {
+    const bmh_sys *x = (const bmh_sys *)S;
+    const bmh_problem *H = x->run.H;
+    (void)t; (void)y;
+    *ctx = &x->run;
+    ev->gctx = &x->run;
+    ev->scan = H->scan;
+    ev->xtol = H->xtol;
     if (mode == BMH_ROLLING) {
-        *P = &H->roll; *T = Tr;
+        *P = &H->roll; *T = &x->Tr;
         *rhs = H->energy ? bmh_rhs_roll_q : H->turning ? bmh_rhs_roll_g : bm_ball_rhs;
         ev->ng = 2; ev->G = bmh_g_rolling;
-        ev->levels[0] = 0.0; ev->levels[1] = 0.0;
     } else {
-        *P = &H->free; *T = Tf;
+        *P = &H->free; *T = &x->Tf;
         *rhs = mode == BMH_SLIDING ? bmh_rhs_slide : bmh_rhs_flight;
         ev->ng = mode == BMH_SLIDING ? 2 : 1;
         ev->G = mode == BMH_SLIDING ? bmh_g_sliding : bmh_g_flight;
         ev->levels[0] = mode == BMH_SLIDING ? 0.0 : H->gap_res;
-        ev->levels[1] = 0.0;
+        ev->armed[0] = mode == BMH_FLIGHT && x->run.rebound; /* an opening gap after a rebound */
     }
+}
+
+/* HybridBall.jump at the event, its record, HybridBall.first_step, and the Zeno guard */
+static int bmh_sys_jump(bm_system *S, int *mode, double *t, double *y, double *h, const bm_events *ev,
+                        int *status)
+{
+    static const int kinds[3][2] = {{BMH_IMPACT, -1}, {BMH_SLIP, BMH_LEAVE}, {BMH_STICK, BMH_LEAVE}};
+    bmh_sys *x = (bmh_sys *)S;
+    const bmh_problem *H = x->run.H;
+    int kind = kinds[*mode][ev->j], ny;
+    if (x->ne >= x->cap) {
+        *status = 3;
+        return 0;
+    }
+    double *rec = x->events + BMH_NEV * x->ne;
+    for (int q = 0; q < BMH_NEV; q++) rec[q] = NAN;
+    int new_mode = bmh_jump(&x->run, *mode, kind, ev->t, ev->y, y, &ny, rec);
+    rec[0] = ev->t; rec[1] = kind; rec[2] = *mode; rec[3] = new_mode; rec[4] = ev->width;
+    x->ne++;
+    *mode = new_mode;
+    *t = ev->t;
+    *h = ev->h_used;
+    if (new_mode == BMH_FLIGHT && x->run.rebound) { /* HybridBall.first_step */
+        double vn, an;
+        bmh_normal_motion(H, *t, y, &vn, &an);
+        if (vn < 0.0 && an > 0.0) *h = bm_pymin(*h, bm_pymax(0.5 * -vn / an, 1e-12));
+    }
+    if (x->ne >= H->burst && *t - x->events[BMH_NEV * (x->ne - H->burst)] < H->burst / H->max_rate) {
+        *status = 2;
+        return 0;
+    }
+    return 1;
+}
+
+static int bmh_record(bm_system *S, long long i, int mode, double t, const double *y)
+{
+    bmh_sys *x = (bmh_sys *)S;
+    bmh_sample(&x->run, mode, t, y, x->rows + BMH_NCOL * i);
+    x->mode_out = mode;
+    memcpy(x->y_out, y, (size_t)(mode == BMH_ROLLING ? x->run.H->roll.ny : BMH_NZ) * sizeof(double));
+    return 0;
 }
 
 /* events.integrate for the hybrid ball over times[0..n-1] (times[0] the start time, sampled)
  * from *mode and y (size: *mode's) with step *h (the first one from Python's initial step).
  * book: the bookkeeping (BMH_NBOOK values: E_impact, n_impacts, v_impact_max, t_first_slip,
- * t_first_flight, Q[2], seed[3], rebound, W_lost) in and out. rows: BMH_NCOL per point reached; events:
- * BMH_NEV per event, at most cap. Returns the number of points reached (rows) and sets
- * *status: 0 completed; 1 a step failed (Python redoes the run and reports it); 2 a Zeno
- * sequence (the last event is the one that made it); 3 more than cap events (Python
- * redoes the run with more room). *n_events: the events recorded; *total: the work of the
- * completed intervals. */
+ * t_first_flight, Q[2], seed[3], rebound, W_lost) in and out. rows: BMH_NCOL per point reached;
+ * events: BMH_NEV per event, at most cap. Returns the number of points reached (rows); *mode
+ * and y the state at the last of them, and sets *status: 0 completed; 1 a step failed (Python
+ * redoes the run and reports it); 2 a Zeno sequence (the last event is the one that made
+ * it); 3 more than cap events (Python redoes the run with more room). *n_events: the events
+ * recorded; *total: the work of the completed intervals. */
 BM_EXPORT long long bmh_simulate(const bmh_problem *H, const double *times, long long n, int *mode_io, double *y,
                                  double *h, double *book, double *rows, double *events, long long cap,
                                  long long *n_events, int *status, bm_stats *total)
 {
-    bm_tab Tr, Tf;
-    bm_tab_make(&H->roll, &Tr);
-    bm_tab_make(&H->free, &Tf);
+    bmh_sys x;
+    double yy[BM_NYMAX];
+    memset(&x, 0, sizeof x);
+    x.sys.setup = bmh_setup;
+    x.sys.jump = bmh_sys_jump;
+    x.sys.record = bmh_record;
     bmh_run run = {H, book[0], book[1], book[2], book[3], book[4], {book[5], book[6]},
                    {book[7], book[8], book[9]}, book[10] != 0.0, book[11] != 0.0};
-    int mode = *mode_io;
-    double t = times[0], yy[BM_NYMAX];
-    long long ne = 0, reached = 0;
+    x.run = run;
+    bm_tab_make(&H->roll, &x.Tr);
+    bm_tab_make(&H->free, &x.Tf);
+    x.rows = rows;
+    x.events = events;
+    x.cap = cap;
+    x.y_out = y;
+    x.mode_out = *mode_io;
     *status = 0;
-    memcpy(yy, y, (size_t)(mode == BMH_ROLLING ? H->roll.ny : BMH_NZ) * sizeof(double));
+    long long reached = 0;
     if (n > 0) {
-        bmh_sample(&run, mode, t, yy, rows);
-        reached = 1;
+        int mode = *mode_io;
+        memcpy(yy, y, (size_t)(mode == BMH_ROLLING ? H->roll.ny : BMH_NZ) * sizeof(double));
+        reached = bm_drive(&x.sys, times, n, 0, 1, &mode, yy, h, total, status) + 1;
     }
-    for (long long i = 1; i < n && !*status; i++) {
-        double t_next = times[i];
-        bm_stats seg = {0, 0, 0};
-        while (t < t_next) {
-            const bm_problem *P;
-            const bm_tab *T;
-            bm_rhs_fn rhs;
-            bm_events ev;
-            double g[BM_NG_MAX];
-            memset(&ev, 0, sizeof ev);
-            bmh_mode(H, &Tr, &Tf, mode, &P, &T, &rhs, &ev);
-            ev.gctx = &run;
-            ev.scan = H->scan;
-            ev.xtol = H->xtol;
-            ev.G(&run, t, yy, g);
-            for (int j = 0; j < ev.ng; j++) ev.armed[j] = g[j] > ev.levels[j];
-            if (mode == BMH_FLIGHT && run.rebound) ev.armed[0] = 1; /* HybridBall.armed */
-            int code = bm_advance_seen(P, T, rhs, &run, t, yy, t_next, h, &seg, NULL, &ev);
-            if (code == 0) {
-                *status = 1;
-                break;
-            }
-            if (code == 1) {
-                t = t_next;
-                continue;
-            }
-            static const int kinds[3][2] = {{BMH_IMPACT, -1}, {BMH_SLIP, BMH_LEAVE}, {BMH_STICK, BMH_LEAVE}};
-            int kind = kinds[mode][ev.j], ny;
-            if (ne >= cap) {
-                *status = 3;
-                break;
-            }
-            double *rec = events + BMH_NEV * ne;
-            for (int q = 0; q < BMH_NEV; q++) rec[q] = NAN;
-            int new_mode = bmh_jump(&run, mode, kind, ev.t, ev.y, yy, &ny, rec);
-            rec[0] = ev.t; rec[1] = kind; rec[2] = mode; rec[3] = new_mode; rec[4] = ev.width;
-            ne++;
-            mode = new_mode;
-            t = ev.t;
-            *h = ev.h_used;
-            if (mode == BMH_FLIGHT && run.rebound) { /* HybridBall.first_step */
-                double vn, an;
-                bmh_normal_motion(H, t, yy, &vn, &an);
-                if (vn < 0.0 && an > 0.0) *h = bm_pymin(*h, bm_pymax(0.5 * -vn / an, 1e-12));
-            }
-            if (ne >= H->burst && t - events[BMH_NEV * (ne - H->burst)] < H->burst / H->max_rate) {
-                *status = 2;
-                break;
-            }
-        }
-        if (*status) break;
-        total->steps += seg.steps;
-        total->rejected += seg.rejected;
-        total->nfev += seg.nfev;
-        bmh_sample(&run, mode, t, yy, rows + BMH_NCOL * i);
-        reached = i + 1;
-        *mode_io = mode;
-        memcpy(y, yy, (size_t)(mode == BMH_ROLLING ? H->roll.ny : BMH_NZ) * sizeof(double));
-    }
-    *n_events = ne;
-    book[0] = run.E_impact; book[1] = run.n_impacts; book[2] = run.v_impact_max;
-    book[3] = run.t_first_slip; book[4] = run.t_first_flight;
-    book[5] = run.Q[0]; book[6] = run.Q[1];
-    memcpy(book + 7, run.seed, sizeof run.seed);
-    book[10] = run.rebound;
-    book[11] = run.w_lost;
+    *mode_io = x.mode_out;
+    *n_events = x.ne;
+    book[0] = x.run.E_impact; book[1] = x.run.n_impacts; book[2] = x.run.v_impact_max;
+    book[3] = x.run.t_first_slip; book[4] = x.run.t_first_flight;
+    book[5] = x.run.Q[0]; book[6] = x.run.Q[1];
+    memcpy(book + 7, x.run.seed, sizeof x.run.seed);
+    book[10] = x.run.rebound;
+    book[11] = x.run.w_lost;
     return reached;
 }
 
