@@ -980,8 +980,8 @@ struct bm_system {
                   const bm_tab **T, bm_rhs_fn *rhs, const void **ctx, bm_events *ev);
     /* the map at the event in ev: the new mode, time, state and step; 0 ends the run (*status set) */
     int (*jump)(bm_system *S, int *mode, double *t, double *y, double *h, const bm_events *ev, int *status);
-    /* grid point i reached (mode, state): record it; nonzero ends the run there */
-    int (*record)(bm_system *S, long long i, int mode, double t, const double *y);
+    /* grid point i reached (mode, state, the step to try next): record it; nonzero ends the run there */
+    int (*record)(bm_system *S, long long i, int mode, double t, const double *y, double h);
     bm_lerr *seen; /* bm_advance_seen's run-error estimate (NULL: none) */
 };
 
@@ -1029,7 +1029,7 @@ static long long bm_drive(bm_system *S, const double *times, long long n, long l
         } else if (!record_start) {
             continue;
         }
-        if (S->record(S, i, mode, t, y)) {
+        if (S->record(S, i, mode, t, y, *h)) {
             last = i;
             break;
         }
@@ -1120,11 +1120,11 @@ static void bm_study_setup(const bm_system *S, int mode, double t, const double 
     *ctx = &x->cache;
 }
 
-static int bm_study_record(bm_system *S, long long i, int mode, double t, const double *y)
+static int bm_study_record(bm_system *S, long long i, int mode, double t, const double *y, double h)
 {
     bm_study_sys *x = (bm_study_sys *)S;
     double m[6];
-    (void)mode; (void)t;
+    (void)mode; (void)t; (void)h;
     memcpy(x->ys + BM_NY * i, y, BM_NY * sizeof(double));
     if (S->seen && x->limit > 0.0 && x->est.err_P > x->limit) return 1;
     if (!x->outs) return 0;
@@ -1479,11 +1479,11 @@ static void bmg_sim_setup(const bm_system *S, int mode, double t, const double *
     *ctx = x->G;
 }
 
-static int bmg_sim_record(bm_system *S, long long i, int mode, double t, const double *y)
+static int bmg_sim_record(bm_system *S, long long i, int mode, double t, const double *y, double h)
 {
     bmg_sim_sys *x = (bmg_sim_sys *)S;
     double cs[BMG_NCS];
-    (void)mode; (void)t;
+    (void)mode; (void)t; (void)h;
     memcpy(x->ys + BM_NY * i, y, BM_NY * sizeof(double));
     if (x->outs) {
         bmg_state(x->G, x->times[i], cs);
@@ -1779,11 +1779,11 @@ static void bma_sim_setup(const bm_system *S, int mode, double t, const double *
     *ctx = x->A;
 }
 
-static int bma_sim_record(bm_system *S, long long i, int mode, double t, const double *y)
+static int bma_sim_record(bm_system *S, long long i, int mode, double t, const double *y, double h)
 {
     bma_sim_sys *x = (bma_sim_sys *)S;
     size_t ny = (size_t)x->A->base.ny;
-    (void)mode; (void)t;
+    (void)mode; (void)t; (void)h;
     memcpy(x->ys + ny * (size_t)i, y, ny * sizeof(double));
     return 0;
 }
@@ -2338,7 +2338,7 @@ typedef struct {
     bm_system sys;
     bmh_run run;
     bm_tab Tr, Tf;
-    double *rows, *events, *y_out;
+    double *rows, *events, *y_out, h_out;
     long long cap, ne;
     int mode_out;
 } bmh_sys;
@@ -2401,11 +2401,12 @@ static int bmh_sys_jump(bm_system *S, int *mode, double *t, double *y, double *h
     return 1;
 }
 
-static int bmh_record(bm_system *S, long long i, int mode, double t, const double *y)
+static int bmh_record(bm_system *S, long long i, int mode, double t, const double *y, double h)
 {
     bmh_sys *x = (bmh_sys *)S;
     bmh_sample(&x->run, mode, t, y, x->rows + BMH_NCOL * i);
     x->mode_out = mode;
+    x->h_out = h;
     memcpy(x->y_out, y, (size_t)(mode == BMH_ROLLING ? x->run.H->roll.ny : BMH_NZ) * sizeof(double));
     return 0;
 }
@@ -2414,8 +2415,8 @@ static int bmh_record(bm_system *S, long long i, int mode, double t, const doubl
  * from *mode and y (size: *mode's) with step *h (the first one from Python's initial step).
  * book: the bookkeeping (BMH_NBOOK values: E_impact, n_impacts, v_impact_max, t_first_slip,
  * t_first_flight, Q[2], seed[3], rebound, W_lost) in and out. rows: BMH_NCOL per point reached;
- * events: BMH_NEV per event, at most cap. Returns the number of points reached (rows); *mode
- * and y the state at the last of them, and sets *status: 0 completed; 1 a step failed (Python
+ * events: BMH_NEV per event, at most cap. Returns the number of points reached (rows); *mode,
+ * y and *h the state and step at the last of them, and sets *status: 0 completed; 1 a step failed (Python
  * redoes the run and reports it); 2 a Zeno sequence (the last event is the one that made
  * it); 3 more than cap events (Python redoes the run with more room). *n_events: the events
  * recorded; *total: the work of the completed intervals. */
@@ -2439,6 +2440,7 @@ BM_EXPORT long long bmh_simulate(const bmh_problem *H, const double *times, long
     x.cap = cap;
     x.y_out = y;
     x.mode_out = *mode_io;
+    x.h_out = *h;
     *status = 0;
     long long reached = 0;
     if (n > 0) {
@@ -2447,6 +2449,7 @@ BM_EXPORT long long bmh_simulate(const bmh_problem *H, const double *times, long
         reached = bm_drive(&x.sys, times, n, 0, 1, &mode, yy, h, total, status) + 1;
     }
     *mode_io = x.mode_out;
+    *h = x.h_out;
     *n_events = x.ne;
     book[0] = x.run.E_impact; book[1] = x.run.n_impacts; book[2] = x.run.v_impact_max;
     book[3] = x.run.t_first_slip; book[4] = x.run.t_first_flight;

@@ -32,7 +32,7 @@ cannot be loaded they run in Python. ``BallModel(kernel="python")`` keeps a
 model in Python.
 
 `hybrid_run` runs `events.integrate` for the hybrid ball (hybrid.HybridBall) of a translating
-chamber in the kernel (bmh_simulate: the same rows, events and bookkeeping bit for bit), which
+or turning chamber in the kernel (bmh_simulate: the same rows, events and bookkeeping bit for bit), which
 `hybrid.simulate_hybrid` selects by default where `hybrid_reason` says it can.
 
 What stays in Python: the adaptive methods' initial step size (one call at the
@@ -56,7 +56,7 @@ import numpy as np
 
 from .drives.crank import LAWS, Circle, CrankStartup, Fixed, Harmonic
 from .equations import VectorFormulation, _lossy, bed_constants, loss_constants
-from .integrators import Integrator, TABLEAUS
+from .integrators import TABLEAUS, Integrator, StepStats
 from .outputs import Outputs
 
 __all__ = ["KERNEL_AVAILABLE", "KERNEL_REASON", "KERNEL_PATH", "KernelUnavailable", "applicable",
@@ -867,7 +867,6 @@ def hybrid_run(system, mode: int, t: float, y, times, *, burst: int = 100, max_r
         evs.append(Event(float(rec[0]), HYBRID_KINDS[int(rec[1])], int(rec[2]), int(rec[3]), float(rec[4]),
                          details))
     out_rows = [(int(r[0]), *r[1:21].tolist(), int(r[21]), *r[22:].tolist()) for r in rows[:reached]]
-    from .integrators import StepStats
     run_stats = StepStats(st.steps, st.rejected, st.nfev)
     success, message, error = True, "completed", None
     if status.value == 2:
