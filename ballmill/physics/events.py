@@ -17,9 +17,10 @@ grid, nothing more), the rolling models' Python paths (`model.simulate`,
 `turning.model.simulate_general`, and the intervals the compiled kernel hands back to
 Python, `model.record_interval`) and the absorber's structure + ball and bare structure
 (`absorber.model.simulate_absorber`, `simulate_structure`, with a ground record's samples
-as stops). The compiled kernel's own grid loops (_kernel.c) mirror it for the rolling
-models, and for the hybrid ball of a translating chamber with this event location
-(bm_advance_seen with a bm_events set, bmh_simulate), bit for bit.
+as stops). The compiled kernel's one grid loop (_kernel.c's bm_drive) mirrors it, bit for
+bit, for the rolling models (as Plain systems) and for the hybrid ball of a translating or
+turning chamber with this event location (bm_advance_seen with a bm_events set,
+bmh_simulate).
 
 The adaptive methods and RK4 with its fixed step are driven alike: an RK4 step is cut short
 where a grid point, a stop or an event ends it (the next one starts there, with h_fixed).

@@ -645,9 +645,10 @@ def simulate_hybrid(ball: Ball, motion, t_end: float, dt: float, contact: Contac
         step before a grid point or an event shortened to land there); with either, events
         are located on the method's own step from the step's start (events.py).
     burst, max_rate: the Zeno guard of `events.integrate`.
-    kernel: ``"auto"`` (default) runs a translating chamber's scene in the compiled kernel
-        (`fast.hybrid_run`: the same numbers bit for bit) when it is built and covers the
-        run (`fast.hybrid_reason`), else in Python; ``"c"`` insists (`fast.KernelUnavailable`
+    kernel: ``"auto"`` (default) runs the scene in the compiled kernel (`fast.hybrid_run`:
+        the same numbers bit for bit) when it is built and covers the run
+        (`fast.hybrid_reason`: the kernel's platform motions, or Spin and Fig1Machine), else
+        in Python; ``"c"`` insists (`fast.KernelUnavailable`
         with the reason); ``"python"`` never uses it. A run whose step fails is redone in
         Python, which reports the failure.
     """
