@@ -253,6 +253,24 @@ def test_rolling_scene_gives_the_rolling_model_numbers():
     _balance_ok(full, Ball())
 
 
+def test_without_the_work_quadrature_the_ball_slides_on_after_rolling():
+    """energy=False does not follow the chamber's work while the ball rolls: W_chamber is NaN
+    from the first rolling on, and the sliding that follows still runs (its state carries the
+    work from 0, not the NaN). The fast crank start then makes the same switches as with the
+    quadrature, their times within 1e-9 s (the two runs' integrators differ by the two
+    quadrature states in the error norm: measured 4e-10 s) and the same friction loss to 1e-8
+    (measured 4e-9)."""
+    motion = CrankStartup(t0=0.5)
+    bare = simulate_hybrid(Ball(), motion, 1.0, 0.01, energy=False)
+    full = simulate_hybrid(Ball(), motion, 1.0, 0.01)
+    assert bare.success, bare.message
+    assert [e.kind for e in bare.events] == [e.kind for e in full.events] == ["stick", "slip", "stick", "slip"]
+    assert max(abs(a.t - b.t) for a, b in zip(bare.events, full.events)) < 1e-9
+    rolled = bare.t > bare.events[0].t
+    assert np.all(np.isnan(bare["W_chamber"][rolled])) and np.all(np.isfinite(bare["W_chamber"][~rolled]))
+    assert abs(bare["E_friction"][-1] - full["E_friction"][-1]) < 1e-8 * full["E_friction"][-1]
+
+
 @pytest.mark.parametrize("mu", [0.1, 1.0])
 def test_impact_with_slip_slides_or_sticks(mu):
     """A ball dropped from h0 with horizontal speed u0 and no spin strikes a flat bottom

@@ -2,20 +2,21 @@
 
     ballmill bench --section hybrid [--quick]     run only this section and splice it into the report
 
-What `simulate_hybrid` (ballmill/physics/hybrid.py, on `events.integrate`) costs, in Python (the
-compiled kernel does not have the hybrid model), next to the rolling model it runs while the
-ball rolls:
+What `simulate_hybrid` (ballmill/physics/hybrid.py, on `events.integrate`) costs, in Python and
+in the compiled kernel (`fast.hybrid_run`, the same numbers bit for bit), next to the rolling model
+it runs while the ball rolls:
 
 1. a scene that stays rolling (the crank start with t0 = 2.5 s over its first 2 s):
    `simulate` in Python and in the kernel, `simulate_hybrid` without and with the energy
-   quadrature (the same driver; the hybrid evaluates its guards on each step's dense output);
+   quadrature (the same driver; the hybrid evaluates its guards on each step's dense output),
+   in Python and in the kernel;
 2. scenes with events: a ball dropped on the bottom of a chamber at rest (flight and impacts
    to rest), the fast crank start with t0 = 0.5 s (slip at once, sliding, sticking), the
    Fig. 1 machine's first 3 s (slip, flight, impacts): time per simulated second, per
    event (the whole run's time over its events), and the time spent locating the events
    (`events._locate`: regula falsi on the method's own steps) and detecting them
    (`events._detect`: the guards on each step's dense output), timed by wrapping those two
-   functions during the run.
+   functions during the run (in Python); and the same run's time in the kernel.
 
 Each time is the median of ``repeats`` runs (after one untimed run), in CPU time of this
 process (`time.process_time`; the runs are single-threaded): on a machine shared with other
@@ -94,8 +95,15 @@ def measure(repeats: int, progress=print) -> dict:
     if KERNEL_AVAILABLE:
         rolling.append(("`simulate`, compiled kernel",
                         lambda: simulate(BallModel(b), crank, t_roll, 0.01, kernel="c")))
-    rolling += [("`simulate_hybrid(energy=False)`", lambda: simulate_hybrid(b, crank, t_roll, 0.01, energy=False)),
-                ("`simulate_hybrid` (with the energy quadrature)", lambda: simulate_hybrid(b, crank, t_roll, 0.01))]
+    rolling += [("`simulate_hybrid(energy=False)`, Python",
+                 lambda: simulate_hybrid(b, crank, t_roll, 0.01, energy=False, kernel="python")),
+                ("`simulate_hybrid` (with the energy quadrature), Python",
+                 lambda: simulate_hybrid(b, crank, t_roll, 0.01, kernel="python"))]
+    if KERNEL_AVAILABLE:
+        rolling += [("`simulate_hybrid(energy=False)`, compiled kernel",
+                     lambda: simulate_hybrid(b, crank, t_roll, 0.01, energy=False, kernel="c")),
+                    ("`simulate_hybrid` (with the energy quadrature), compiled kernel",
+                     lambda: simulate_hybrid(b, crank, t_roll, 0.01, kernel="c"))]
     roll_rows = []
     for label, fn in rolling:
         progress(f"hybrid: rolling scene, {label}")
@@ -104,10 +112,11 @@ def measure(repeats: int, progress=print) -> dict:
     for label, motion, t_end, kw in _scenes():
         progress(f"hybrid: {label}")
 
-        def run(motion=motion, t_end=t_end, kw=kw):
-            return simulate_hybrid(b, motion, t_end, 0.01, **kw)
+        def run(motion=motion, t_end=t_end, kw=kw, kernel="python"):
+            return simulate_hybrid(b, motion, t_end, 0.01, kernel=kernel, **kw)
 
         cpu = _median_time(run, repeats)
+        cpu_c = _median_time(lambda: run(kernel="c"), repeats) if KERNEL_AVAILABLE else None
         locs, dets = [], []
         for _ in range(repeats):
             with _Clock(events, "_locate") as loc, _Clock(events, "_detect") as det:
@@ -116,7 +125,7 @@ def measure(repeats: int, progress=print) -> dict:
             dets.append(det.seconds)
         if not tr.success:
             raise RuntimeError(f"hybrid scene {label!r} failed: {tr.message}")
-        scene_rows.append({"label": label, "t_end": t_end, "cpu": cpu, "events": tr.events,
+        scene_rows.append({"label": label, "t_end": t_end, "cpu": cpu, "cpu_c": cpu_c, "events": tr.events,
                            "steps": tr.info.steps, "rejected": tr.info.rejected,
                            "locate": statistics.median(s for s, _ in locs), "locate_calls": locs[0][1],
                            "detect": statistics.median(dets)})
@@ -128,8 +137,8 @@ def report(data: dict, quick: bool) -> str:
     base = data["rolling"][0][1]
     L = [BEGIN, "## The hybrid ball on the event-driven driver\n",
          f"Measured by `ballmill bench --section hybrid{' --quick' if quick else ''}` "
-         f"(ballmill/bench/hybrid.py): `simulate_hybrid` in Python (the compiled kernel does not "
-         f"have the hybrid model), CPU time of the process (`time.process_time`: contention on a "
+         f"(ballmill/bench/hybrid.py): `simulate_hybrid` in Python and in the compiled kernel "
+         f"(`simulate_hybrid(kernel=\"c\")`: the same numbers bit for bit), CPU time of the process (`time.process_time`: contention on a "
          f"shared machine stretches wall time, not this), medians of {reps} runs. Events are located "
          f"to 1e-11 s on the method's own steps (docs/design.md section 14).\n",
          f"**A scene that stays rolling** (the crank start, t0 = 2.5 s, its first {t_roll:g} s, "
@@ -143,7 +152,8 @@ def report(data: dict, quick: bool) -> str:
              "over its events. Location: the time inside the root finder (`events._locate`, "
              "regula falsi on the method's own step from the step's start), per call (one per "
              "bracketed guard crossing) and its share of the run; detection: the guards on each "
-             "step's dense output (`events._detect`), share of the run.\n")
+             "step's dense output (`events._detect`), share of the run; both in Python. Kernel: the "
+             "same run in the compiled kernel.\n")
     rows = []
     for r in data["scenes"]:
         n = len(r["events"])
@@ -153,10 +163,12 @@ def report(data: dict, quick: bool) -> str:
                      f"{r['cpu'] * 1e3:.0f}", f"{r['cpu'] / r['t_end'] * 1e3:.0f}",
                      f"{r['cpu'] / n * 1e3:.1f}" if n else "-",
                      f"{r['locate'] / calls * 1e3:.2f} ({r['locate'] / r['cpu']:.0%})",
-                     f"{r['detect'] / r['cpu']:.0%}"])
+                     f"{r['detect'] / r['cpu']:.0%}",
+                     "-" if r.get("cpu_c") is None else
+                     f"{r['cpu_c'] * 1e3:.1f} ({r['cpu'] / max(r['cpu_c'], 1e-9):.0f}x faster)"])
     L.append(_table(["scene", "simulated [s]", "events", "steps (rejected)", "CPU [ms]",
                  "per simulated second [ms/s]", "per event [ms]", "location per call [ms] (share)",
-                 "detection (share)"], rows))
+                 "detection (share)", "kernel CPU [ms]"], rows))
     L.append(END)
     return "\n".join(L) + "\n"
 

@@ -29,6 +29,14 @@
  * of the file, reached through ballmill/physics/turning/kernel.py; they run on the
  * same integrator (bm_advance) but leave the translation-only functions as they are.
  *
+ * Every run over a grid of output points (bm_simulate_study, bmg_simulate, bma_simulate,
+ * bmh_simulate) is a system of the one grid loop bm_drive (events.integrate), which
+ * integrates with the one integration routine bm_advance_seen (events located on its
+ * accepted steps when the system's mode has guards).
+ *
+ * The hybrid ball (rolling, sliding, flight, impacts; hybrid.py), bmh_* at the end of the
+ * file, reached through fast.hybrid_run.
+ *
  * Plain C99, no Python C API in the functions: ballmill/physics/fast.py calls
  * them through ctypes. Built by setup.py as the extension module
  * ballmill.physics._kernel (BALLMILL_KERNEL_MODULE defined: the PyInit at the
@@ -679,18 +687,205 @@ static void bm_lerr_see(bm_lerr *E, double t, const double *y, const double *f)
 /* Integrator.advance (the small-system path) from t to t_end. y and *h are
  * updated only on success (return 1); 0: Python must do this interval (it
  * fails there, or needs the initial step). */
+typedef struct bm_events bm_events;
 static int bm_advance_seen(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, const void *ctx, double t,
-                           double *y_io, double t_end, double *h_io, bm_stats *st, bm_lerr *seen);
+                           double *y_io, double t_end, double *h_io, bm_stats *st, bm_lerr *seen,
+                           bm_events *ev);
 
 static int bm_advance(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, const void *ctx, double t,
                       double *y_io, double t_end, double *h_io, bm_stats *st)
 {
-    return bm_advance_seen(P, T, rhs, ctx, t, y_io, t_end, h_io, st, NULL);
+    return bm_advance_seen(P, T, rhs, ctx, t, y_io, t_end, h_io, st, NULL, NULL);
 }
 
-/* bm_advance, showing `seen` (when not NULL) every state a fixed-step run starts a step from */
+/* ------------------------------------------------------------------ events.py
+ * Event location on the integrator's accepted steps, as events.integrate does it: after
+ * each accepted step the armed guards are scanned on the step's cubic Hermite interpolant
+ * (`_detect`), and a guard that changes sign is located on the method's own step from the
+ * step's start (`_locate`, `Integrator.single_step`) by the Illinois variant of regula falsi
+ * (`illinois`). bm_advance_seen with an event set stops at the first event (returns 2). */
+#define BM_NG_MAX 4 /* guards of a mode, at most */
+typedef void (*bm_guard_fn)(const void *ctx, double t, const double *y, double *g);
+
+struct bm_events {
+    /* the mode's guards: ng values G(ctx, t, y), each armed once above its level */
+    int ng;
+    bm_guard_fn G;
+    const void *gctx;
+    double levels[BM_NG_MAX];
+    int armed[BM_NG_MAX];
+    int scan;    /* interior points of the Hermite scan (events.integrate's scan) */
+    double xtol; /* the root finder's bracket [s] */
+    /* the event found: guard j at time t, the state y there, the bracket's width, the step's size */
+    int j;
+    double t, y[BM_NYMAX], width, h_used;
+};
+
+/* Step.hermite: y(t) on the cubic through (t0, y0, f0) and (t1, y1, f1) */
+static void bm_hermite(int ny, double t0, const double *y0, const double *f0, double t1, const double *y1,
+                       const double *f1, double t, double *out)
+{
+    double h = t1 - t0;
+    double s = (t - t0) / h;
+    double s2 = s * s, s3 = s * s * s;
+    double h00 = 2.0 * s3 - 3.0 * s2 + 1.0, h10 = s3 - 2.0 * s2 + s, h01 = -2.0 * s3 + 3.0 * s2, h11 = s3 - s2;
+    double a = h * h10, b = h * h11;
+    for (int i = 0; i < ny; i++) out[i] = h00 * y0[i] + h01 * y1[i] + a * f0[i] + b * f1[i];
+}
+
+/* the state of a step at t (events._locate's state(t)): the ends as they are, inside one step
+ * of the method from the start (Integrator.single_step: the stages, then the projection) */
+typedef struct {
+    const bm_problem *P;
+    const bm_tab *T;
+    bm_rhs_fn rhs;
+    const void *ctx;
+    double t0, t1;
+    const double *y0, *f0, *y1;
+    bm_events *ev;
+    double K[(BM_NS_MAX + 1) * BM_NYMAX];
+} bm_stepx;
+
+static void bm_stepx_state(bm_stepx *x, double t, double *y)
+{
+    int ny = x->P->ny;
+    if (t == x->t0) {
+        memcpy(y, x->y0, (size_t)ny * sizeof(double));
+        return;
+    }
+    if (t == x->t1) {
+        memcpy(y, x->y1, (size_t)ny * sizeof(double));
+        return;
+    }
+    memcpy(x->K, x->f0, (size_t)ny * sizeof(double));
+    bm_stages(x->P, x->T, x->rhs, x->ctx, x->t0, x->y0, t - x->t0, x->K, y);
+    bm_project(x->P, y);
+}
+
+static double bm_phi(bm_stepx *x, int j, double t)
+{
+    double y[BM_NYMAX], g[BM_NG_MAX];
+    bm_stepx_state(x, t, y);
+    x->ev->G(x->ev->gctx, t, y, g);
+    return g[j];
+}
+
+/* events.illinois on guard j: the root's end where phi <= 0 (*t), the final bracket (*width) */
+static void bm_illinois(bm_stepx *x, int j, double a, double fa, double b, double fb, double xtol, double *t,
+                        double *width)
+{
+    int side = 0;
+    for (int it = 0; it < 200; it++) {
+        if (b - a <= xtol || fb == 0.0) break;
+        double c;
+        if (it % 3 == 2 || fa == fb) {
+            c = 0.5 * (a + b);
+        } else {
+            c = (a * fb - b * fa) / (fb - fa);
+            if (!(a < c && c < b)) c = 0.5 * (a + b);
+        }
+        double fc = bm_phi(x, j, c);
+        if (fc > 0.0) {
+            a = c; fa = fc;
+            if (side == 1) fb *= 0.5;
+            side = 1;
+        } else {
+            b = c; fb = fc;
+            if (side == -1) fa *= 0.5;
+            side = -1;
+        }
+    }
+    *t = b;
+    *width = fb == 0.0 ? 0.0 : b - a;
+}
+
+/* events._locate: 1 and (*t, *width) when guard j changes sign in [ta, tb] on the method's
+ * own step, 0 when it does not there (the Hermite scan saw a crossing the step has not) */
+static int bm_locate(bm_stepx *x, int j, double ta, double tb, double *t, double *width)
+{
+    double t0 = x->t0, xtol = x->ev->xtol;
+    double fa = bm_phi(x, j, ta), fb = bm_phi(x, j, tb);
+    if (!(fa > 0.0)) {
+        ta = t0;
+        fa = bm_phi(x, j, t0);
+    }
+    if (!(fa > 0.0) && fb <= 0.0) { /* armed at t0 without a positive value: where it is positive */
+        for (int k = 1; k < 80; k++) {
+            double tm = t0 + (tb - t0) * ldexp(1.0, -k);
+            if (tm - t0 <= xtol) break;
+            double fm = bm_phi(x, j, tm);
+            if (fm > 0.0) {
+                ta = tm; fa = fm;
+                break;
+            }
+        }
+    }
+    if (!(fb <= 0.0)) {
+        tb = x->t1;
+        fb = bm_phi(x, j, x->t1);
+    }
+    if (!(fa > 0.0 && fb <= 0.0)) return 0;
+    bm_illinois(x, j, ta, fa, tb, fb, xtol, t, width);
+    return 1;
+}
+
+/* events._detect and the choice of events.integrate on one accepted step (t0, y0, f0) ->
+ * (t1, y1, f1; f1 NULL: not computed by the method, RK4): 1 with the earliest event in ev */
+static int bm_event_step(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, const void *ctx, bm_events *ev,
+                         double t0, const double *y0, const double *f0, double t1, const double *y1,
+                         const double *f1)
+{
+    int ny = P->ny, ng = ev->ng, nh = 0, hj[BM_NG_MAX];
+    double h = t1 - t0, f1c[BM_NYMAX], yk[BM_NYMAX], g[BM_NG_MAX], prev[BM_NG_MAX], ha[BM_NG_MAX], hb[BM_NG_MAX];
+    if (!f1) {
+        rhs(P, ctx, t1, y1, f1c);
+        f1 = f1c;
+    }
+    for (int j = 0; j < ng; j++) prev[j] = t0;
+    for (int k = 1; k <= ev->scan + 1 && !nh; k++) {
+        double tk;
+        if (k <= ev->scan) {
+            tk = t0 + h * (double)k / (double)(ev->scan + 1);
+            bm_hermite(ny, t0, y0, f0, t1, y1, f1, tk, yk);
+        } else {
+            tk = t1;
+            memcpy(yk, y1, (size_t)ny * sizeof(double));
+        }
+        ev->G(ev->gctx, tk, yk, g);
+        for (int j = 0; j < ng; j++) {
+            if (g[j] > 0.0) {
+                if (g[j] > ev->levels[j]) ev->armed[j] = 1;
+                prev[j] = tk;
+            } else if (ev->armed[j]) {
+                hj[nh] = j; ha[nh] = prev[j]; hb[nh] = tk;
+                nh++;
+            }
+        }
+    }
+    if (!nh) return 0;
+    bm_stepx x = {P, T, rhs, ctx, t0, t1, y0, f0, y1, ev, {0}};
+    int found = 0;
+    for (int q = 0; q < nh; q++) {
+        double te, w;
+        if (bm_locate(&x, hj[q], ha[q], hb[q], &te, &w) && (!found || te < ev->t)) {
+            found = 1;
+            ev->j = hj[q];
+            ev->t = te;
+            ev->width = w;
+        }
+    }
+    if (!found) return 0;
+    bm_stepx_state(&x, ev->t, ev->y);
+    ev->h_used = t1 - t0;
+    return 1;
+}
+
+/* bm_advance, showing `seen` (when not NULL) every state a fixed-step run starts a step from,
+ * and stopping at the first event of `ev` (when not NULL): returns 2 with the event in ev,
+ * y_io and h_io unchanged */
 static int bm_advance_seen(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, const void *ctx, double t,
-                           double *y_io, double t_end, double *h_io, bm_stats *st, bm_lerr *seen)
+                           double *y_io, double t_end, double *h_io, bm_stats *st, bm_lerr *seen,
+                           bm_events *ev)
 {
     double K[(BM_NS_MAX + 1) * BM_NYMAX], y[BM_NYMAX], ynew[BM_NYMAX];
     size_t bytes = (size_t)P->ny * sizeof(double);
@@ -716,9 +911,11 @@ static int bm_advance_seen(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, 
             bm_stages(P, T, rhs, ctx, ti, y, hh, K, ynew);
             st->nfev += ns - 1;
             if (!bm_all_finite(ynew, P->ny)) return 0;
-            memcpy(y, ynew, bytes);
-            if (!bm_project(P, y)) return 0;
+            if (!bm_project(P, ynew)) return 0;
             st->steps++;
+            if (ev && bm_event_step(P, T, rhs, ctx, ev, ti, y, K, i == count - 1 ? t_end : ti + hh, ynew, NULL))
+                return 2;
+            memcpy(y, ynew, bytes);
         }
         memcpy(y_io, y, bytes);
         *h_io = P->h_fixed;
@@ -746,11 +943,13 @@ static int bm_advance_seen(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, 
         }
         if (err <= 1.0) {
             double factor = err == 0.0 ? 10.0 : bm_pymin(10.0, 0.9 * pow(err, -1.0 / order));
+            double t0 = t;
             t = last ? t_end : t + hh;
-            memcpy(y, ynew, bytes);
-            if (!bm_project(P, y)) return 0;
-            memcpy(K, BM_K(K, ns, P->ny), bytes);
+            if (!bm_project(P, ynew)) return 0;
             st->steps++;
+            if (ev && bm_event_step(P, T, rhs, ctx, ev, t0, y, K, t, ynew, BM_K(K, ns, P->ny))) return 2;
+            memcpy(y, ynew, bytes);
+            memcpy(K, BM_K(K, ns, P->ny), bytes);
             h = last ? bm_pymax(h, hh * factor) : hh * factor;
         } else {
             st->rejected++;
@@ -761,6 +960,82 @@ static int bm_advance_seen(const bm_problem *P, const bm_tab *T, bm_rhs_fn rhs, 
     memcpy(y_io, y, bytes);
     *h_io = h;
     return 1;
+}
+
+/* ------------------------------------------------------------------ events.integrate
+ * The one grid loop of the kernel's runs (events.integrate; a model without events is its
+ * events.Plain): from grid point `start` (state y, step *h, mode *mode_io) over times[start..n-1],
+ * integrating each interval with bm_advance_seen, handling the events of the current mode's
+ * guards on the way (the system's map), recording every grid point reached (point `start`
+ * itself only if record_start). Returns the index of the last point recorded: n - 1; or where
+ * the system's record ends the run (a study's stop rule); or, with *status set, the point
+ * before the interval that could not be done (1: a step failed; the caller redoes that
+ * interval in Python, which reports the failure as it does) or where the system's map
+ * stopped the run (its own status). *total: the work of the completed intervals. */
+typedef struct bm_system bm_system;
+struct bm_system {
+    /* the mode's integrator problem, tableau, right-hand side and its context, and guards
+     * (ev: zeroed before; ng = 0 none; armed[j] = 1 arms guard j although it is not positive) */
+    void (*setup)(const bm_system *S, int mode, double t, const double *y, const bm_problem **P,
+                  const bm_tab **T, bm_rhs_fn *rhs, const void **ctx, bm_events *ev);
+    /* the map at the event in ev: the new mode, time, state and step; 0 ends the run (*status set) */
+    int (*jump)(bm_system *S, int *mode, double *t, double *y, double *h, const bm_events *ev, int *status);
+    /* grid point i reached (mode, state, the step to try next): record it; nonzero ends the run there */
+    int (*record)(bm_system *S, long long i, int mode, double t, const double *y, double h);
+    bm_lerr *seen; /* bm_advance_seen's run-error estimate (NULL: none) */
+};
+
+static long long bm_drive(bm_system *S, const double *times, long long n, long long start, int record_start,
+                          int *mode_io, double *y, double *h, bm_stats *total, int *status)
+{
+    int mode = *mode_io;
+    double t = times[start];
+    long long last = n - 1;
+    *status = 0;
+    for (long long i = start; i < n; i++) {
+        if (i > start) {
+            bm_stats seg = {0, 0, 0};
+            while (t < times[i]) {
+                const bm_problem *P;
+                const bm_tab *T;
+                bm_rhs_fn rhs;
+                const void *ctx;
+                bm_events ev;
+                memset(&ev, 0, sizeof ev);
+                S->setup(S, mode, t, y, &P, &T, &rhs, &ctx, &ev);
+                if (ev.ng) {
+                    double g[BM_NG_MAX];
+                    ev.G(ev.gctx, t, y, g);
+                    for (int j = 0; j < ev.ng; j++) ev.armed[j] = ev.armed[j] || g[j] > ev.levels[j];
+                }
+                int code = bm_advance_seen(P, T, rhs, ctx, t, y, times[i], h, &seg, S->seen, ev.ng ? &ev : NULL);
+                if (code == 0) {
+                    *status = 1;
+                    break;
+                }
+                if (code == 1) {
+                    t = times[i];
+                    continue;
+                }
+                if (!S->jump(S, &mode, &t, y, h, &ev, status)) break;
+            }
+            if (*status) {
+                last = i - 1;
+                break;
+            }
+            total->steps += seg.steps;
+            total->rejected += seg.rejected;
+            total->nfev += seg.nfev;
+        } else if (!record_start) {
+            continue;
+        }
+        if (S->record(S, i, mode, t, y, *h)) {
+            last = i;
+            break;
+        }
+    }
+    *mode_io = mode;
+    return last;
 }
 
 /* np.mean as numpy sums a short array: the first element, then the sum of the rest */
@@ -823,51 +1098,71 @@ static double bm_normal_force(const bm_problem *P, bm_mcache *c, double t, const
  * Below n - 1 without a stop, the run could not do the next interval: the caller redoes
  * the point on the ordinary path, which reports that failure as Python does. The platform
  * motion comes from a cache of the last times asked (the same values: bm_motion_cached). */
+typedef struct {
+    bm_system sys;
+    const bm_problem *P;
+    bm_tab T;
+    bm_mcache cache;
+    bm_lerr est;
+    const double *times;
+    int stop;
+    double mu, limit, *ys, *outs;
+} bm_study_sys;
+
+static void bm_study_setup(const bm_system *S, int mode, double t, const double *y, const bm_problem **P,
+                           const bm_tab **T, bm_rhs_fn *rhs, const void **ctx, bm_events *ev)
+{
+    const bm_study_sys *x = (const bm_study_sys *)S;
+    (void)mode; (void)t; (void)y; (void)ev;
+    *P = x->P;
+    *T = &x->T;
+    *rhs = bm_ball_rhs_cached;
+    *ctx = &x->cache;
+}
+
+static int bm_study_record(bm_system *S, long long i, int mode, double t, const double *y, double h)
+{
+    bm_study_sys *x = (bm_study_sys *)S;
+    double m[6];
+    (void)mode; (void)t; (void)h;
+    memcpy(x->ys + BM_NY * i, y, BM_NY * sizeof(double));
+    if (S->seen && x->limit > 0.0 && x->est.err_P > x->limit) return 1;
+    if (!x->outs) return 0;
+    double *o = x->outs + BM_NOUT * i;
+    bm_motion_cached(x->P, &x->cache, x->times[i], m);
+    bm_outputs(x->P, y, m[4], m[5], m[0], m[1], o);
+    return x->stop && !(o[9] > 0.0 && o[18] <= x->mu);
+}
+
 BM_EXPORT long long bm_simulate_study(const bm_problem *P, const double *times, long long n, long long start,
                                       int record_start, double *y, double *h, int stop, double mu, double *ys,
                                       double *outs, double *err, double limit, bm_stats *total)
 {
-    double m[6], f[BM_NY];
-    bm_mcache cache = {{0}, {{0}}, 0, 0};
-    bm_lerr est = {P, &cache, 0, 0, {0}, {{0}}, {{0}}, 0.0, 0.0};
-    bm_lerr *seen = err && !P->adaptive && P->ny == BM_NY ? &est : NULL;
-    bm_tab T;
-    bm_tab_make(P, &T);
-    long long i = start, last = n - 1;
-    for (; i < n; i++) {
-        if (i > start) {
-            bm_stats st = {0, 0, 0};
-            if (!bm_advance_seen(P, &T, bm_ball_rhs_cached, &cache, times[i - 1], y, times[i], h, &st, seen)) {
-                last = i - 1;
-                break;
-            }
-            total->steps += st.steps;
-            total->rejected += st.rejected;
-            total->nfev += st.nfev;
-        } else if (!record_start) {
-            continue;
-        }
-        memcpy(ys + BM_NY * i, y, BM_NY * sizeof(double));
-        if (seen && limit > 0.0 && est.err_P > limit) {
-            last = i;
-            break;
-        }
-        if (!outs) continue;
-        double *o = outs + BM_NOUT * i;
-        bm_motion_cached(P, &cache, times[i], m);
-        bm_outputs(P, y, m[4], m[5], m[0], m[1], o);
-        if (stop && !(o[9] > 0.0 && o[18] <= mu)) {
-            last = i;
-            break;
-        }
-    }
-    if (seen) { /* the last state reached, seen with its derivative: the last interval's residual */
-        bm_ball_rhs_cached(P, &cache, times[last], y, f);
+    double f[BM_NY];
+    bm_study_sys x;
+    memset(&x, 0, sizeof x);
+    x.sys.setup = bm_study_setup;
+    x.sys.record = bm_study_record;
+    x.P = P;
+    x.est.P = P;
+    x.est.cache = &x.cache;
+    x.sys.seen = err && !P->adaptive && P->ny == BM_NY ? &x.est : NULL;
+    x.times = times;
+    x.stop = stop;
+    x.mu = mu;
+    x.limit = limit;
+    x.ys = ys;
+    x.outs = outs;
+    bm_tab_make(P, &x.T);
+    int mode = 0, status;
+    long long last = bm_drive(&x.sys, times, n, start, record_start, &mode, y, h, total, &status);
+    if (x.sys.seen) { /* the last state reached, seen with its derivative: the last interval's residual */
+        bm_ball_rhs_cached(P, &x.cache, times[last], y, f);
         total->nfev++;
-        bm_lerr_see(seen, times[last], y, f);
-        bm_lerr_end(seen);
-        err[0] = est.err_P;
-        err[1] = est.err_N;
+        bm_lerr_see(x.sys.seen, times[last], y, f);
+        bm_lerr_end(x.sys.seen);
+        err[0] = x.est.err_P;
+        err[1] = x.est.err_N;
     }
     return last;
 }
@@ -1164,31 +1459,54 @@ static void bmg_rhs_cb(const bm_problem *P, const void *ctx, double t, const dou
     bmg_rhs(ctx, t, y, f);
 }
 
-/* turning.simulate_general's loop, as bm_simulate (same contract; outputs: 28 per point) */
+/* turning.simulate_general's loop, as bm_simulate (same contract; outputs: 28 per point), on bm_drive */
+typedef struct {
+    bm_system sys;
+    const bmg_problem *G;
+    bm_tab T;
+    const double *times;
+    double *ys, *outs;
+} bmg_sim_sys;
+
+static void bmg_sim_setup(const bm_system *S, int mode, double t, const double *y, const bm_problem **P,
+                          const bm_tab **T, bm_rhs_fn *rhs, const void **ctx, bm_events *ev)
+{
+    const bmg_sim_sys *x = (const bmg_sim_sys *)S;
+    (void)mode; (void)t; (void)y; (void)ev;
+    *P = &x->G->base;
+    *T = &x->T;
+    *rhs = bmg_rhs_cb;
+    *ctx = x->G;
+}
+
+static int bmg_sim_record(bm_system *S, long long i, int mode, double t, const double *y, double h)
+{
+    bmg_sim_sys *x = (bmg_sim_sys *)S;
+    double cs[BMG_NCS];
+    (void)mode; (void)t; (void)h;
+    memcpy(x->ys + BM_NY * i, y, BM_NY * sizeof(double));
+    if (x->outs) {
+        bmg_state(x->G, x->times[i], cs);
+        bmg_outputs(x->G->oc, y, cs, x->outs + BMG_NOUT * i);
+    }
+    return 0;
+}
+
 BM_EXPORT long long bmg_simulate(const bmg_problem *G, const double *times, long long n, long long start,
                                  int record_start, double *y, double *h, double *ys, double *outs,
                                  bm_stats *total)
 {
-    double cs[BMG_NCS];
-    bm_tab T;
-    bm_tab_make(&G->base, &T);
-    for (long long i = start; i < n; i++) {
-        if (i > start) {
-            bm_stats st = {0, 0, 0};
-            if (!bm_advance(&G->base, &T, bmg_rhs_cb, G, times[i - 1], y, times[i], h, &st)) return i - 1;
-            total->steps += st.steps;
-            total->rejected += st.rejected;
-            total->nfev += st.nfev;
-        } else if (!record_start) {
-            continue;
-        }
-        memcpy(ys + BM_NY * i, y, BM_NY * sizeof(double));
-        if (outs) {
-            bmg_state(G, times[i], cs);
-            bmg_outputs(G->oc, y, cs, outs + BMG_NOUT * i);
-        }
-    }
-    return n - 1;
+    bmg_sim_sys x;
+    memset(&x, 0, sizeof x);
+    x.sys.setup = bmg_sim_setup;
+    x.sys.record = bmg_sim_record;
+    x.G = G;
+    x.times = times;
+    x.ys = ys;
+    x.outs = outs;
+    bm_tab_make(&G->base, &x.T);
+    int mode = 0, status;
+    return bm_drive(&x.sys, times, n, start, record_start, &mode, y, h, total, &status);
 }
 
 /* ---------------------------------------------------- turning/reconstruction.py
@@ -1442,26 +1760,707 @@ static void bma_rhs_cb(const bm_problem *P, const void *ctx, double t, const dou
 /* simulate_absorber's loop over output points times[1..n-1] from the state y (at times[0])
  * with step *h: ys[i] for every point reached; returns the index of the last point reached
  * (y and *h are the state and step there; *total the work). Stops at the first interval
- * it cannot complete (Python redoes that one). */
+ * it cannot complete (Python redoes that one). On bm_drive. */
+typedef struct {
+    bm_system sys;
+    const bma_problem *A;
+    bm_tab T;
+    double *ys;
+} bma_sim_sys;
+
+static void bma_sim_setup(const bm_system *S, int mode, double t, const double *y, const bm_problem **P,
+                          const bm_tab **T, bm_rhs_fn *rhs, const void **ctx, bm_events *ev)
+{
+    const bma_sim_sys *x = (const bma_sim_sys *)S;
+    (void)mode; (void)t; (void)y; (void)ev;
+    *P = &x->A->base;
+    *T = &x->T;
+    *rhs = bma_rhs_cb;
+    *ctx = x->A;
+}
+
+static int bma_sim_record(bm_system *S, long long i, int mode, double t, const double *y, double h)
+{
+    bma_sim_sys *x = (bma_sim_sys *)S;
+    size_t ny = (size_t)x->A->base.ny;
+    (void)mode; (void)t; (void)h;
+    memcpy(x->ys + ny * (size_t)i, y, ny * sizeof(double));
+    return 0;
+}
+
 BM_EXPORT long long bma_simulate(const bma_problem *A, const double *times, long long n, double *y, double *h,
                                  double *ys, bm_stats *total)
 {
-    bm_tab T;
-    bm_tab_make(&A->base, &T);
-    for (long long i = 1; i < n; i++) {
-        bm_stats st = {0, 0, 0};
-        if (!bm_advance(&A->base, &T, bma_rhs_cb, A, times[i - 1], y, times[i], h, &st)) return i - 1;
-        total->steps += st.steps;
-        total->rejected += st.rejected;
-        total->nfev += st.nfev;
-        memcpy(ys + (size_t)A->base.ny * (size_t)i, y, (size_t)A->base.ny * sizeof(double));
-    }
-    return n - 1;
+    bma_sim_sys x;
+    memset(&x, 0, sizeof x);
+    x.sys.setup = bma_sim_setup;
+    x.sys.record = bma_sim_record;
+    x.A = A;
+    x.ys = ys;
+    bm_tab_make(&A->base, &x.T);
+    int mode = 0, status;
+    return bm_drive(&x.sys, times, n, 0, 0, &mode, y, h, total, &status);
 }
 
 BM_EXPORT void bma_eval_rhs(const bma_problem *A, double t, const double *z, double *dz) { bma_rhs(A, t, z, dz); }
 BM_EXPORT int bma_eval_project(const bma_problem *A, double *z) { return bm_project(&A->base, z); }
 BM_EXPORT size_t bma_problem_size(void) { return sizeof(bma_problem); }
+
+/* ======================================================================
+ * The hybrid ball: rolling, sliding, flight and impacts in a translating or a turning
+ * chamber (hybrid.py HybridBall on events.integrate; docs/design.md section 14). Functions
+ * bmh_*, reached through fast.py (`hybrid_run`). Rolling is the vector formulation above
+ * (translation) or the general model's bmg_* (turning), state n, omega, and with `energy` the
+ * quadratures W, E_friction; sliding and flight carry (C, v_C, omega, W, E_friction) in fixed
+ * axes. The modes' right-hand sides, guards and maps are written in hybrid.py's operation
+ * order (a translating chamber's Omega = 0 carried through its expressions, as the Python
+ * has it), and the grid loop with its events is
+ * events.integrate's, on bm_advance_seen's event location: the same floats, events and
+ * bookkeeping as the Python run.
+ * ====================================================================== */
+enum { BMH_FLIGHT = 0, BMH_ROLLING = 1, BMH_SLIDING = 2 };
+enum { BMH_SLIP = 0, BMH_LEAVE = 1, BMH_STICK = 2, BMH_IMPACT = 3 }; /* event kinds */
+#define BMH_NZ 11   /* a free state: C, v_C, omega, W, E_friction */
+#define BMH_NCOL 25 /* HybridBall.COLUMNS */
+#define BMH_NEV 18  /* doubles of an event record (hybrid_run's EVENT_FIELDS) */
+#define BMH_NBOOK 12 /* E_impact, n_impacts, v_impact_max, t_first_slip, t_first_flight, Q[2], seed[3], rebound,
+                        W_lost */
+
+/* Everything a hybrid run needs; filled by fast.py (ctypes mirror: _HProblem). */
+typedef struct {
+    bm_problem roll; /* the rolling mode: motion, ball, integrator of ny = 6 (8 with energy), form BM_VECTOR
+                        (turning: its integrator part only) */
+    int turning;     /* 0: the translating chamber of roll's motion; 1: gen's turning chamber */
+    bmg_problem gen; /* turning: the chamber motion and the general model's constants */
+    bm_problem free; /* sliding and flight: the integrator of ny = 11, form BM_GENERIC */
+    double R, r, d, m, g, Ib, lam, /* Ib, not I: <complex.h> makes I a macro */
+           mu, mu_k, e_n, v_rest, slip_eps, kt, gap_res;
+    int energy;
+    int scan, burst;
+    double xtol, max_rate;
+} bmh_problem;
+
+/* the run's bookkeeping (HybridBall.book, _seed, _rebound) */
+typedef struct {
+    const bmh_problem *H;
+    double E_impact, n_impacts, v_impact_max, t_first_slip, t_first_flight, Q[2];
+    double seed[3];
+    int rebound;
+    int w_lost; /* rolling without the work quadrature happened: W_chamber is NaN from there on */
+} bmh_run;
+
+static void bmh_cross(const double *a, const double *b, double *c)
+{
+    c[0] = a[1] * b[2] - a[2] * b[1];
+    c[1] = a[2] * b[0] - a[0] * b[2];
+    c[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+static double bmh_dot(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+/* HybridBall.chamber: A, v_A, a_A, Omega, Omega' (Omd: NULL when not needed) */
+static void bmh_chamber(const bmh_problem *H, double t, double *A, double *vA, double *aA, double *Om, double *Omd)
+{
+    if (H->turning) {
+        double cs[BMG_NCS];
+        bmg_state(&H->gen, t, cs);
+        memcpy(A, cs, 3 * sizeof(double));
+        memcpy(vA, cs + 3, 3 * sizeof(double));
+        memcpy(aA, cs + 6, 3 * sizeof(double));
+        memcpy(Om, cs + 9, 3 * sizeof(double));
+        if (Omd) memcpy(Omd, cs + 12, 3 * sizeof(double));
+        return;
+    }
+    double m[6];
+    bm_motion_state(&H->roll, t, m);
+    A[0] = m[0]; A[1] = m[1]; A[2] = H->R;
+    vA[0] = m[2]; vA[1] = m[3]; vA[2] = 0.0;
+    aA[0] = m[4]; aA[1] = m[5]; aA[2] = 0.0;
+    Om[0] = 0.0; Om[1] = 0.0; Om[2] = 0.0;
+    if (Omd) {
+        Omd[0] = 0.0; Omd[1] = 0.0; Omd[2] = 0.0;
+    }
+}
+
+/* HybridBall.wall_velocity: v_A + Omega x R n */
+static void bmh_wall_velocity(const bmh_problem *H, double t, const double *n, double *vW)
+{
+    double A[3], vA[3], aA[3], Om[3], c[3];
+    bmh_chamber(H, t, A, vA, aA, Om, NULL);
+    bmh_cross(Om, n, c);
+    for (int i = 0; i < 3; i++) vW[i] = vA[i] + H->R * c[i];
+}
+
+/* HybridBall._roll_out's N and |F_t| (outputs.evaluate; turning: evaluate_c) of a rolling
+ * state (n, omega) */
+static void bmh_roll_out(const bmh_problem *H, double t, const double *y, double *N, double *Ft)
+{
+    if (H->turning) {
+        double cs[BMG_NCS], go[BMG_NOUT];
+        bmg_state(&H->gen, t, cs);
+        bmg_outputs(H->gen.oc, y, cs, go);
+        *N = go[13];
+        *Ft = go[14];
+        return;
+    }
+    double m[6], o[BM_NOUT];
+    bm_motion_state(&H->roll, t, m);
+    bm_outputs(&H->roll, y, m[4], m[5], 0.0, 0.0, o);
+    *N = o[9];
+    *Ft = o[17];
+}
+
+/* HybridBall._slide_forces: N, the friction force Ft, the slip speed, n, v_W (seed NULL: the run's) */
+static double bmh_slide_forces(const bmh_run *run, double t, const double *y, const double *seed, double *Ft,
+                               double *s_out, double *n, double *vW)
+{
+    const bmh_problem *H = run->H;
+    double A[3], vA[3], aA[3], Om[3], rho[3], vrel[3], wr[3], on[3], u[3], ut[3], e[3];
+    bmh_chamber(H, t, A, vA, aA, Om, NULL);
+    for (int i = 0; i < 3; i++) rho[i] = y[i] - A[i];
+    double dist = sqrt(bmh_dot(rho, rho));
+    for (int i = 0; i < 3; i++) n[i] = rho[i] / dist;
+    for (int i = 0; i < 3; i++) vrel[i] = y[3 + i] - vA[i];
+    double N = H->m * (-H->g * n[2] - bmh_dot(n, aA) + bmh_dot(vrel, vrel) / dist);
+    bmh_cross(y + 6, n, wr);
+    bmh_cross(Om, n, on);
+    for (int i = 0; i < 3; i++) u[i] = vrel[i] + H->r * wr[i] - H->R * on[i];
+    double un = bmh_dot(u, n);
+    for (int i = 0; i < 3; i++) ut[i] = u[i] - un * n[i];
+    double s = sqrt(bmh_dot(ut, ut));
+    if (s > 1e-3 * H->slip_eps) {
+        for (int i = 0; i < 3; i++) e[i] = ut[i] / s;
+    } else {
+        const double *sd = seed ? seed : run->seed;
+        for (int i = 0; i < 3; i++) e[i] = sd[i];
+    }
+    double f = -H->mu_k * N;
+    for (int i = 0; i < 3; i++) Ft[i] = f * e[i];
+    for (int i = 0; i < 3; i++) vW[i] = vA[i] + H->R * on[i];
+    *s_out = s;
+    return N;
+}
+
+/* the modes' right-hand sides (ctx: the bmh_run) */
+static void bmh_rhs_roll_q(const bm_problem *P, const void *ctx, double t, const double *y, double *f)
+{
+    const bmh_run *run = ctx;
+    const bmh_problem *H = run->H;
+    double m[6], c1[3], c2[3];
+    if (H->turning) { /* turning.derivative, and evaluate_c's P_ball */
+        double cs[BMG_NCS], go[BMG_NOUT], kin[9];
+        bmg_state(&H->gen, t, cs);
+        bmg_outputs(H->gen.oc, y, cs, go);
+        bmg_accel(&H->gen, t, kin);
+        bmg_derivative(H->gen.c, y, kin, f);
+        f[6] = go[24];
+        f[7] = 0.0;
+        return;
+    }
+    bm_motion_state(P, t, m);
+    bm_derivative(P, y, m[4], m[5], f);
+    bmh_cross(f, y + 3, c1);
+    bmh_cross(y, f + 3, c2);
+    double dl = H->d * H->lam;
+    double Fx = H->m * (m[4] + dl * (c1[0] + c2[0]));
+    double Fy = H->m * (m[5] + dl * (c1[1] + c2[1]));
+    f[6] = Fx * m[2] + Fy * m[3];
+    f[7] = 0.0;
+}
+
+/* the rolling model's right-hand side without the quadratures: ChamberModel.rhs (turning) */
+static void bmh_rhs_roll_g(const bm_problem *P, const void *ctx, double t, const double *y, double *f)
+{
+    const bmh_run *run = ctx;
+    (void)P;
+    bmg_rhs(&run->H->gen, t, y, f);
+}
+
+static void bmh_rhs_flight(const bm_problem *P, const void *ctx, double t, const double *y, double *f)
+{
+    const bmh_run *run = ctx;
+    (void)P; (void)t;
+    f[0] = y[3]; f[1] = y[4]; f[2] = y[5];
+    f[3] = 0.0; f[4] = 0.0; f[5] = -run->H->g;
+    for (int i = 6; i < BMH_NZ; i++) f[i] = 0.0;
+}
+
+static void bmh_rhs_slide(const bm_problem *P, const void *ctx, double t, const double *y, double *f)
+{
+    const bmh_run *run = ctx;
+    const bmh_problem *H = run->H;
+    double Ft[3], n[3], vW[3], F[3], tq[3], s;
+    (void)P;
+    double N = bmh_slide_forces(run, t, y, NULL, Ft, &s, n, vW);
+    for (int i = 0; i < 3; i++) F[i] = Ft[i] - N * n[i];
+    bmh_cross(n, Ft, tq);
+    double c = H->r / H->Ib;
+    f[0] = y[3]; f[1] = y[4]; f[2] = y[5];
+    f[3] = F[0] / H->m; f[4] = F[1] / H->m; f[5] = F[2] / H->m - H->g;
+    f[6] = c * tq[0]; f[7] = c * tq[1]; f[8] = c * tq[2];
+    f[9] = bmh_dot(F, vW);
+    f[10] = H->mu_k * N * s;
+}
+
+/* the guards (ctx: the bmh_run): rolling (mu N - |F_t|, N), sliding (|u| - slip_eps, N), flight (gap) */
+static void bmh_g_rolling(const void *ctx, double t, const double *y, double *g)
+{
+    const bmh_run *run = ctx;
+    double N, Ft;
+    bmh_roll_out(run->H, t, y, &N, &Ft);
+    g[0] = run->H->mu * N - Ft;
+    g[1] = N;
+}
+
+static void bmh_g_sliding(const void *ctx, double t, const double *y, double *g)
+{
+    const bmh_run *run = ctx;
+    double Ft[3], n[3], vW[3], s;
+    double N = bmh_slide_forces(run, t, y, NULL, Ft, &s, n, vW);
+    g[0] = s - run->H->slip_eps;
+    g[1] = N;
+}
+
+static double bmh_gap(const bmh_problem *H, double t, const double *y)
+{
+    double A[3], vA[3], aA[3], Om[3];
+    bmh_chamber(H, t, A, vA, aA, Om, NULL);
+    return H->d - sqrt(bm_sq(y[0] - A[0]) + bm_sq(y[1] - A[1]) + bm_sq(y[2] - A[2]));
+}
+
+static void bmh_g_flight(const void *ctx, double t, const double *y, double *g)
+{
+    const bmh_run *run = ctx;
+    g[0] = bmh_gap(run->H, t, y);
+}
+
+/* HybridBall._normal_motion: v_n (> 0 towards the wall) and the free flight's a_n */
+static void bmh_normal_motion(const bmh_problem *H, double t, const double *y, double *vn, double *an)
+{
+    double A[3], vA[3], aA[3], Om[3], rho[3], n[3];
+    bmh_chamber(H, t, A, vA, aA, Om, NULL);
+    for (int i = 0; i < 3; i++) rho[i] = y[i] - A[i];
+    double dist = sqrt(bmh_dot(rho, rho));
+    for (int i = 0; i < 3; i++) n[i] = rho[i] / dist;
+    *vn = (y[3] - vA[0]) * n[0] + (y[4] - vA[1]) * n[1] + (y[5] - vA[2]) * n[2];
+    *an = -H->g * n[2] - bmh_dot(aA, n);
+}
+
+/* HybridBall.free_state: (C, v_C, omega, W, E_friction) of any mode's state */
+static void bmh_free_state(const bmh_run *run, int mode, double t, const double *y, double *z)
+{
+    const bmh_problem *H = run->H;
+    if (mode != BMH_ROLLING) {
+        memcpy(z, y, BMH_NZ * sizeof(double));
+        return;
+    }
+    double A[3], vA[3], aA[3], Om[3], nw[3], vW[3];
+    bmh_chamber(H, t, A, vA, aA, Om, NULL);
+    bmh_cross(y, y + 3, nw);
+    bmh_wall_velocity(H, t, y, vW);
+    for (int i = 0; i < 3; i++) {
+        z[i] = A[i] + H->d * y[i];
+        z[3 + i] = vW[i] + H->r * nw[i];
+        z[6 + i] = y[3 + i];
+    }
+    z[9] = H->energy ? y[6] : run->Q[0];
+    z[10] = H->energy ? y[7] : run->Q[1];
+}
+
+/* HybridBall._rolling_state: the rolling state of n, omega and the quadratures; its size */
+static int bmh_rolling_state(bmh_run *run, const double *n, const double *w, double W, double Ef, double *y)
+{
+    memcpy(y, n, 3 * sizeof(double));
+    memcpy(y + 3, w, 3 * sizeof(double));
+    if (run->H->energy) {
+        y[6] = W;
+        y[7] = Ef;
+        return 8;
+    }
+    run->Q[0] = 0.0; /* W is not followed while rolling (HybridBall._rolling_state) */
+    run->Q[1] = Ef;
+    run->w_lost = 1;
+    return 6;
+}
+
+/* HybridBall._impulse: J (on the ball, at P) applied to z in place; the kinetic energy lost in
+ * the frame of the wall's material point at P, J.v_W added to W */
+static double bmh_impulse(const bmh_problem *H, double t, double *z, const double *J, const double *n)
+{
+    double vW[3], tq[3], v[3];
+    bmh_wall_velocity(H, t, n, vW);
+    for (int i = 0; i < 3; i++) v[i] = z[3 + i] - vW[i];
+    double before = 0.5 * H->m * bmh_dot(v, v) + 0.5 * H->Ib * (bm_sq(z[6]) + bm_sq(z[7]) + bm_sq(z[8]));
+    bmh_cross(n, J, tq);
+    for (int i = 0; i < 3; i++) {
+        z[3 + i] += J[i] / H->m;
+        z[6 + i] += H->r * tq[i] / H->Ib;
+    }
+    z[9] += bmh_dot(J, vW);
+    for (int i = 0; i < 3; i++) v[i] = z[3 + i] - vW[i];
+    return before - (0.5 * H->m * bmh_dot(v, v) + 0.5 * H->Ib * (bm_sq(z[6]) + bm_sq(z[7]) + bm_sq(z[8])));
+}
+
+/* HybridBall._slip: the tangential slip of a free state at the wall point C + r n */
+static void bmh_slip(const bmh_problem *H, double t, const double *z, const double *n, double *ut)
+{
+    double vW[3], wr[3], u[3];
+    bmh_wall_velocity(H, t, n, vW);
+    bmh_cross(z + 6, n, wr);
+    for (int i = 0; i < 3; i++) u[i] = z[3 + i] - vW[i] + H->r * wr[i];
+    double un = bmh_dot(u, n);
+    for (int i = 0; i < 3; i++) ut[i] = u[i] - un * n[i];
+}
+
+/* HybridBall._friction_free_slip_accel */
+static void bmh_ff_slip_accel(const bmh_problem *H, double t, const double *z, const double *n, double *out)
+{
+    double A[3], vA[3], aA[3], Om[3], Omd[3], vrel[3], aC[3], nd[3], wnd[3], c1[3], c2[3], aW[3], a[3];
+    bmh_chamber(H, t, A, vA, aA, Om, Omd);
+    for (int i = 0; i < 3; i++) vrel[i] = z[3 + i] - vA[i];
+    double N = H->m * (-H->g * n[2] - bmh_dot(n, aA) + bmh_dot(vrel, vrel) / H->d);
+    aC[0] = -N * n[0] / H->m;
+    aC[1] = -N * n[1] / H->m;
+    aC[2] = -H->g - N * n[2] / H->m;
+    double vn = bmh_dot(vrel, n);
+    for (int i = 0; i < 3; i++) nd[i] = (vrel[i] - vn * n[i]) / H->d;
+    bmh_cross(z + 6, nd, wnd);
+    bmh_cross(Omd, n, c1);
+    bmh_cross(Om, nd, c2);
+    for (int i = 0; i < 3; i++) aW[i] = aA[i] + H->R * (c1[i] + c2[i]);
+    for (int i = 0; i < 3; i++) a[i] = aC[i] - aW[i] + H->r * wnd[i];
+    double an = bmh_dot(a, n);
+    for (int i = 0; i < 3; i++) out[i] = a[i] - an * n[i];
+}
+
+/* details of an event (an event record's fields 8..17; NAN: absent) */
+enum { BMH_D_VN = 8, BMH_D_SLIP, BMH_D_STICK, BMH_D_ELOSS, BMH_D_REST, BMH_D_REMOVED, BMH_D_SEED,
+       BMH_D_GRAZING = BMH_D_SEED + 3 };
+
+/* HybridBall._start_sliding */
+static int bmh_start_sliding(bmh_run *run, double t, const double *z, const double *n, double *rec)
+{
+    double a[3];
+    bmh_ff_slip_accel(run->H, t, z, n, a);
+    double s = sqrt(bmh_dot(a, a));
+    for (int i = 0; i < 3; i++) run->seed[i] = s > 0.0 ? a[i] / s : 0.0;
+    if (isnan(run->t_first_slip)) run->t_first_slip = t;
+    memcpy(rec + BMH_D_SEED, run->seed, sizeof run->seed);
+    return BMH_SLIDING;
+}
+
+/* HybridBall.on_wall: the mode and state (y, *ny) of a ball on the wall with no normal
+ * relative velocity (free state z), its slip removed if below slip_eps, then the stick test */
+static int bmh_on_wall(bmh_run *run, double t, const double *z_in, double *y, int *ny, double *rec)
+{
+    const bmh_problem *H = run->H;
+    double A[3], vA[3], aA[3], Om[3], z[BMH_NZ], rho[3], n[3], ut[3];
+    bmh_chamber(H, t, A, vA, aA, Om, NULL);
+    memcpy(z, z_in, sizeof z);
+    for (int i = 0; i < 3; i++) rho[i] = z[i] - A[i];
+    double q = sqrt(bmh_dot(rho, rho));
+    for (int i = 0; i < 3; i++) n[i] = rho[i] / q;
+    for (int i = 0; i < 3; i++) z[i] = A[i] + H->d * n[i];
+    bmh_slip(H, t, z, n, ut);
+    double s = sqrt(bmh_dot(ut, ut));
+    memcpy(y, z, sizeof z);
+    *ny = BMH_NZ;
+    if (s <= H->slip_eps) {
+        double J[3], nw[6], N, Ft;
+        for (int i = 0; i < 3; i++) J[i] = -H->m * ut[i] / H->kt;
+        double loss = bmh_impulse(H, t, z, J, n);
+        z[10] += loss;
+        rec[BMH_D_REMOVED] = s;
+        memcpy(y, z, sizeof z);
+        memcpy(nw, n, sizeof n);
+        memcpy(nw + 3, z + 6, 3 * sizeof(double));
+        bmh_roll_out(H, t, nw, &N, &Ft);
+        if (N <= 0.0) return BMH_FLIGHT;
+        if (Ft <= H->mu * N) {
+            *ny = bmh_rolling_state(run, n, z + 6, z[9], z[10], y);
+            return BMH_ROLLING;
+        }
+        return bmh_start_sliding(run, t, z, n, rec);
+    }
+    double zero[3] = {0.0, 0.0, 0.0}, Ftv[3], nn[3], vW[3], ss;
+    double N = bmh_slide_forces(run, t, z, zero, Ftv, &ss, nn, vW);
+    if (N <= 0.0) return BMH_FLIGHT;
+    if (isnan(run->t_first_slip)) run->t_first_slip = t;
+    return BMH_SLIDING;
+}
+
+/* HybridBall._onto_wall: C put on |C - A| = d and the normal relative velocity removed */
+static void bmh_onto_wall(const bmh_problem *H, double t, double *z)
+{
+    double A[3], vA[3], aA[3], Om[3], rho[3], n[3], v[3];
+    bmh_chamber(H, t, A, vA, aA, Om, NULL);
+    for (int i = 0; i < 3; i++) rho[i] = z[i] - A[i];
+    double q = sqrt(bmh_dot(rho, rho));
+    for (int i = 0; i < 3; i++) n[i] = rho[i] / q;
+    for (int i = 0; i < 3; i++) z[i] = A[i] + H->d * n[i];
+    for (int i = 0; i < 3; i++) v[i] = z[3 + i] - vA[i];
+    double vn = bmh_dot(v, n);
+    for (int i = 0; i < 3; i++) z[3 + i] -= vn * n[i];
+}
+
+/* HybridBall._impact */
+static int bmh_impact(bmh_run *run, double t, const double *z_in, double *y, int *ny, double *rec)
+{
+    const bmh_problem *H = run->H;
+    double A[3], vA[3], aA[3], Om[3], z[BMH_NZ], rho[3], n[3], ut[3], Jt[3], J[3];
+    bmh_chamber(H, t, A, vA, aA, Om, NULL);
+    memcpy(z, z_in, sizeof z);
+    for (int i = 0; i < 3; i++) rho[i] = z[i] - A[i];
+    double q = sqrt(bmh_dot(rho, rho));
+    for (int i = 0; i < 3; i++) n[i] = rho[i] / q;
+    for (int i = 0; i < 3; i++) z[i] = A[i] + H->d * n[i];
+    double vn = (z[3] - vA[0]) * n[0] + (z[4] - vA[1]) * n[1] + (z[5] - vA[2]) * n[2];
+    rec[BMH_D_VN] = vn;
+    memcpy(y, z, sizeof z);
+    *ny = BMH_NZ;
+    if (vn <= 0.0) { /* touching without approaching: no impulse */
+        rec[BMH_D_GRAZING] = 1.0;
+        return BMH_FLIGHT;
+    }
+    double Jn = (1.0 + H->e_n) * H->m * vn;
+    bmh_slip(H, t, z, n, ut);
+    double s = sqrt(bmh_dot(ut, ut));
+    int stick = s / H->kt <= H->mu * (1.0 + H->e_n) * vn;
+    if (stick) {
+        for (int i = 0; i < 3; i++) Jt[i] = -H->m * ut[i] / H->kt;
+    } else {
+        double c = -H->mu_k * Jn / s;
+        for (int i = 0; i < 3; i++) Jt[i] = c * ut[i];
+    }
+    for (int i = 0; i < 3; i++) J[i] = Jt[i] - Jn * n[i];
+    double loss = bmh_impulse(H, t, z, J, n);
+    run->n_impacts += 1.0;
+    run->v_impact_max = bm_pymax(run->v_impact_max, vn);
+    rec[BMH_D_SLIP] = s;
+    rec[BMH_D_STICK] = stick;
+    rec[BMH_D_ELOSS] = loss;
+    double vn_, an;
+    bmh_normal_motion(H, t, z, &vn_, &an);
+    double hop = an > 0.0 ? bm_sq(H->e_n * vn) / (2.0 * an) : INFINITY;
+    memcpy(y, z, sizeof z);
+    if (H->e_n * vn < H->v_rest || hop < H->gap_res) {
+        double vn2 = (z[3] - vA[0]) * n[0] + (z[4] - vA[1]) * n[1] + (z[5] - vA[2]) * n[2], Jr[3];
+        for (int i = 0; i < 3; i++) Jr[i] = -H->m * vn2 * n[i];
+        loss += bmh_impulse(H, t, z, Jr, n);
+        run->E_impact += loss;
+        rec[BMH_D_ELOSS] = loss;
+        rec[BMH_D_REST] = 1.0;
+        return bmh_on_wall(run, t, z, y, ny, rec);
+    }
+    run->E_impact += loss;
+    run->rebound = 1;
+    return BMH_FLIGHT;
+}
+
+/* HybridBall.jump: the new mode and state (y, *ny) at an event of `kind`; rec: the event record */
+static int bmh_jump(bmh_run *run, int mode, int kind, double t, const double *y_in, double *y, int *ny,
+                    double *rec)
+{
+    const bmh_problem *H = run->H;
+    double z[BMH_NZ], A[3], vA[3], aA[3], Om[3], n[3], rho[3];
+    int new_mode;
+    run->rebound = 0;
+    bmh_free_state(run, mode, t, y_in, z);
+    bmh_chamber(H, t, A, vA, aA, Om, NULL);
+    if (kind == BMH_IMPACT) {
+        new_mode = bmh_impact(run, t, z, y, ny, rec);
+    } else if (kind == BMH_LEAVE) {
+        memcpy(y, z, sizeof z);
+        bmh_onto_wall(H, t, y);
+        *ny = BMH_NZ;
+        new_mode = BMH_FLIGHT;
+    } else if (kind == BMH_SLIP) {
+        for (int i = 0; i < 3; i++) n[i] = (z[i] - A[i]) / H->d;
+        memcpy(y, z, sizeof z);
+        *ny = BMH_NZ;
+        new_mode = bmh_start_sliding(run, t, z, n, rec);
+    } else {
+        new_mode = bmh_on_wall(run, t, z, y, ny, rec);
+    }
+    if (new_mode == BMH_FLIGHT && isnan(run->t_first_flight)) run->t_first_flight = t;
+    for (int i = 0; i < 3; i++) rho[i] = z[i] - A[i];
+    double q = sqrt(bmh_dot(rho, rho));
+    for (int i = 0; i < 3; i++) rec[5 + i] = rho[i] / q;
+    return new_mode;
+}
+
+/* HybridBall.sample: one row of COLUMNS */
+static void bmh_sample(const bmh_run *run, int mode, double t, const double *y, double *row)
+{
+    const bmh_problem *H = run->H;
+    double z[BMH_NZ], A[3], vA[3], aA[3], Om[3], rho[3], n[3], N, Ft, slip;
+    bmh_free_state(run, mode, t, y, z);
+    bmh_chamber(H, t, A, vA, aA, Om, NULL);
+    for (int i = 0; i < 3; i++) rho[i] = z[i] - A[i];
+    double dist = sqrt(bmh_dot(rho, rho));
+    for (int i = 0; i < 3; i++) n[i] = rho[i] / dist;
+    if (mode == BMH_ROLLING) {
+        memcpy(n, y, sizeof n);
+        bmh_roll_out(H, t, y, &N, &Ft);
+        slip = 0.0;
+    } else if (mode == BMH_SLIDING) {
+        double Ftv[3], nn[3], vW[3];
+        N = bmh_slide_forces(run, t, z, NULL, Ftv, &slip, nn, vW);
+        Ft = sqrt(bmh_dot(Ftv, Ftv));
+    } else {
+        double ut[3];
+        N = 0.0;
+        Ft = 0.0;
+        bmh_slip(H, t, z, n, ut);
+        slip = sqrt(bmh_dot(ut, ut));
+    }
+    double E = 0.5 * H->m * bmh_dot(z + 3, z + 3) + 0.5 * H->Ib * bmh_dot(z + 6, z + 6) + H->m * H->g * z[2];
+    row[0] = mode;
+    memcpy(row + 1, n, sizeof n);
+    row[4] = z[0] - A[0]; row[5] = z[1] - A[1]; row[6] = z[2];
+    if (H->turning) { /* into the chamber's axes: Q^T (C - A) + (0, 0, R) */
+        double cs[BMG_NCS], r[3] = {row[4], row[5], z[2] - A[2]};
+        const double *Q = cs + 15;
+        bmg_state(&H->gen, t, cs);
+        for (int i = 0; i < 3; i++) row[4 + i] = Q[i] * r[0] + Q[3 + i] * r[1] + Q[6 + i] * r[2];
+        row[6] = row[6] + H->R;
+    }
+    memcpy(row + 7, z + 3, 6 * sizeof(double));
+    row[13] = N; row[14] = Ft; row[15] = slip; row[16] = H->d - dist; row[17] = E;
+    row[18] = run->w_lost ? NAN : z[9];
+    row[19] = z[10];
+    row[20] = run->E_impact; row[21] = run->n_impacts; row[22] = run->v_impact_max;
+    row[23] = run->t_first_slip; row[24] = run->t_first_flight;
+}
+
+/* the hybrid ball as a system of bm_drive (events.integrate's HybridBall) */
+typedef struct {
+    bm_system sys;
+    bmh_run run;
+    bm_tab Tr, Tf;
+    double *rows, *events, *y_out, h_out;
+    long long cap, ne;
+    int mode_out;
+} bmh_sys;
+
+/* the mode's integrator problem, tableau, right-hand side and guards (HybridBall.integrator,
+ * rhs, guards, armed) */
+static void bmh_setup(const bm_system *S, int mode, double t, const double *y, const bm_problem **P,
+                      const bm_tab **T, bm_rhs_fn *rhs, const void **ctx, bm_events *ev)
+{
+    const bmh_sys *x = (const bmh_sys *)S;
+    const bmh_problem *H = x->run.H;
+    (void)t; (void)y;
+    *ctx = &x->run;
+    ev->gctx = &x->run;
+    ev->scan = H->scan;
+    ev->xtol = H->xtol;
+    if (mode == BMH_ROLLING) {
+        *P = &H->roll; *T = &x->Tr;
+        *rhs = H->energy ? bmh_rhs_roll_q : H->turning ? bmh_rhs_roll_g : bm_ball_rhs;
+        ev->ng = 2; ev->G = bmh_g_rolling;
+    } else {
+        *P = &H->free; *T = &x->Tf;
+        *rhs = mode == BMH_SLIDING ? bmh_rhs_slide : bmh_rhs_flight;
+        ev->ng = mode == BMH_SLIDING ? 2 : 1;
+        ev->G = mode == BMH_SLIDING ? bmh_g_sliding : bmh_g_flight;
+        ev->levels[0] = mode == BMH_SLIDING ? 0.0 : H->gap_res;
+        ev->armed[0] = mode == BMH_FLIGHT && x->run.rebound; /* an opening gap after a rebound */
+    }
+}
+
+/* HybridBall.jump at the event, its record, HybridBall.first_step, and the Zeno guard */
+static int bmh_sys_jump(bm_system *S, int *mode, double *t, double *y, double *h, const bm_events *ev,
+                        int *status)
+{
+    static const int kinds[3][2] = {{BMH_IMPACT, -1}, {BMH_SLIP, BMH_LEAVE}, {BMH_STICK, BMH_LEAVE}};
+    bmh_sys *x = (bmh_sys *)S;
+    const bmh_problem *H = x->run.H;
+    int kind = kinds[*mode][ev->j], ny;
+    if (x->ne >= x->cap) {
+        *status = 3;
+        return 0;
+    }
+    double *rec = x->events + BMH_NEV * x->ne;
+    for (int q = 0; q < BMH_NEV; q++) rec[q] = NAN;
+    int new_mode = bmh_jump(&x->run, *mode, kind, ev->t, ev->y, y, &ny, rec);
+    rec[0] = ev->t; rec[1] = kind; rec[2] = *mode; rec[3] = new_mode; rec[4] = ev->width;
+    x->ne++;
+    *mode = new_mode;
+    *t = ev->t;
+    *h = ev->h_used;
+    if (new_mode == BMH_FLIGHT && x->run.rebound) { /* HybridBall.first_step */
+        double vn, an;
+        bmh_normal_motion(H, *t, y, &vn, &an);
+        if (vn < 0.0 && an > 0.0) *h = bm_pymin(*h, bm_pymax(0.5 * -vn / an, 1e-12));
+    }
+    if (x->ne >= H->burst && *t - x->events[BMH_NEV * (x->ne - H->burst)] < H->burst / H->max_rate) {
+        *status = 2;
+        return 0;
+    }
+    return 1;
+}
+
+static int bmh_record(bm_system *S, long long i, int mode, double t, const double *y, double h)
+{
+    bmh_sys *x = (bmh_sys *)S;
+    bmh_sample(&x->run, mode, t, y, x->rows + BMH_NCOL * i);
+    x->mode_out = mode;
+    x->h_out = h;
+    memcpy(x->y_out, y, (size_t)(mode == BMH_ROLLING ? x->run.H->roll.ny : BMH_NZ) * sizeof(double));
+    return 0;
+}
+
+/* events.integrate for the hybrid ball over times[0..n-1] (times[0] the start time, sampled)
+ * from *mode and y (size: *mode's) with step *h (the first one from Python's initial step).
+ * book: the bookkeeping (BMH_NBOOK values: E_impact, n_impacts, v_impact_max, t_first_slip,
+ * t_first_flight, Q[2], seed[3], rebound, W_lost) in and out. rows: BMH_NCOL per point reached;
+ * events: BMH_NEV per event, at most cap. Returns the number of points reached (rows); *mode,
+ * y and *h the state and step at the last of them, and sets *status: 0 completed; 1 a step failed (Python
+ * redoes the run and reports it); 2 a Zeno sequence (the last event is the one that made
+ * it); 3 more than cap events (Python redoes the run with more room). *n_events: the events
+ * recorded; *total: the work of the completed intervals. */
+BM_EXPORT long long bmh_simulate(const bmh_problem *H, const double *times, long long n, int *mode_io, double *y,
+                                 double *h, double *book, double *rows, double *events, long long cap,
+                                 long long *n_events, int *status, bm_stats *total)
+{
+    bmh_sys x;
+    double yy[BM_NYMAX];
+    memset(&x, 0, sizeof x);
+    x.sys.setup = bmh_setup;
+    x.sys.jump = bmh_sys_jump;
+    x.sys.record = bmh_record;
+    bmh_run run = {H, book[0], book[1], book[2], book[3], book[4], {book[5], book[6]},
+                   {book[7], book[8], book[9]}, book[10] != 0.0, book[11] != 0.0};
+    x.run = run;
+    bm_tab_make(&H->roll, &x.Tr);
+    bm_tab_make(&H->free, &x.Tf);
+    x.rows = rows;
+    x.events = events;
+    x.cap = cap;
+    x.y_out = y;
+    x.mode_out = *mode_io;
+    x.h_out = *h;
+    *status = 0;
+    long long reached = 0;
+    if (n > 0) {
+        int mode = *mode_io;
+        memcpy(yy, y, (size_t)(mode == BMH_ROLLING ? H->roll.ny : BMH_NZ) * sizeof(double));
+        reached = bm_drive(&x.sys, times, n, 0, 1, &mode, yy, h, total, status) + 1;
+    }
+    *mode_io = x.mode_out;
+    *h = x.h_out;
+    *n_events = x.ne;
+    book[0] = x.run.E_impact; book[1] = x.run.n_impacts; book[2] = x.run.v_impact_max;
+    book[3] = x.run.t_first_slip; book[4] = x.run.t_first_flight;
+    book[5] = x.run.Q[0]; book[6] = x.run.Q[1];
+    memcpy(book + 7, x.run.seed, sizeof x.run.seed);
+    book[10] = x.run.rebound;
+    book[11] = x.run.w_lost;
+    return reached;
+}
+
+BM_EXPORT size_t bmh_problem_size(void) { return sizeof(bmh_problem); }
 
 /* what fast.py checks before it trusts this build */
 BM_EXPORT int bm_abi(void) { return BM_ABI; }

@@ -17,8 +17,10 @@ grid, nothing more), the rolling models' Python paths (`model.simulate`,
 `turning.model.simulate_general`, and the intervals the compiled kernel hands back to
 Python, `model.record_interval`) and the absorber's structure + ball and bare structure
 (`absorber.model.simulate_absorber`, `simulate_structure`, with a ground record's samples
-as stops). The compiled kernel's own grid loops (_kernel.c) mirror it for the rolling
-models, bit for bit.
+as stops). The compiled kernel's one grid loop (_kernel.c's bm_drive) mirrors it, bit for
+bit, for the rolling models (as Plain systems) and for the hybrid ball of a translating or
+turning chamber with this event location (bm_advance_seen with a bm_events set,
+bmh_simulate).
 
 The adaptive methods and RK4 with its fixed step are driven alike: an RK4 step is cut short
 where a grid point, a stop or an event ends it (the next one starts there, with h_fixed).
@@ -272,10 +274,7 @@ def integrate(system, mode: int, t: float, y, times, *, h: float | None = None, 
                 if bound is not None:
                     h = min(h, bound)
                 if len(events) >= burst and t_e - events[-burst].t < burst / max_rate:
-                    raise _Zeno(f"Zeno sequence: {burst} events within "
-                                f"{t_e - events[-burst].t:.3g} s before t = {t_e:.9g} s "
-                                f"(the last: {kind!r}), more than the allowed rate "
-                                f"{max_rate:g} events/s")
+                    raise zeno(events, burst, max_rate)
         except (_Zeno, StepFailure, ArithmeticError) as e:
             success, error = False, e
             message = f"stopped at t = {t:.9g} s: {e}"
@@ -315,3 +314,12 @@ class Plain:
 
 class _Zeno(Exception):
     pass
+
+
+def zeno(events, burst: int, max_rate: float) -> _Zeno:
+    """The Zeno guard's error at the last of ``events``: ``burst`` events within less than
+    burst / max_rate seconds (also what the compiled kernel's run reports, fast.hybrid_run)."""
+    last = events[-1]
+    return _Zeno(f"Zeno sequence: {burst} events within {last.t - events[-burst].t:.3g} s before "
+                 f"t = {last.t:.9g} s (the last: {last.kind!r}), more than the allowed rate "
+                 f"{max_rate:g} events/s")

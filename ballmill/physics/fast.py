@@ -31,6 +31,10 @@ would. The FMUs bundle the built library (ballmill/fmi/build.py); where it
 cannot be loaded they run in Python. ``BallModel(kernel="python")`` keeps a
 model in Python.
 
+`hybrid_run` runs `events.integrate` for the hybrid ball (hybrid.HybridBall) of a translating
+or turning chamber in the kernel (bmh_simulate: the same rows, events and bookkeeping bit for bit), which
+`hybrid.simulate_hybrid` selects by default where `hybrid_reason` says it can.
+
 What stays in Python: the adaptive methods' initial step size (one call at the
 start of a run, or when a state carries no step size, so that numpy's way of
 summing is kept), and any interval the kernel cannot complete: `simulate` stops
@@ -52,7 +56,7 @@ import numpy as np
 
 from .drives.crank import LAWS, Circle, CrankStartup, Fixed, Harmonic
 from .equations import VectorFormulation, _lossy, bed_constants, loss_constants
-from .integrators import Integrator, TABLEAUS
+from .integrators import TABLEAUS, Integrator, StepStats
 from .outputs import Outputs
 
 __all__ = ["KERNEL_AVAILABLE", "KERNEL_REASON", "KERNEL_PATH", "KernelUnavailable", "applicable",
@@ -714,3 +718,160 @@ def eval_outputs(P: _Problem, y, ax, ay, xO=0.0, yO=0.0) -> tuple:
     o = np.empty(NOUT)
     _kernel().bm_eval_outputs(ctypes.byref(P), yy.ctypes.data_as(_dp), ax, ay, xO, yO, o.ctypes.data_as(_dp))
     return tuple(o.tolist())
+
+
+# ----------------------------------------------------------------------------
+# the hybrid ball (hybrid.HybridBall on events.integrate) in the kernel: bmh_simulate
+_HPROBLEM = None
+
+
+def _hproblem_type():
+    """ctypes mirror of bmh_problem in _kernel.c (built on first use: it holds turning.kernel's
+    _GProblem, and turning.kernel imports this module)."""
+    global _HPROBLEM
+    if _HPROBLEM is None:
+        from .turning.kernel import _GProblem
+
+        class _HProblem(ctypes.Structure):
+            _fields_ = [("roll", _Problem), ("turning", ctypes.c_int), ("gen", _GProblem), ("free", _Problem)] + [
+                (name, ctypes.c_double) for name in ("R", "r", "d", "m", "g", "Ib", "lam", "mu", "mu_k", "e_n",
+                                                     "v_rest", "slip_eps", "kt", "gap_res")] + [
+                ("energy", ctypes.c_int), ("scan", ctypes.c_int), ("burst", ctypes.c_int),
+                ("xtol", ctypes.c_double), ("max_rate", ctypes.c_double)]
+        _HPROBLEM = _HProblem
+    return _HPROBLEM
+
+
+HYBRID_NCOL = 25  # HybridBall.COLUMNS
+HYBRID_NEV = 18  # doubles of an event record: t, kind, modes before/after, width, n, details
+HYBRID_KINDS = ("slip", "leave", "stick", "impact")  # BMH_SLIP.. BMH_IMPACT
+# the details of an event record's fields 8.. (NaN: the map did not set it); flags as bools
+_DETAILS = (("v_n", 8, 1, float), ("slip", 9, 1, float), ("stick", 10, 1, bool), ("E_loss", 11, 1, float),
+            ("rest", 12, 1, bool), ("slip_removed", 13, 1, float), ("seed", 14, 3, tuple),
+            ("grazing", 17, 1, bool))
+
+
+def _hybrid_lib():
+    HP = _hproblem_type()
+    lib, why = model_library("bmh_problem", HP, "hybrid functions", {
+        "bmh_simulate": (ctypes.c_longlong, [ctypes.POINTER(HP), _dp, ctypes.c_longlong,
+                                             ctypes.POINTER(ctypes.c_int), _dp, _dp, _dp, _dp, _dp,
+                                             ctypes.c_longlong, ctypes.POINTER(ctypes.c_longlong),
+                                             ctypes.POINTER(ctypes.c_int), ctypes.POINTER(_Stats)]),
+    })
+    return lib, why
+
+
+def hybrid_reason(system) -> str:
+    """'' when `hybrid_run` can run this `hybrid.HybridBall` in the kernel, else why not."""
+    lib, why = _hybrid_lib()
+    if lib is None:
+        return why
+    if system.turning:
+        from .turning import kernel as tk
+
+        why = tk.applicable(system.rolling, system.motion)
+    else:
+        why = applicable(system.rolling, system.motion)
+    if why:
+        return why
+    for integ in (system.integrator(0), system.integrator(1)):
+        if type(integ) is not Integrator or integ.method not in TABLEAUS or integ.scale is None:
+            return "integrator is not the library's Integrator with a scale"
+    return ""
+
+
+def _hybrid_problem(system, scan: int, xtol: float, burst: int, max_rate: float):
+    b = system.ball
+    H = _hproblem_type()()
+    if system.turning:
+        from .turning import kernel as tk
+
+        H.turning = 1
+        H.gen = tk.problem(system.rolling, system.motion)
+        H.roll = _problem(tk._IntegratorOnly(system.rolling), None)
+    else:
+        H.roll = _problem(system.rolling, system.motion)
+    roll = system.integrator(1)  # rolling's integrator (with the quadratures when energy)
+    H.roll.ny = roll.scale.size
+    fill_integrator(H.roll, roll)
+    free = system.integrator(0)
+    H.free.form, H.free.ny = 2, free.scale.size  # BM_GENERIC: no projection
+    fill_integrator(H.free, free)
+    H.R, H.r, H.d, H.m, H.g, H.Ib, H.lam = b.R, b.r, b.d, b.m, b.g, b.I, b.lam
+    H.mu, H.mu_k, H.e_n, H.v_rest, H.slip_eps = system.mu, system.mu_k, system.e_n, system.v_rest, system.slip_eps
+    H.kt, H.gap_res, H.energy = system.kt, system._gap_res, int(system.energy)
+    H.scan, H.xtol, H.burst, H.max_rate = scan, xtol, burst, max_rate
+    return H
+
+
+def hybrid_run(system, mode: int, t: float, y, times, *, burst: int = 100, max_rate: float = 1e4,
+               scan: int = 3, xtol: float = 1e-11):
+    """`events.integrate(system, mode, t, y, times, ...)` for a `hybrid.HybridBall` (checked
+    with `hybrid_reason`) in the kernel: the same rows, events, bookkeeping (written back to
+    the system) and work, bit for bit. Returns the `events.EventRun`, or None when a step
+    fails (the caller runs the Python driver, which reports the failure as it does)."""
+    from .events import Event, EventRun, zeno
+
+    lib, _ = _hybrid_lib()
+    H = _hybrid_problem(system, scan, xtol, burst, max_rate)
+    times = np.ascontiguousarray(times, dtype=float)
+    n = len(times)
+    if not (n and times[0] == t):
+        raise ValueError(f"hybrid_run samples from the start time: times[0] = {times[0] if n else None!r} "
+                         f"s, expected t = {t!r} s")
+    yy = np.zeros(NYMAX)
+    y = np.asarray(y, dtype=float)
+    yy[:y.size] = y
+    stats = _Stats()
+    h = math.nan
+    integ, f = system.integrator(mode), system.rhs(mode)
+    if integ.adaptive and n > 1:  # the first step: Python's initial step, as Integrator.steps takes it
+        f0 = f(t, y)
+        f0 = tuple(np.broadcast_to(np.asarray(f0, dtype=float), y.shape).tolist())
+        if all(map(math.isfinite, f0)):
+            h = integ.initial_step(f, t, y, np.asarray(f0, dtype=float), float(times[1]) - t)
+            stats.nfev += 1
+    bk = system.book
+    book0 = [bk["E_impact"], bk["n_impacts"], bk["v_impact_max"], bk["t_first_slip"], bk["t_first_flight"],
+             bk["Q"][0], bk["Q"][1], *system._seed, float(system._rebound), float(bk["W_lost"])]
+    cap = 4096
+    while True:
+        book = np.array(book0, dtype=float)
+        rows = np.empty((n, HYBRID_NCOL))
+        events = np.empty((cap, HYBRID_NEV))
+        hbuf = np.array([h])
+        c_mode, n_ev, status = ctypes.c_int(mode), ctypes.c_longlong(0), ctypes.c_int(0)
+        st = _Stats(stats.steps, stats.rejected, stats.nfev)
+        reached = lib.bmh_simulate(ctypes.byref(H), times.ctypes.data_as(_dp), n, ctypes.byref(c_mode),
+                                   yy.ctypes.data_as(_dp), hbuf.ctypes.data_as(_dp), book.ctypes.data_as(_dp),
+                                   rows.ctypes.data_as(_dp), events.ctypes.data_as(_dp), cap,
+                                   ctypes.byref(n_ev), ctypes.byref(status), ctypes.byref(st))
+        if status.value != 3:
+            break
+        cap *= 8
+    if status.value == 1:
+        return None
+    bk.update(E_impact=float(book[0]), n_impacts=int(book[1]), v_impact_max=float(book[2]),
+              t_first_slip=float(book[3]), t_first_flight=float(book[4]), Q=(float(book[5]), float(book[6])),
+              W_lost=bool(book[11]))
+    system._seed = tuple(float(v) for v in book[7:10])
+    system._rebound = bool(book[10])
+    evs = []
+    for rec in events[:n_ev.value]:
+        details = {}
+        for name, i, k, tp in _DETAILS:
+            if not math.isnan(rec[i]):
+                details[name] = tuple(rec[i:i + k].tolist()) if k > 1 else tp(rec[i])
+        details["n"] = tuple(rec[5:8].tolist())
+        evs.append(Event(float(rec[0]), HYBRID_KINDS[int(rec[1])], int(rec[2]), int(rec[3]), float(rec[4]),
+                         details))
+    out_rows = [(int(r[0]), *r[1:21].tolist(), int(r[21]), *r[22:].tolist()) for r in rows[:reached]]
+    run_stats = StepStats(st.steps, st.rejected, st.nfev)
+    success, message, error = True, "completed", None
+    if status.value == 2:
+        error = zeno(evs, burst, max_rate)
+        success, message = False, f"stopped at t = {evs[-1].t:.9g} s: {error}"
+    ny = system.integrator(c_mode.value).scale.size
+    return EventRun(times[:reached], out_rows, evs, success, message, run_stats, c_mode.value,
+                    yy[:ny].copy(), float(hbuf[0]), float(times[reached - 1]), error)

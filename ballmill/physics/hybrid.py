@@ -153,7 +153,7 @@ class HybridBall:
         free = [ball.r] * 3 + [v_ref] * 3 + [v_ref / ball.r] * 3 + q
         self._int_free = Integrator(method, tol=tol, scale=free, h_fixed=h_fixed, h_max=h_max)
         self.book = dict(E_impact=0.0, n_impacts=0, v_impact_max=0.0, t_first_slip=math.nan,
-                         t_first_flight=math.nan, Q=(0.0, 0.0))
+                         t_first_flight=math.nan, Q=(0.0, 0.0), W_lost=False)
         self._seed = (0.0, 0.0, 0.0)
         self._rebound = False  # the last map was a rebound (the flight's gap is opening)
         A0 = self.chamber(0.0)[0]
@@ -335,7 +335,10 @@ class HybridBall:
         core = [n[0], n[1], n[2], w[0], w[1], w[2]]
         if self.energy:
             return np.array(core + list(Q))
-        self.book["Q"] = (math.nan, Q[1])  # W is not followed while rolling
+        # W is not followed while rolling: the sliding or flying state that follows carries it
+        # from 0 (a NaN there would stop the integrator) and the outputs show NaN from here on
+        self.book["Q"] = (0.0, Q[1])
+        self.book["W_lost"] = True
         return np.array(core)
 
     def _onto_wall(self, t, z):
@@ -584,8 +587,9 @@ class HybridBall:
             r = (c[0], c[1], z[2] - A[2])
             c = tuple(Q[i] * r[0] + Q[3 + i] * r[1] + Q[6 + i] * r[2] for i in range(3))
             c = (c[0], c[1], c[2] + b.R)
+        W = math.nan if bk["W_lost"] else z[9]
         return (mode, n[0], n[1], n[2], c[0], c[1], c[2], z[3], z[4], z[5], z[6], z[7], z[8], N, Ft,
-                slip, b.d - dist, E, z[9], z[10], bk["E_impact"], bk["n_impacts"],
+                slip, b.d - dist, E, W, z[10], bk["E_impact"], bk["n_impacts"],
                 bk["v_impact_max"], bk["t_first_slip"], bk["t_first_flight"])
 
 
@@ -623,7 +627,8 @@ class HybridTrajectory:
 def simulate_hybrid(ball: Ball, motion, t_end: float, dt: float, contact: Contact = Contact(), *,
                     initial=None, t0: float = 0.0, method: str = "DOP853", tol: float = 1e-9,
                     h_max: float | None = None, energy: bool = True, burst: int = 100,
-                    max_rate: float = 1e4, h_fixed: float = 1e-3) -> HybridTrajectory:
+                    max_rate: float = 1e4, h_fixed: float = 1e-3,
+                    kernel: str = "auto") -> HybridTrajectory:
     """The ball in a chamber moved by ``motion`` (a platform motion: translation; a
     `turning.motions.ChamberMotion`: any rigid motion) with rolling, sliding, flight and
     impacts, sampled every dt [s] from t0 to t_end.
@@ -640,7 +645,18 @@ def simulate_hybrid(ball: Ball, motion, t_end: float, dt: float, contact: Contac
         step before a grid point or an event shortened to land there); with either, events
         are located on the method's own step from the step's start (events.py).
     burst, max_rate: the Zeno guard of `events.integrate`.
+    kernel: ``"auto"`` (default) runs the scene in the compiled kernel (`fast.hybrid_run`:
+        the same numbers bit for bit) when it is built and covers the run
+        (`fast.hybrid_reason`: the kernel's platform motions, or Spin and Fig1Machine), else
+        in Python; ``"c"`` insists (`fast.KernelUnavailable`
+        with the reason); ``"python"`` never uses it. A run whose step fails is redone in
+        Python, which reports the failure.
     """
+    from . import fast
+    from .model import KERNELS
+
+    if kernel not in KERNELS:
+        raise ValueError(f"kernel must be one of {KERNELS}, got {kernel!r}")
     if not (dt > 0 and math.isfinite(dt)):
         raise ValueError(f"dt must be positive and finite, got dt = {dt!r} s")
     if not (math.isfinite(t_end) and t_end >= t0):
@@ -661,7 +677,15 @@ def simulate_hybrid(ball: Ball, motion, t_end: float, dt: float, contact: Contac
         system.book["t_first_flight"] = t0
     n_steps = int(round((t_end - t0) / dt))
     times = t0 + dt * np.arange(n_steps + 1)
-    run = integrate(system, mode, t0, y, times, burst=burst, max_rate=max_rate)
+    run = None
+    if kernel != "python":
+        why = fast.hybrid_reason(system)
+        if not why:
+            run = fast.hybrid_run(system, mode, t0, y, times, burst=burst, max_rate=max_rate)
+        elif kernel == "c":
+            raise fast.KernelUnavailable(f"simulate_hybrid(kernel='c'): {why}")
+    if run is None:
+        run = integrate(system, mode, t0, y, times, burst=burst, max_rate=max_rate)
     arr = np.array(run.rows, dtype=float).reshape(len(run.rows), len(HybridBall.COLUMNS))
     out = {name: arr[:, j] for j, name in enumerate(HybridBall.COLUMNS)}
     bk = system.book
