@@ -306,7 +306,7 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
         !fraction_ok(fi, "Rs_share", share, 0, 1) || !number_ok(fi, "Tb_ratio", kb, "1", 0))
         return fmi2Error;
     if (!(kb > 1.0)) {
-        snprintf(msg, sizeof msg, "breakdown_ratio Tb/Tn must be larger than 1 (Kloss's formula has no rated point "
+        snprintf(msg, sizeof msg, "Tb_ratio Tb/Tn must be larger than 1 (Kloss's formula has no rated point "
                  "otherwise), got Tb_ratio = %s", fmu_repr(kb, a));
         return fail(fi, msg);
     }

@@ -106,6 +106,29 @@ def test_ball_me_reports_slip_and_lift_off_at_the_librarys_time(native, wy0, mu,
     assert r["valid"][before].all() and (r["t_invalid"][before] == 1e300).all()
 
 
+@pytest.mark.parametrize("version", [2, 3], ids=["fmi2", "fmi3"])
+def test_ball_me_discrete_outputs_change_only_at_events(native, version):
+    """FMI: discrete variables change only at event instants. The ball rolled up the wall with
+    mu = 100 slips, then leaves the wall; fmpy (record_events) records each event twice at its
+    time, before and after the event update. `rolling`, `contact` and `valid` change only between
+    those two rows: at the row before the update the raw judgement has already flipped (CVode
+    stops past the indicator's root, eps beyond the boundary), and the outputs still hold."""
+    path = native["BallInShell"] if version == 2 else native["BallInShell"].parent / "fmi3" / "BallInShell.fmu"
+    r = simulate_fmu(str(path), fmi_type="ModelExchange", stop_time=1.0, output_interval=0.01,
+                     start_values=dict(wy0=-100.0, mu=100.0), relative_tolerance=1e-10, record_events=True,
+                     output=["N", "Ft", "contact", "rolling", "valid"])
+    t = r["time"]
+    for name in ("rolling", "contact", "valid"):
+        changed = np.flatnonzero(r[name][1:] != r[name][:-1])
+        assert len(changed) == 1, (name, t[changed])  # one switch each, to false
+        assert not r[name][-1]
+        i = changed[0]
+        assert t[i] == t[i + 1], (name, t[i], t[i + 1])  # the two rows of one event
+    # at the slip event's first row the raw margin is already past the boundary
+    i = np.flatnonzero(r["rolling"][1:] != r["rolling"][:-1])[0]
+    assert 100.0 * r["N"][i] - r["Ft"][i] < 0 and r["rolling"][i]
+
+
 def test_ball_me_in_a_circling_chamber_with_exact_inputs_is_the_library(native):
     """An importer that supplies the platform motion itself at every derivative call (here the
     circle's exact x1O..ay1O): the ball's states integrated by scipy agree with the library's run."""

@@ -137,7 +137,8 @@ def interface_header(interface: Interface, guid_: str) -> str:
         lo = "-INFINITY" if v.min is None else _c_double(v.min)
         hi = "INFINITY" if v.max is None else _c_double(v.max)
         tunable = int(v.fmi_variability == "tunable")
-        lines.append(f"    {{\"{v.name}\", {types[v.type]}, {causes[v.causality]}, {tunable}, "
+        discrete = int(v.fmi_variability == "discrete")
+        lines.append(f"    {{\"{v.name}\", {types[v.type]}, {causes[v.causality]}, {tunable}, {discrete}, "
                      f"{_c_double(start)}, {lo}, {hi}, \"{v.unit or ''}\"}},")
     lines += ["};", ""]
     if me is not None:

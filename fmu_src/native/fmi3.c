@@ -2,7 +2,7 @@
  * FMU: the fmi3 functions, translated to the plumbing written once for every FMI version
  * (fmu_instance.c: the state machine, checks, get/set, steps, Model Exchange, FMU states with
  * their format version and checksum, the semantics documented there). FMI 3.0's own parts:
- *   - co-simulation with event mode (hasEventMode): a step in which a Boolean output changed
+ *   - co-simulation with event mode (hasEventMode): a step in which a discrete (Boolean) output changed
  *     (BallInShell's valid latching, contact, rolling) returns eventHandlingNeeded = true; the
  *     importer enters event mode (nothing to update: the step latched it), then step mode.
  *     Without event mode the step behaves as in FMI 2.0;

@@ -27,7 +27,7 @@
  *     state, so that a master may retry (with other inputs or a shorter step) or
  *     restore an FMU state;
  *   - FMI 3 early return (the importer allows it): a step ends at its first event, a time event
- *     or a Boolean output's change located by bisection (step_to_event), as if the master had
+ *     or a discrete (Boolean) output's change located by bisection (step_to_event), as if the master had
  *     asked for the step to that time.
  *
  * Model Exchange (models with an fmu_me; FMI 2.0 section 3.2.3 for the allowed calls): the
@@ -41,6 +41,8 @@
  *     output or derivative: fmi2Error naming it, the last good values kept;
  *   - fmi2NewDiscreteStates runs the model's event update (the validity latch, the next
  *     time event); with no event pending it changes nothing;
+ *   - the discrete outputs (Booleans, Integers) change only there and at initialisation: between
+ *     events they hold, the continuous outputs follow every evaluation;
  *   - reading a continuous state, derivative or event indicator in co-simulation: the value at the
  *     co-simulation's own state (cs_locals), the same number Model Exchange gives at that time,
  *     state and inputs.
@@ -270,13 +272,16 @@ static fmi2Status build(fmu_instance *fi, fmu_setup_kind_t kind)
     return s;
 }
 
-/* Model Exchange: the outputs, derivatives and event indicators at the instance's time from
- * the states and inputs in v, when one of them changed since the last evaluation; on the work
- * copy, committed when the model accepts it and every output and derivative is finite */
-static fmi2Status me_evaluate(fmu_instance *fi, const char *function)
+/* Model Exchange: the outputs, derivatives and event indicators at the instance's time from the
+ * states and inputs in v, into the work copies (v_work, z_work), checked: fmi2OK when the model
+ * accepts them and every output, derivative and indicator is finite. The discrete outputs
+ * (Booleans, Integers: FMI 2.0 section 3.1, FMI 3.0 section 2.2.2) change only at events: between
+ * events they keep the values of the last event update or of initialisation, whatever the
+ * evaluation says (BallInShell's `rolling` would flip eps before its indicator's root, where
+ * the importer has not yet handled the event); at an event update (at_event) they are taken. */
+static fmi2Status me_evaluate_work(fmu_instance *fi, const char *function, int at_event)
 {
     const fmu_me *me = FMU_MODEL.me;
-    if (!fi->dirty) return fmi2OK;
     size_t nv = (size_t)FMU_MODEL.n_vars * sizeof(double);
     memcpy(fi->v_work, fi->v, nv);
     if (me->eval(fi, fi->data, fi->v_work, fi->t, fi->z_work) > fmi2Warning) {
@@ -287,6 +292,7 @@ static fmi2Status me_evaluate(fmu_instance *fi, const char *function)
     for (int i = 0; i < me->n_indicators; i++) fi->v_work[me->indicator_vr[i]] = fi->z_work[i];
     for (int i = 0; i < FMU_MODEL.n_vars; i++) {
         const fmu_variable *var = &FMU_MODEL.vars[i];
+        if (!at_event && var->discrete && var->causality == FMU_OUTPUT) fi->v_work[i] = fi->v[i];
         if ((var->causality != FMU_OUTPUT && var->causality != FMU_LOCAL) || isfinite(fi->v_work[i])) continue;
         char a[32], b[32];
         fmu_log(fi, fmi2Error, "%s '%s': %s: %s would be %s at t = %s s from the states and inputs set; refused, "
@@ -302,6 +308,15 @@ static fmi2Status me_evaluate(fmu_instance *fi, const char *function)
                     fmu_repr(fi->t, b));
             return fmi2Error;
         }
+    return fmi2OK;
+}
+
+/* Model Exchange: evaluate (me_evaluate_work) when the time, a state or an input changed since
+ * the last evaluation, and commit */
+static fmi2Status me_evaluate(fmu_instance *fi, const char *function)
+{
+    if (!fi->dirty) return fmi2OK;
+    if (me_evaluate_work(fi, function, 0) != fmi2OK) return fmi2Error;
     double *tv = fi->v;
     fi->v = fi->v_work;
     fi->v_work = tv;
@@ -621,12 +636,11 @@ static fmi2Status try_step(fmu_instance *fi, double t_end)
     return s;
 }
 
-/* the step on the work copies changed a Boolean output (validity, contact, rolling): an event */
-static int boolean_changed(const fmu_instance *fi)
+/* the step on the work copies changed a discrete output (validity, contact, rolling): an event */
+static int discrete_changed(const fmu_instance *fi)
 {
     for (int i = 0; i < FMU_MODEL.n_vars; i++)
-        if (FMU_MODEL.vars[i].causality == FMU_OUTPUT && FMU_MODEL.vars[i].type == FMU_BOOLEAN &&
-            fi->v[i] != fi->v_work[i])
+        if (FMU_MODEL.vars[i].causality == FMU_OUTPUT && FMU_MODEL.vars[i].discrete && fi->v[i] != fi->v_work[i])
             return 1;
     return 0;
 }
@@ -635,7 +649,7 @@ static int boolean_changed(const fmu_instance *fi)
 #define T_EVENT 1e-12
 
 /* FMI 3 early return: the step to *t_end, ended at the first event in it instead: a time event
- * (the model's next_time), else where a Boolean output changes, located by bisection over the
+ * (the model's next_time), else where a discrete (Boolean) output changes, located by bisection over the
  * step's end: each trial is a step from the committed state to a shorter end, as if the master
  * had asked for it, and the step kept is the shortest one with the change. Only the kept step's
  * messages reach the host. Without an event the step is the one without early return. */
@@ -650,14 +664,14 @@ static fmi2Status step_to_event(fmu_instance *fi, double *t_end)
     fi->holding = 1;
     fi->n_held = 0;
     fmi2Status s = try_step(fi, hi);
-    if (s <= fmi2Warning && boolean_changed(fi)) {
+    if (s <= fmi2Warning && discrete_changed(fi)) {
         double lo = t;
         while (hi - lo > tol) {
             double mid = lo + 0.5 * (hi - lo);
             fi->n_held = 0;
             fmi2Status m = try_step(fi, mid);
             if (m > fmi2Warning) break; /* a shorter step failed: keep the longer one found */
-            if (boolean_changed(fi)) hi = mid; else lo = mid;
+            if (discrete_changed(fi)) hi = mid; else lo = mid;
         }
         fi->n_held = 0;
         s = try_step(fi, hi);
@@ -707,7 +721,7 @@ fmi2Status fmu_do_step(fmu_instance *fi, const char *fn, double currentCommunica
     double t_stop = t_end;
     fmi2Status s = fi->cs_early_return ? step_to_event(fi, &t_stop) : try_step(fi, t_end);
     if (s > fmi2Warning) return s == fmi2Discard ? fmi2Discard : fmi2Error; /* the last good state stays */
-    fi->step_event = boolean_changed(fi) || t_stop < t_end; /* an event FMI 3's event mode reports */
+    fi->step_event = discrete_changed(fi) || t_stop < t_end; /* an event FMI 3's event mode reports */
     fi->returned_early = t_stop < t_end;
     t_end = t_stop;
     double *tv = fi->v;
@@ -902,9 +916,9 @@ fmi2Status fmu_update_discrete_states(fmu_instance *fi, const char *fn, fmu_even
     }
     if (!me_instance(fi, fn) || !allowed(fi, fn, S_EVENT) || !info)
         return fmi2Error;
-    if (me_evaluate(fi, fn) != fmi2OK) return fmi2Error;
-    size_t nv = (size_t)FMU_MODEL.n_vars * sizeof(double);
-    memcpy(fi->v_work, fi->v, nv);
+    /* the outputs at the event, the discrete ones included, then the model's update; on the
+     * work copy, committed together */
+    if (me_evaluate_work(fi, fn, 1) != fmi2OK) return fmi2Error;
     fmu_event ev = {0, 0, 0, 0.0};
     fmi2Status s = FMU_MODEL.me->event ? FMU_MODEL.me->event(fi, fi->data, fi->v_work, fi->t, &ev) : fmi2OK;
     if (s > fmi2Warning) return fmi2Error;

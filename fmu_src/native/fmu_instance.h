@@ -51,7 +51,7 @@ struct fmu_instance {
     int dirty;           /* time, states or inputs changed since the last evaluation */
     double t_accepted;   /* the last accepted time: setTime may not go before it */
     double *z, *z_work;  /* event indicators of the last evaluation */
-    /* co-simulation events (FMI 3 event mode): a Boolean output changed in the last step */
+    /* co-simulation events (FMI 3 event mode): a discrete (Boolean) output changed in the last step */
     int step_event;
     int cs_event_mode;   /* FMI 3 co-simulation: the importer uses event mode */
     int cs_early_return; /* FMI 3 co-simulation: the importer allows early return */

@@ -30,6 +30,8 @@ typedef struct {
     fmu_type type;
     fmu_causality causality;
     int tunable;       /* parameter that may change after initialisation */
+    int discrete;      /* discrete variability (Integers, Booleans): in Model Exchange such an
+                        * output changes only at events (initialisation, the event update) */
     double start;
     double min, max;   /* declared bounds; -INFINITY / INFINITY when none */
     const char *unit;  /* "" when none */
@@ -61,7 +63,9 @@ typedef struct {
     fmi2Status (*start)(fmu_instance *fi, void *data, double *v, double t);
     /* at time t, from the states and inputs in v: the outputs and the derivatives into v, the
      * event indicators into z (n_indicators; NULL: not wanted). fmi2OK, or fmi2Error after
-     * fmu_log said why (an input or state it cannot use); the plumbing then keeps v as it was */
+     * fmu_log said why (an input or state it cannot use); the plumbing then keeps v as it was.
+     * The discrete outputs eval writes are taken only at an event update: between events the
+     * plumbing keeps those of the last event (FMI: discrete variables change at events only) */
     fmi2Status (*eval)(fmu_instance *fi, void *data, double *v, double t, double *z);
     /* event mode at time t, after eval: update the discrete state (e.g. a validity latch,
      * logging why). fmi2OK / fmi2Warning. NULL: no discrete state. */

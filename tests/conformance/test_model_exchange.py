@@ -311,6 +311,42 @@ def test_a_non_finite_input_is_refused_at_the_next_read(me_paths, version, model
         f.free()
 
 
+class _Importer:
+    """A hand-written Model Exchange importer on an instance in continuous-time mode: scipy's
+    solve_ivp on the FMU's derivatives, with the slip indicator (index 1) as a terminal event."""
+
+    def __init__(self, f):
+        self.f = f
+        self.x, self.dx, self.z = np.zeros(6), np.zeros(6), np.zeros(2)
+
+    def at(self, t, y):
+        self.x[:] = y
+        assert self.f.call("setTime", t)[0] == OK
+        assert self.f.call("setContinuousStates", _ptr(self.x), 6)[0] == OK
+
+    def rhs(self, t, y):
+        self.at(t, y)
+        self.f.call("getDerivatives", _ptr(self.dx), 6)
+        return self.dx.copy()
+
+    def slip(self, t, y):
+        self.at(t, y)
+        self.f.call("getEventIndicators", _ptr(self.z), 2)
+        return self.z[1]
+
+    def slip_root(self, t_end=0.3):
+        """(t, states) where solve_ivp located the slip indicator's root"""
+        from scipy.integrate import solve_ivp
+
+        def slip(t, y):
+            return self.slip(t, y)
+        slip.terminal = True
+        sol = solve_ivp(self.rhs, (0.0, t_end), _states(self.f), method="DOP853", rtol=1e-10, atol=1e-12,
+                        events=slip)
+        (t_root,), (y_root,) = sol.t_events[0], sol.y_events[0]
+        return t_root, y_root
+
+
 def test_event_indicators_have_hysteresis_so_a_restart_at_the_root_does_not_retrigger():
     """The ball spun at wy0 = -20 rad/s begins to slip (mu = 0.1): an importer (scipy's
     solve_ivp on the FMU's derivatives) locates the root of the slip indicator, handles the event
@@ -318,32 +354,15 @@ def test_event_indicators_have_hysteresis_so_a_restart_at_the_root_does_not_retr
     recommends: before the event it is mu N - |F_t| + eps (so its root lies eps past the boundary,
     where the ball does slip), after the event update mu N - |F_t| - eps, clearly negative: no
     second crossing at the restart. eps = 1e-10 m g (the ball's weight)."""
-    from scipy.integrate import solve_ivp
     from ballmill.physics.params import Ball
     f = _running(_native_paths()["BallInShell"], wy0=-20.0, mu=0.1)
     try:
         eps = 1e-10 * Ball().m * Ball().g
-        x, dx, z = np.zeros(6), np.zeros(6), np.zeros(2)
-
-        def at(t, y):
-            x[:] = y
-            assert f.call("setTime", t)[0] == OK
-            assert f.call("setContinuousStates", _ptr(x), 6)[0] == OK
-
-        def rhs(t, y):
-            at(t, y)
-            f.call("getDerivatives", _ptr(dx), 6)
-            return dx.copy()
-
-        def slip(t, y):
-            at(t, y)
-            f.call("getEventIndicators", _ptr(z), 2)
-            return z[1]
-        slip.terminal = True
-        sol = solve_ivp(rhs, (0.0, 0.3), _states(f), method="DOP853", rtol=1e-10, atol=1e-12, events=slip)
-        (t_root,), (y_root,) = sol.t_events[0], sol.y_events[0]
+        imp = _Importer(f)
+        slip, z = imp.slip, imp.z
+        t_root, y_root = imp.slip_root()
         assert 0.188 < t_root < 0.189
-        at(t_root, y_root)
+        imp.at(t_root, y_root)
         raw = 0.1 * f.get("N") - f.get("Ft")
         assert slip(t_root, y_root) == pytest.approx(raw + eps, abs=1e-15)
         assert abs(raw + eps) < 1e-3 * eps  # the root: eps past the boundary
@@ -355,5 +374,38 @@ def test_event_indicators_have_hysteresis_so_a_restart_at_the_root_does_not_retr
         # the contact indicator is on its own side, shifted the other way (N > 0: no event)
         f.call("getEventIndicators", _ptr(z), 2)
         assert z[0] == pytest.approx(f.get("N") + eps, abs=1e-15)
+    finally:
+        f.free()
+
+
+def test_discrete_outputs_change_only_at_the_event_update(me_paths, version):
+    """FMI (2.0 section 3.1, 3.0 section 3.1): discrete variables change only at event instants.
+    The spun ball's `rolling` is judged from mu N - |F_t|, which turns negative eps (the
+    indicator's hysteresis) before the slip indicator crosses 0: at the root the importer
+    located, the raw margin is already negative, yet `rolling` (and `valid`) keep the values of
+    the last event until the event update; after it, `rolling` is false. The continuous outputs
+    (N, Ft) follow every evaluation."""
+    f = _running(me_paths["BallInShell"], version=version, wy0=-20.0, mu=0.1)
+    try:
+        imp = _Importer(f)
+        x0 = _states(f)
+        assert f.get("rolling") and f.get("contact") and f.get("valid")
+        t_root, y_root = imp.slip_root()
+        assert 0.188 < t_root < 0.189
+        imp.at(t_root, y_root)
+        raw = 0.1 * f.get("N") - f.get("Ft")
+        assert raw < 0  # the ball slips here by the raw margin ...
+        assert f.get("rolling") and f.get("contact") and f.get("valid")  # ... but no event has been handled
+        assert f.call("enterEventMode")[0] == OK
+        assert f.get("rolling")  # event mode entered: still the old values until the update
+        assert f.call("newDiscreteStates")[0] == OK
+        assert not f.get("rolling") and f.get("contact") and not f.get("valid")
+        assert f.call("enterContinuousTimeMode")[0] == OK
+        # states set where the ball would roll (the start's): no event handled, so `rolling`
+        # stays false, while N and Ft are those of the states set
+        n_root = f.get("N")
+        imp.at(t_root, x0)
+        assert 0.1 * f.get("N") - f.get("Ft") > 0 and f.get("N") != n_root
+        assert not f.get("rolling")
     finally:
         f.free()

@@ -82,6 +82,9 @@ def test_a_tunable_parameter_takes_effect_at_the_next_step(open_fmu, flavour):
     ("InductionMotor", "i", 1e300, "parameter i = 1e+300 is outside its accepted range [0.001, 10000]"),
     ("InductionMotor", "i", 1e-300, "parameter i = 1e-300 is outside its accepted range [0.001, 10000]"),
     ("InductionMotor", "eta", 2.0, "parameter eta = 2.0 is outside its accepted range [0, 1]"),
+    # inside the declared range, refused by the model: both flavours name the FMU's parameter
+    ("InductionMotor", "Tb_ratio", 1.0, "Tb_ratio Tb/Tn must be larger than 1 (Kloss's formula has no rated point "
+     "otherwise), got Tb_ratio = 1.0"),
     ("Fig1Drive", "t0_frame", 0.0, "parameter t0_frame = 0.0 s is outside its accepted range [0.001, 1e+06] s"),
     ("Fig1Drive", "Omega_frame", float("inf"), "parameter Omega_frame = inf rad/s is outside its accepted range"),
     ("Fig1Drive", "zc", -1e4, "parameter zc = -10000.0 m is outside its accepted range [-1000, 1000] m"),
