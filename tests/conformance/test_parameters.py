@@ -85,6 +85,7 @@ def test_a_tunable_parameter_takes_effect_at_the_next_step(open_fmu, flavour):
     # inside the declared range [0, 1] but not below 1: refused by the motor's own checks
     ("InductionMotor", "Rs_share", 1.0, "Rs_share must lie in [0, 1), got Rs_share = 1.0"),
     ("InductionMotor", "f_start", 1.0, "f_start must lie in [0, 1), got f_start = 1.0"),
+    ("InductionMotor", "J_rotor", 0.0, "J_rotor must be positive, got J_rotor = 0.0 kg m2"),
     ("Fig1Drive", "t0_frame", 0.0, "parameter t0_frame = 0.0 s is outside its accepted range [0.001, 1e+06] s"),
     ("Fig1Drive", "Omega_frame", float("inf"), "parameter Omega_frame = inf rad/s is outside its accepted range"),
     ("Fig1Drive", "zc", -1e4, "parameter zc = -10000.0 m is outside its accepted range [-1000, 1000] m"),
