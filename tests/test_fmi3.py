@@ -238,3 +238,24 @@ def test_fmi3_model_exchange_motor_startup_has_its_time_events(fmi3):
     law = CrankStartup(t0=1.13)
     for t, ax in zip(r["time"], r["ax1O"]):
         assert ax == pytest.approx(law.state(float(t))[4], rel=1e-12, abs=1e-12)
+
+
+def test_fmi3_getters_and_setters_take_any_number_of_references(fmi3):
+    """150 references in one call (more than the plumbing's chunks of 64), the same one
+    repeated: every value read back is the one a single reference gives, and 150 set leave
+    the last value."""
+    slave, vr, log = _slave(fmi3["BallInShell"], "many", False)
+    try:
+        slave.setFloat64([vr["xC0"]], [0.05])
+        slave.enterInitializationMode(startTime=0.0)
+        slave.exitInitializationMode()
+        slave.doStep(0.0, 2e-3)
+        one = slave.getFloat64([vr["xC"]])[0]
+        assert one != 0.0 and list(slave.getFloat64([vr["xC"]] * 150)) == [one] * 150
+        valid = slave.getBoolean([vr["valid"]])[0]
+        assert list(slave.getBoolean([vr["valid"]] * 150)) == [valid] * 150
+        slave.setFloat64([vr["x1O"]] * 150, [1e-4 * i for i in range(150)])
+        assert slave.getFloat64([vr["x1O"]])[0] == 1e-4 * 149
+    finally:
+        slave.terminate()
+        slave.freeInstance()

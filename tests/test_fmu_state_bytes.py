@@ -190,3 +190,34 @@ def test_every_changed_byte_of_a_pythonfmu_state_is_refused_named_and_the_instan
     for _ in range(5):
         assert fmu.step(H) == OK and ref.step(H) == OK
     assert fmu.outputs() == ref.outputs()
+
+
+def test_a_state_whose_parameters_break_the_model_s_rules_is_refused_at_set_and_the_instance_kept(opened, fmus_of):
+    """A state with an intact checksum whose parameters pass their declared ranges but not the
+    model's own rules (r = 0.3 m > R = 0.25 m: r's declared range allows it) is refused when it
+    is set, as the same values are at initialisation, and the instance steps on unchanged."""
+    import struct
+
+    inst = _native_started(opened, fmus_of, "BallInShell", "victim")
+    ref = _native_started(opened, fmus_of, "BallInShell", "reference")
+    saved = inst.fmu.getFMUstate()
+    blob = bytearray(inst.fmu.serializeFMUstate(saved))
+    at = HEADER + 8 * inst.vars["r"].valueReference
+    assert struct.unpack_from("<d", blob, at)[0] == inst.get("r") == 0.025
+    struct.pack_into("<d", blob, at, 0.3)
+    blob[-4:] = zlib.crc32(bytes(blob[:-4])).to_bytes(4, "little")
+    state = inst.fmu.deSerializeFMUstate(bytes(blob))  # the bytes are whole: only the physics is wrong
+    before = _native_outputs(inst)
+    with pytest.raises(FMICallException) as e:
+        inst.fmu.setFMUstate(state)
+    assert e.value.status == ERROR
+    said = " | ".join(m for _, m in inst.messages[-2:])
+    assert "fmi2SetFMUstate: state refused" in said and "instance unchanged" in said
+    assert "R must be larger than r" in said and "r = 0.3 m" in said, said
+    assert _native_outputs(inst) == before
+    for k in range(3, 6):
+        inst.fmu.doStep(k * H, H)
+        ref.fmu.doStep(k * H, H)
+    assert _native_outputs(inst) == _native_outputs(ref)
+    inst.fmu.freeFMUstate(state)
+    inst.fmu.freeFMUstate(saved)

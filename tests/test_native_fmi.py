@@ -326,6 +326,18 @@ def test_boolean_status_answers_terminated_only(opened, fmus_of, model):
         assert info.value.status == DISCARD
 
 
+@pytest.mark.parametrize("model", MODELS)
+def test_status_answers_the_step_status_only(opened, fmus_of, model):
+    """fmi2GetStatus: fmi2DoStepStatus is answered (fmi2OK: steps are synchronous, never
+    pending); the other kinds, and a number no fmi2StatusKind has, get fmi2Discard."""
+    inst = _start(opened, fmus_of, model)
+    assert inst.fmu.getStatus(0) == 0  # fmi2DoStepStatus: fmi2OK
+    for kind in (1, 2, 3, -1, 4):  # pending, last successful time, terminated; not a kind at all
+        with pytest.raises(FMICallException) as info:
+            inst.fmu.getStatus(kind)
+        assert info.value.status == DISCARD, kind
+
+
 def test_getters_and_setters_take_any_number_of_references(opened, fmus_of):
     """A getter or setter takes nvr references in one call, any number, the same one repeated
     too: 150 (more than the plumbing's chunks of 64) of each type read back as the value one
@@ -424,3 +436,20 @@ def test_a_state_from_another_configuration_restores_that_configuration(opened, 
     assert light.reals(("N", "xC", "M_reaction")) == heavy.reals(("N", "xC", "M_reaction"))
     # the heavy ball, off-centre (xC0 = 0.05 m of R - r = 0.225 m): N near m g cos(12.8 deg)
     assert light.get("N") == pytest.approx(2.0 * 9.81 * math.cos(math.asin(0.05 / 0.225)), rel=0.02)
+
+
+def test_serialising_into_a_short_buffer_is_refused_naming_the_size_asked_for(opened, fmus_of):
+    """fmi2SerializeFMUstate with a buffer one byte shorter than fmi2SerializedFMUstateSize
+    said, or none, is refused with the sizes and the function to ask, and writes nothing."""
+    inst = _start(opened, fmus_of, "MotorStartup")
+    state = inst.fmu.getFMUstate()
+    size = ctypes.c_size_t()
+    assert _raw(inst, "fmi2SerializedFMUstateSize", state, ctypes.byref(size)) == 0
+    buf = ctypes.create_string_buffer(b"\xaa" * size.value, size.value)
+    assert _raw(inst, "fmi2SerializeFMUstate", state, buf, ctypes.c_size_t(size.value - 1)) == ERROR
+    assert _errors(inst)[-1] == (f"MotorStartup 'motorstartup': fmi2SerializeFMUstate: the buffer has "
+                                 f"{size.value - 1} bytes, fewer than fmi2SerializedFMUstateSize = {size.value}")
+    assert buf.raw == b"\xaa" * size.value
+    assert _raw(inst, "fmi2SerializeFMUstate", state, None, size) == ERROR
+    assert _errors(inst)[-1].endswith("fmi2SerializeFMUstate: no buffer given")
+    inst.fmu.freeFMUstate(state)

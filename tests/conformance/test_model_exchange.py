@@ -81,6 +81,18 @@ def test_get_derivatives_before_initialisation_is_refused(me_paths, version, mod
         f.free()
 
 
+@pytest.mark.parametrize("model", ("BallInShell", "MotorStartup"))
+def test_enter_event_mode_before_initialisation_is_refused(me_paths, version, model):
+    f = _open(me_paths[model], "me", version)
+    try:
+        assert f.call("enterEventMode")[0] == ERROR
+        assert f"{_fn(version, 'EnterEventMode')} is not allowed in state {_fn(version, 'instantiated')}" \
+            in f.messages()
+        assert f.init() == OK  # the instance stays usable
+    finally:
+        f.free()
+
+
 @pytest.mark.parametrize("model", ME_MODELS)
 def test_set_time_backwards_is_refused_and_time_kept(me_paths, version, model):
     f = _running(me_paths[model], version=version)

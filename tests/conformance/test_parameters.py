@@ -85,6 +85,9 @@ def test_a_tunable_parameter_takes_effect_at_the_next_step(open_fmu, flavour):
     # inside the declared range, refused by the model: both flavours name the FMU's parameter
     ("InductionMotor", "Tb_ratio", 1.0, "Tb_ratio Tb/Tn must be larger than 1 (Kloss's formula has no rated point "
      "otherwise), got Tb_ratio = 1.0"),
+    ("InductionMotor", "Rs_share", 1.0, "Rs_share must lie in [0, 1), got Rs_share = 1.0"),
+    ("InductionMotor", "f_start", 1.0, "f_start must lie in [0, 1), got f_start = 1.0"),
+    ("InductionMotor", "J_rotor", 0.0, "J_rotor must be positive, got J_rotor = 0.0 kg m2"),
     ("Fig1Drive", "t0_frame", 0.0, "parameter t0_frame = 0.0 s is outside its accepted range [0.001, 1e+06] s"),
     ("Fig1Drive", "Omega_frame", float("inf"), "parameter Omega_frame = inf rad/s is outside its accepted range"),
     ("Fig1Drive", "zc", -1e4, "parameter zc = -10000.0 m is outside its accepted range [-1000, 1000] m"),
@@ -126,3 +129,12 @@ def test_outputs_keep_their_sign_and_never_carry_nan(open_fmu):
     for name, v in fmu.outputs().items():
         if isinstance(v, float):
             assert v == v and abs(v) < 1e300 or name in ("friction_ratio", "t_invalid"), (name, v)
+
+
+def test_a_bed_deeper_than_the_chamber_is_refused_naming_the_limit(open_fmu, flavour):
+    """h_bed's declared range cannot know R: with bed = 1 the model refuses a bed whose surface
+    lies above the chamber's highest point, naming the limit 2 R it computed."""
+    fmu = open_fmu("BallInShell", bed=1, h_bed=0.6)
+    feed(fmu, 0.0)
+    assert fmu.init() == flavour.refusal
+    assert "h_bed = 0.6 m is outside its accepted range [0, 2 R = 0.5] m with bed = 1" in fmu.messages()

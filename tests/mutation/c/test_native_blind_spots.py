@@ -148,3 +148,24 @@ def test_one_x1O_sample_off_by_a_fraction_of_the_accepted_residual(native, a, si
     else:
         assert "disagree" not in fmu.messages()
     assert math.isfinite(fmu.get("N"))
+
+
+# ------------------------------------------------------------- steps equal up to round-off
+def test_steps_equal_but_for_a_trillionth_reconstruct_as_the_python_flavour(fmus_of):
+    """A master whose steps differ by about 1e-12 of their size (times accumulated in decimal,
+    or a step size computed per step) gives the reconstruction sample offsets a hair from
+    whole numbers of steps: both flavours round them to 12 decimals (Python's round(tau, 12),
+    platform._inverse), so the natives's outputs equal the pythonfmu twin's bit for bit; offsets
+    a quarter of 1e-12 and more from a whole number keep their 12th decimal."""
+    fmus = {f: Fmu(fmus_of(f)["BallInShell"], f"jitter_{f}", xC0=0.03, input_mode=2) for f in ("native", "pythonfmu")}
+    rows = {f: [] for f in fmus}
+    for f, fmu in fmus.items():
+        feed(fmu, 0.0)
+        assert fmu.init() == OK, fmu.messages()
+        for k in range(12):
+            h = H * (1.0 + (0.4e-12, 0.9e-12, -0.6e-12, 1.1e-12)[k % 4])
+            assert fmu.step(h) == OK, fmu.messages()
+            feed(fmu, fmu.time)
+            rows[f].append(fmu.outputs())
+        fmu.free()
+    assert rows["native"] == rows["pythonfmu"]
