@@ -259,3 +259,31 @@ def test_fmi3_getters_and_setters_take_any_number_of_references(fmi3):
     finally:
         slave.terminate()
         slave.freeInstance()
+
+
+def test_fmi3_binary_and_clock_calls_take_no_variable_and_refuse_any(fmi3):
+    """These FMUs have no Binary variables and no clocks: a call with no value references does
+    nothing (fmi3OK), one that names a variable is refused (fmi3Error) saying why."""
+    import ctypes
+
+    slave, vr, log = _slave(fmi3["MotorStartup"], "binary", False)
+    try:
+        slave.enterInitializationMode(startTime=0.0)
+        slave.exitInitializationMode()
+        ref = (ctypes.c_uint32 * 1)(vr["psi"])
+        sizes, values = (ctypes.c_size_t * 1)(0), (ctypes.POINTER(ctypes.c_uint8) * 1)()
+        clocks = (ctypes.c_bool * 1)()
+        dll = slave.dll
+        for name, args, what in (("fmi3GetBinary", (sizes, values), "Binary variables"),
+                                 ("fmi3SetBinary", (sizes, values), "Binary variables"),
+                                 ("fmi3GetClock", (clocks,), "clocks"), ("fmi3SetClock", (clocks,), "clocks")):
+            nvalues = (1,) if "Binary" in name else ()
+            assert getattr(dll, name)(slave.component, ref, ctypes.c_size_t(0), *args,
+                                      *(ctypes.c_size_t(0) for _ in nvalues)) == 0, name
+            n = len(log)
+            assert getattr(dll, name)(slave.component, ref, ctypes.c_size_t(1), *args,
+                                      *(ctypes.c_size_t(1) for _ in nvalues)) == 3, name
+            assert any(s == 3 and name in m and f"this FMU has no {what}" in m for s, m in log[n:]), (name, log[n:])
+    finally:
+        slave.terminate()
+        slave.freeInstance()

@@ -421,3 +421,18 @@ def test_discrete_outputs_change_only_at_the_event_update(me_paths, version):
         assert not f.get("rolling")
     finally:
         f.free()
+
+
+def test_a_model_exchange_call_on_a_co_simulation_instance_is_refused_naming_both(native_paths):
+    f = Fmu(native_paths["MotorStartup"], "cs_instance")
+    try:
+        assert f.init() == OK
+        n = len(f.log)
+        set_time = f.fmu.dll.fmi2SetTime  # not among fmpy's co-simulation calls: the binary's own
+        set_time.argtypes, set_time.restype = [ctypes.c_void_p, ctypes.c_double], ctypes.c_int
+        assert set_time(f.fmu.component, 0.1) == ERROR
+        assert f.messages(n) == ("MotorStartup 'cs_instance': fmi2SetTime is a Model Exchange function; "
+                                 "this instance is co-simulation")
+        assert f.step(1e-3) == OK  # the instance goes on
+    finally:
+        f.free()

@@ -169,3 +169,22 @@ def test_steps_equal_but_for_a_trillionth_reconstruct_as_the_python_flavour(fmus
             rows[f].append(fmu.outputs())
         fmu.free()
     assert rows["native"] == rows["pythonfmu"]
+
+
+@pytest.mark.parametrize("input_mode", [1, 2])
+def test_growing_and_shrinking_steps_keep_the_python_flavour_s_history(fmus_of, input_mode):
+    """Steps that grow and shrink move the reconstruction's oldest node back to samples kept
+    from earlier windows (the corrected states at the history's sample times): both flavours
+    keep the same ones, so the native outputs equal the pythonfmu twin's bit for bit."""
+    fmus = {f: Fmu(fmus_of(f)["BallInShell"], f"grow_{f}", xC0=0.03, input_mode=input_mode)
+            for f in ("native", "pythonfmu")}
+    rows = {f: [] for f in fmus}
+    for f, fmu in fmus.items():
+        feed(fmu, 0.0)
+        assert fmu.init() == OK, fmu.messages()
+        for factor in (1, 1, 1, 1, 2, 3, 4, 1, 1, 5, 0.5, 0.5, 6, 1):
+            assert fmu.step(H * factor) == OK, fmu.messages()
+            feed(fmu, fmu.time)
+            rows[f].append(fmu.outputs())
+        fmu.free()
+    assert rows["native"] == rows["pythonfmu"]
