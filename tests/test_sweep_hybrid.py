@@ -77,8 +77,7 @@ def test_a_start_that_strikes_the_shell_counts_what_simulate_hybrid_lists(tmp_pa
     assert row["flight_fraction"] * 1.5 == pytest.approx(flight, abs=n_flights * 0.01)
     assert row["flight_fraction"] > 0.0 and row["sliding_fraction"] > 0.0
     assert row["rolling_fraction"] + row["sliding_fraction"] + row["flight_fraction"] == pytest.approx(1.0, abs=1e-12)
-    assert row["valid"] is True and row["t_invalid"] is None
-    assert row["friction_ratio_max"] > 0.3  # the rolling rule's 'invalid' does not latch the hybrid ball
+    assert row["valid"] is True and row["t_invalid"] is None  # the rolling rule (slip at 0) does not latch
 
 
 def test_mode_fractions_and_a_run_stopped_early_on_a_record_built_by_hand():
@@ -89,8 +88,8 @@ def test_mode_fractions_and_a_run_stopped_early_on_a_record_built_by_hand():
     mode = np.array([1, 1, 1, 2, 2, 0, 0, 0, 0], float)
     z = np.zeros_like(t)
     s = {"ball." + k: z for k in ("N", "friction_ratio", "xP", "yP", "zP", "xC", "yC")}
-    s.update({"ball.zC": z + 0.1, "ball.mode": mode, "ball.n_impacts": np.array([0, 0, 0, 0, 0, 0, 1, 2, 2.]),
-              "ball.v_impact_max": np.array([0, 0, 0, 0, 0, 0, .5, .7, .7]), "ball.E_friction": t * 0.1,
+    s.update({"ball.zC": z + 0.1, "ball.mode": mode, "ball.n_impacts": np.array([0, 0, 0, 0, 0, 0, 1, 1, 2.]),
+              "ball.v_impact_max": np.array([0, 0, 0, 0, 0, 0, .5, .5, .7]), "ball.E_friction": t * 0.1,
               "ball.E_impact": z, "ball.t_first_slip": np.where(t >= 1.5, 1.2, np.nan),
               "ball.t_first_flight": np.where(t >= 2.5, 2.1, np.nan), "drive.psi": t * math.pi})
     rec = ind.Record(t, s, "ball", "drive", 0.3, {"start": 0.0, "stop": 4.0, "after": 1.0})
@@ -128,3 +127,24 @@ def test_contact_table_is_checked_and_kept_in_the_context():
     with pytest.raises(StudyError) as e:
         build("fast_start", grid={"drive.t0": [1.0]}, contact={"e_n": 1.5}, where="W")
     assert e.value.problems == ["W: contact: e_n must lie in [0, 1], got e_n = 1.5 1"]
+
+
+def test_maps_draw_the_boundary_of_the_shockless_region(tmp_path, subplots_made):
+    """On a 3 x 3 grid with impacts at the two points (t0 = 1, n0 = 60) and (t0 = 1, n0 = 80),
+    every map carries the outline of those two cells inside the grid: the edges x = 1.5 (their
+    right), y = 50 (below them), and no others (the grid's own border is not a boundary)."""
+    from ballmill.sweep import plots
+
+    study = build("fast_start", grid={"drive.t0": [1.0, 2.0, 3.0], "drive.n0": [40, 60, 80]}, contact={})
+    hit = {(1.0, 60), (1.0, 80)}
+    rows = [{"drive.t0": t0, "drive.n0": n0, "status": "ok", "valid": True, "N_max": t0 + n0,
+             "n_impacts": 3.0 if (t0, n0) in hit else 0.0, "v_impact_max": 1.0 if (t0, n0) in hit else 0.0}
+            for n0 in (40, 60, 80) for t0 in (1.0, 2.0, 3.0)]
+    files = plots.write(study, rows, tmp_path)
+    assert [f.name for f in files] == ["map_N_max.png", "map_n_impacts.png", "map_v_impact_max.png"]
+    ax = subplots_made[0].axes[0]
+    (lines,) = [c for c in ax.collections if c.get_label() == "boundary of the shockless region"]
+    segs = sorted(tuple(map(tuple, np.round(s, 9))) for s in lines.get_segments())
+    assert segs == [((0.5, 50.0), (1.5, 50.0)), ((1.5, 50.0), (1.5, 70.0)), ((1.5, 70.0), (1.5, 90.0))]
+    assert "where impacts begin" in ax.get_title()
+    assert subplots_made[0].axes[1].get_ylabel().endswith("v_impact_max [m/s]")
