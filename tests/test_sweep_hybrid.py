@@ -2,6 +2,7 @@
 indicators against the closed form of a ball that keeps rolling, against simulate_hybrid's own
 event list on a start that strikes the shell, on a record built by hand (the mode fractions, a
 run stopped early), and the study checks of [contact]."""
+import json
 import math
 
 import numpy as np
@@ -78,6 +79,8 @@ def test_a_start_that_strikes_the_shell_counts_what_simulate_hybrid_lists(tmp_pa
     assert row["flight_fraction"] > 0.0 and row["sliding_fraction"] > 0.0
     assert row["rolling_fraction"] + row["sliding_fraction"] + row["flight_fraction"] == pytest.approx(1.0, abs=1e-12)
     assert row["valid"] is True and row["t_invalid"] is None  # the rolling rule (slip at 0) does not latch
+    info = json.loads((tmp_path / "study.json").read_text())["indicators"]
+    assert info["valid"].startswith("the hybrid run reached the end") and "n_impacts" in info
 
 
 def test_mode_fractions_and_a_run_stopped_early_on_a_record_built_by_hand():

@@ -46,7 +46,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..scenario import spec as _scen
-from .indicators import BUILTIN, HYBRID, Record, evaluate, evaluate_hybrid
+from .indicators import BUILTIN, HYBRID, VALIDITY, VALIDITY_HYBRID, Record, evaluate, evaluate_hybrid
 
 REGISTRY: dict[str, "Evaluator"] = {}
 ORDER: list[str] = []
@@ -63,12 +63,13 @@ def register_case(name: str, case):
 
 class Evaluator:
     """Base class: ``kind`` (its name), ``description``, ``indicators`` (the built-in
-    indicators its points report: name -> (unit, description), the results' columns);
-    `check`, `prepare`."""
+    indicators its points report: name -> (unit, description), the results' columns),
+    ``validity`` (what its valid and t_invalid mean, same form); `check`, `prepare`."""
 
     kind = ""
     description = ""
     indicators = BUILTIN
+    validity = VALIDITY
 
     def check(self, sc: _scen.Scenario) -> str:
         raise NotImplementedError
@@ -399,6 +400,7 @@ class HybridKernel(CrankKernel):
     description = ("the ball that rolls, slides, flies and strikes the shell (physics.hybrid.simulate_hybrid, "
                    "compiled kernel) under a closed-form crank drive")
     indicators = {**BUILTIN, **HYBRID}
+    validity = VALIDITY_HYBRID
 
     def prepare(self, sc, study, build_dir=None):
         from ..physics.hybrid import Contact

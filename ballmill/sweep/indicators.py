@@ -82,6 +82,11 @@ VALIDITY = {
     "valid": ("", "the model held over the whole run: N > 0 and |F_t| <= mu N at every sample"),
     "t_invalid": ("s", "first sample where it did not (None when valid)"),
 }
+VALIDITY_HYBRID = {  # evaluate_hybrid's: the hybrid model follows slip, flight and impacts
+    "valid": ("", "the hybrid run reached the end (it stops early only on what it cannot follow, a Zeno "
+                  "sequence of impacts)"),
+    "t_invalid": ("s", "first sample the run did not reach (None when valid)"),
+}
 
 
 @dataclass
