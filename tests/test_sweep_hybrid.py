@@ -151,3 +151,25 @@ def test_maps_draw_the_boundary_of_the_shockless_region(tmp_path, subplots_made)
     assert segs == [((0.5, 50.0), (1.5, 50.0)), ((1.5, 50.0), (1.5, 70.0)), ((1.5, 70.0), (1.5, 90.0))]
     assert "where impacts begin" in ax.get_title()
     assert subplots_made[0].axes[1].get_ylabel().endswith("v_impact_max [m/s]")
+
+
+@needs_kernel
+def test_the_first_slip_is_at_once_exactly_where_the_start_asks_for_more_than_mu(tmp_path):
+    """From rest at the bottom, the quadratic law's psi''(0) = 2 w0 / t0 asks for the friction
+    ratio (2/7) l psi''(0) / g: above mu = 0.3 the ball slips at t = 0 (t0 = 0.55 s, n0 = 60:
+    0.326), below it later or never (t0 = 0.7 s: 0.256). The shockless map's 400 points obey
+    this without exception (329 slip at once)."""
+    rows = _rows(tmp_path, {"drive.t0": [0.55, 0.7]}, stop=1.0)
+    w0 = 2 * math.pi * 60 / 60
+    for row in rows:
+        asked = 2 / 7 * 0.5 * 2 * w0 / row["drive.t0"] / 9.81
+        assert (row["t_first_slip"] == 0.0) == (asked > 0.3), (row["drive.t0"], asked, row["t_first_slip"])
+    assert rows[1]["t_first_slip"] is None or rows[1]["t_first_slip"] > 0.0
+
+
+def test_the_shockless_map_study_file():
+    from ballmill.sweep import load
+
+    st = load("t0_n0_hybrid")
+    assert len(st.points()) == 400 and st.contact == {"e_n": 0.5, "v_rest": 0.01}
+    assert st.model["kind"] == "hybrid-kernel" and st.model["method"] == "DOP853"
