@@ -336,11 +336,14 @@ def main(argv=None) -> int:
                    help="a fixed override, as in ballmill run (repeatable)")
     w.add_argument("--out", help="output folder (default: out/sweep/STUDY); re-running resumes")
     w.add_argument("--stop", type=float, help="simulate up to this time [s] instead of the scenario's stop")
-    w.add_argument("--model", help="evaluator: auto (default), crank-kernel or cosim (absorber for case studies)")
+    w.add_argument("--model", help="evaluator: auto (default), crank-kernel, cosim or hybrid-kernel (the ball "
+                                   "that slides, flies and strikes; a study with a [contact] table runs on it) "
+                                   "(absorber for case studies)")
     w.add_argument("--mode", choices=("steady", "up", "down", "both"),
                    help="a case study's mode (absorber: independent steady states refined at the peaks, or "
                         "stepped sweeps up, down or both, continuing from state to state)")
-    w.add_argument("--method", help="kernel integrator: RK4 (default), RK45 or DOP853")
+    w.add_argument("--method", help="kernel integrator: RK4 (default; DOP853 for hybrid-kernel, which refuses "
+                                    "RK4), RK45 or DOP853")
     w.add_argument("--h", type=float, help="RK4 first step [s] (default 0.01; halved per point to meet the target)")
     w.add_argument("--target", type=float, help="RK4: estimated contact-point error to reach [m] (default 1e-5)")
     w.add_argument("--dt", type=float, help="output sampling for the indicators [s] (default 0.01)")

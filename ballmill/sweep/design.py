@@ -43,7 +43,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from . import engine as _eng
-from . import indicators as _ind
 from .spec import Study, StudyError, _check_key, _toml_value, build, point_id, resolve_study
 
 COMMON_KEYS = {"description", "scenario", "stop", "set", "model", "indicators", "variables"}
@@ -204,7 +203,7 @@ class Session:
                 "context": self.setup.context, "context_hash": self.setup.chash, "evaluator": self.setup.ev.kind,
                 "model": self.setup.prepared.model, "variables": {k: list(b) for k, b in ds.bounds.items()},
                 "columns": self.cols, "units": self.units,
-                "indicators": {k: d for k, (_, d) in {**self.setup.ev.indicators, **_ind.VALIDITY}.items()}}
+                "indicators": {k: d for k, (_, d) in {**self.setup.ev.indicators, **self.setup.ev.validity}.items()}}
         self.setup.info_path.write_text(json.dumps(info, indent=2))
         self.setup_s = time.perf_counter() - self.t0
 

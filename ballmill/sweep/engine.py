@@ -437,7 +437,7 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
     info = {"name": study.name, "description": study.description, "context": context, "context_hash": chash,
             "evaluator": ev.kind, "model": prepared.model, "swept": study.swept, "points": len(points),
             "columns": cols, "units": units,
-            "indicators": {k: d for k, (_, d) in {**ev.indicators, **_ind.VALIDITY}.items()}}
+            "indicators": {k: d for k, (_, d) in {**ev.indicators, **ev.validity}.items()}}
     info_path.write_text(json.dumps(info, indent=2))
 
     # run

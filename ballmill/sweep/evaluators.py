@@ -46,7 +46,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..scenario import spec as _scen
-from .indicators import BUILTIN, Record, evaluate
+from .indicators import BUILTIN, HYBRID, VALIDITY, VALIDITY_HYBRID, Record, evaluate, evaluate_hybrid
 
 REGISTRY: dict[str, "Evaluator"] = {}
 ORDER: list[str] = []
@@ -63,12 +63,13 @@ def register_case(name: str, case):
 
 class Evaluator:
     """Base class: ``kind`` (its name), ``description``, ``indicators`` (the built-in
-    indicators its points report: name -> (unit, description), the results' columns);
-    `check`, `prepare`."""
+    indicators its points report: name -> (unit, description), the results' columns),
+    ``validity`` (what its valid and t_invalid mean, same form); `check`, `prepare`."""
 
     kind = ""
     description = ""
     indicators = BUILTIN
+    validity = VALIDITY
 
     def check(self, sc: _scen.Scenario) -> str:
         raise NotImplementedError
@@ -393,6 +394,85 @@ def _difference(fine, coarse, stride: int, factor: float, how: str) -> dict:
 
 
 # ----------------------------------------------------------------------------
+# the hybrid ball (rolling, sliding, flight, impacts) in the compiled kernel, for the same drives
+class HybridKernel(CrankKernel):
+    kind = "hybrid-kernel"
+    description = ("the ball that rolls, slides, flies and strikes the shell (physics.hybrid.simulate_hybrid, "
+                   "compiled kernel) under a closed-form crank drive")
+    indicators = {**BUILTIN, **HYBRID}
+    validity = VALIDITY_HYBRID
+
+    def prepare(self, sc, study, build_dir=None):
+        from ..physics.hybrid import Contact
+
+        feeds = {(di, dv): si for si, sv, di, dv in sc.connections}
+        ball = next(n for n, i in sc.instances.items() if i.fmu == "BallInShell")
+        m = study.model
+        return HybridPrepared(sc=sc, ball=ball, drive=feeds[(ball, "x1O")], method=m["method"], h=float(m["h"]),
+                              tol=float(m["tolerance"]), dt=float(m["dt"]), target=float(m["target_P"]),
+                              contact=Contact(**(study.contact or {})))
+
+
+@dataclass
+class HybridPrepared(CrankPrepared):
+    """A point: `simulate_hybrid` of the point's ball and crank start over the scenario's
+    [start, stop], sampled every dt, from the rolling model's initial state (as the
+    crank-kernel's run), with the study's Contact and integrator (DOP853 or RK45 at the
+    tolerance: a fixed RK4 step cannot follow the stiff Coulomb direction of sliding)."""
+
+    contact: object = None
+
+    def model_at(self, h=None):
+        c = self.contact
+        return (f"hybrid-kernel: rolling/sliding/flight/impacts, compiled kernel, {self.method} tol = "
+                f"{self.tol:g}, mu_k = {c.mu_k if c.mu_k is not None else 'mu'}, e_n = {c.e_n:g}, "
+                f"v_rest = {c.v_rest:g} m/s, outputs every {self.dt:g} s")
+
+    def run(self, params):
+        from ..physics import BallModel
+        from ..physics.hybrid import simulate_hybrid
+
+        ball, crank, init, j_total, values, defaults = self.objects(params)
+        c0 = time.perf_counter()
+        state = BallModel(ball).initial(init[0], init[1], init[2:], t0=self.sc.start)
+        traj = simulate_hybrid(ball, crank, self.sc.stop, self.dt, self.contact, initial=state,
+                               method=self.method, tol=self.tol)
+        self.timing["integration"] += time.perf_counter() - c0
+        n_steps = int(round((self.sc.stop - self.sc.start) / self.dt))
+        t = self.sc.start + self.dt * np.arange(n_steps + 1)  # the grid, also where the run stopped early
+        k = len(traj.t)
+        o = traj.out
+
+        def col(x):
+            x = np.asarray(x, float)
+            return x if k == len(t) else np.concatenate([x, np.full(len(t) - k, np.nan)])
+
+        b = self.ball + "."
+        N, Ft = o["N"], o["Ft"]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(N > 0.0, Ft / N, 0.0)  # no contact force in flight
+        s = {b + "N": col(N), b + "Ft": col(Ft), b + "friction_ratio": col(ratio)}
+        for i, ax in enumerate("xyz"):  # C relative to O; P = C + r n, the ball's point nearest the shell
+            s[b + ax + "C"] = col(o[ax + "C"])
+            s[b + ax + "P"] = col(o[ax + "C"] + ball.r * o["n" + ax])
+        for name in ("mode", "slip_speed", "gap", "E", "W_chamber", "E_friction", "E_impact", "n_impacts",
+                     "v_impact_max", "t_first_slip", "t_first_flight"):
+            s[b + name] = col(o[name])
+        psi, wd, wdd = crank.angles(t)
+        d = self.drive + "."
+        s.update({d + "psi": psi, d + "psi_dot": wd, d + "psi_ddot": wdd})
+        rec = Record(t, s, self.ball, self.drive, ball.mu, _refs(self.sc, values, defaults))
+        rec.stopped_at = None if traj.success else k
+        meta = {"model": self.model, "error_P_m": None, "error_N_N": None,
+                "error_method": f"none: {self.method} at tol = {self.tol:g} controls the local error"
+                                + ("" if traj.success else f"; the run stopped: {traj.message}")}
+        return rec, meta
+
+    def evaluate(self, rec, custom):
+        return evaluate_hybrid(rec, custom, rec.stopped_at)
+
+
+# ----------------------------------------------------------------------------
 # the co-simulation through the FMUs (anything the kernel does not cover)
 class Cosim(Evaluator):
     kind = "cosim"
@@ -503,4 +583,5 @@ def _toml(v) -> str:
 
 register(CrankKernel())
 register(Cosim())
+register(HybridKernel())  # chosen by a study's [contact] table (spec.build), never by "auto" alone
 from . import absorber as _absorber  # noqa: E402,F401 - registers the absorber case and its evaluator

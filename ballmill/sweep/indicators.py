@@ -82,6 +82,11 @@ VALIDITY = {
     "valid": ("", "the model held over the whole run: N > 0 and |F_t| <= mu N at every sample"),
     "t_invalid": ("s", "first sample where it did not (None when valid)"),
 }
+VALIDITY_HYBRID = {  # evaluate_hybrid's: the hybrid model follows slip, flight and impacts
+    "valid": ("", "the hybrid run reached the end (it stops early only on what it cannot follow, a Zeno "
+                  "sequence of impacts)"),
+    "t_invalid": ("s", "first sample the run did not reach (None when valid)"),
+}
 
 
 @dataclass
@@ -97,6 +102,7 @@ class Record:
     mu: float
     refs: dict = field(default_factory=dict)
     derived: dict = field(default_factory=dict)
+    stopped_at: int | None = None  # a run that stopped early: the first sample it did not reach
 
     def get(self, name: str) -> np.ndarray:
         if name in self.series:
@@ -388,6 +394,69 @@ def swept_area(u, inside, R: float, alpha: float) -> float:
     # each row's marks sum to 0 (every interval ends in its own band): one running sum over all
     covered = np.count_nonzero((np.cumsum(diff) > 0).reshape(nb, cols + 1), axis=1)
     return float(zone.dot(covered) / cols)
+
+
+# the hybrid ball's own indicators (a study with a [contact] table, evaluator "hybrid-kernel"), over
+# the run [start, stop]; the record holds the hybrid model's columns (mode, the bookkeeping)
+HYBRID = {
+    "rolling_fraction": ("1", "fraction of the run [start, stop] the ball rolls (mode 1; trapezoidal rule on "
+                              "the samples)"),
+    "sliding_fraction": ("1", "fraction of the run the ball slides on the wall (mode 2)"),
+    "flight_fraction": ("1", "fraction of the run the ball flies (mode 0)"),
+    "n_impacts": ("1", "number of impacts on the shell over the run"),
+    "v_impact_max": ("m/s", "largest approaching normal speed of an impact over the run (0 without impacts)"),
+    "E_friction_rev": ("J", "energy lost to sliding friction per crank revolution over the run: E_friction at "
+                            "the end / the revolutions psi / 2 pi"),
+    "E_impact_rev": ("J", "energy lost in impacts per crank revolution over the run: E_impact at the end / the "
+                          "revolutions"),
+    "t_first_slip": ("s", "time of the first slip (None: the ball never slid)"),
+    "t_first_flight": ("s", "time the ball first left the wall (None: never)"),
+}
+
+
+def hybrid(rec: Record, n_valid: int) -> dict:
+    """The HYBRID indicators over the samples [start, stop] up to n_valid (None where the run
+    stopped before the window's end: the counts and energies are then not those of the run)."""
+    b = rec.ball + "."
+    out = dict.fromkeys(HYBRID)
+    sl = _window(rec, "start", "stop", n_valid)
+    if sl is None or sl.stop - sl.start < 2:
+        return out
+    t, mode = rec.t[sl], rec.series[b + "mode"][sl]
+    span = float(t[-1] - t[0])
+    for name, m in (("rolling_fraction", 1.0), ("sliding_fraction", 2.0), ("flight_fraction", 0.0)):
+        inside = (mode == m).astype(float)
+        out[name] = float((0.5 * (inside[1:] + inside[:-1])).dot(np.diff(t)) / span)
+    last = sl.stop - 1  # the bookkeeping is cumulative: its value at the window's end
+    out["n_impacts"] = float(rec.series[b + "n_impacts"][last] - rec.series[b + "n_impacts"][sl.start])
+    out["v_impact_max"] = float(rec.series[b + "v_impact_max"][last])
+    for name in ("t_first_slip", "t_first_flight"):
+        v = float(rec.series[b + name][last])
+        out[name] = v if math.isfinite(v) else None
+    psi = rec.series.get(f"{rec.drive}.psi") if rec.drive is not None else None
+    if psi is not None:
+        turns = abs(float(psi[last] - psi[sl.start])) / (2.0 * math.pi)
+        if turns > 0.0:
+            for name, col in (("E_friction_rev", "E_friction"), ("E_impact_rev", "E_impact")):
+                e = rec.series[b + col]
+                out[name] = float(e[last] - e[sl.start]) / turns
+    return out
+
+
+def evaluate_hybrid(rec: Record, custom=(), stopped_at: int | None = None) -> dict:
+    """Every indicator of a hybrid run's record: BUILTIN and HYBRID, the custom ones, valid and
+    t_invalid. The hybrid model follows slip, flight and impacts, so the rolling rule of
+    `validity` does not apply: the run is valid unless it stopped early (``stopped_at``: the
+    index of the first sample it did not reach, e.g. after a Zeno sequence), and a statistic
+    whose window reaches past that sample is not reported."""
+    n_valid = len(rec.t) if stopped_at is None else stopped_at
+    out = builtin(rec, n_valid)
+    out.update(hybrid(rec, n_valid))
+    for ind in custom:
+        out[ind.name] = statistic(rec, rec.get(ind.variable), ind.stat, ind.window, n_valid)
+    out["valid"] = stopped_at is None
+    out["t_invalid"] = None if stopped_at is None else float(rec.t[stopped_at])
+    return out
 
 
 def evaluate(rec: Record, custom=()) -> dict:

@@ -6,6 +6,9 @@
 * two swept parameters on a full grid: `map_INDICATOR.png`, a heat map per main
   indicator, cells where the model did not hold hatched (and left uncoloured:
   their indicators are not reported);
+  A study of the hybrid ball (rows with n_impacts) maps its own indicators too, and draws
+  on every map the boundary of the shockless region: the cell edges between the points with
+  impacts (n_impacts > 0) and those without;
 * a sample (random / Latin hypercube): `scatter.png`, each main indicator
   against each swept parameter.
 """
@@ -16,10 +19,14 @@ from pathlib import Path
 import numpy as np
 
 from ..plotting import labels
-from .indicators import BUILTIN
+from .indicators import BUILTIN, HYBRID
 
 MAIN = ("N_range_after", "ring_width", "zP_max", "N_max", "theta_max_deg", "T_drive_peak", "E_startup",
         "friction_ratio_max")
+# the hybrid ball's (a rolling study's rows do not have them, so its plots do not change)
+MAIN_HYBRID = ("n_impacts", "v_impact_max", "sliding_fraction", "flight_fraction", "E_friction_rev",
+               "E_impact_rev", "t_first_slip")
+SHOCKLESS = "white"  # the colour of the shockless region's boundary on a map
 
 
 def _num(v):
@@ -28,7 +35,7 @@ def _num(v):
 
 def _label(name, width=None):
     """An indicator in words with its unit (indicators.BUILTIN); a custom one by its name."""
-    unit, description = BUILTIN.get(name, (None, None))
+    unit, description = {**BUILTIN, **HYBRID}.get(name, (None, None))
     return labels.label(None, name, unit=unit, description=description, width=width)
 
 
@@ -52,7 +59,7 @@ def write(study, rows: list[dict], out_dir: Path) -> list[Path]:
     from ..plotting import figures as plt  # Figure objects on Agg canvases, drawn once each
 
     swept = study.swept
-    main = [m for m in MAIN if any(r.get(m) is not None for r in rows)] + \
+    main = [m for m in MAIN + MAIN_HYBRID if any(r.get(m) is not None for r in rows)] + \
         [i.name for i in study.indicators if any(r.get(i.name) is not None for r in rows)]
     if not rows or not main or not swept:
         return []
@@ -103,6 +110,15 @@ def write(study, rows: list[dict], out_dir: Path) -> list[Path]:
             from matplotlib.patches import PathPatch
 
             ax.add_patch(PathPatch(hatched, facecolor="none", edgecolor="red", hatch="xx", lw=0.0))
+        border = None
+        if any(r.get("n_impacts") is not None for r in rows):  # the hybrid ball: where impacts begin
+            impacts, _ = _grid_values(rows, ["n_impacts"], px, py, xs, ys)
+            segs = _outline(impacts["n_impacts"] > 0, xe, ye)
+            if segs:
+                from matplotlib.collections import LineCollection
+
+                border = ax.add_collection(LineCollection(segs, colors=SHOCKLESS, linewidths=2.0,
+                                                          label="boundary of the shockless region"))
         ax.set_xlabel(_parameter_label(fmus, px, width=60))
         ax.set_ylabel(_parameter_label(fmus, py, width=45))
         fig.suptitle(title, fontsize=9)
@@ -110,7 +126,9 @@ def write(study, rows: list[dict], out_dir: Path) -> list[Path]:
             mesh.set_array(np.ma.masked_invalid(Z[m]))
             mesh.autoscale()
             bar.set_label(_label(m, width=45))
-            ax.set_title(f"{m}" + (" (hatched: model not valid)" if hatched is not None else ""), fontsize=10)
+            ax.set_title(f"{m}" + (" (hatched: model not valid)" if hatched is not None else "")
+                         + (f"\n{SHOCKLESS} line: where impacts begin (n_impacts > 0 on its inner side)"
+                            if border is not None else ""), fontsize=10)
             files.append(plt.save(fig, out_dir / f"map_{m}.png"))
         return files
 
@@ -169,6 +187,18 @@ def _runs(bad: np.ndarray, xe: np.ndarray, ye: np.ndarray):
             verts += [(xe[j0], ye[i]), (xe[j1], ye[i]), (xe[j1], ye[i + 1]), (xe[j0], ye[i + 1]), (xe[j0], ye[i])]
     codes = np.tile([MPath.MOVETO, MPath.LINETO, MPath.LINETO, MPath.LINETO, MPath.CLOSEPOLY], len(verts) // 5)
     return MPath(np.array(verts, float), codes)
+
+
+def _outline(mark: np.ndarray, xe: np.ndarray, ye: np.ndarray) -> list:
+    """The cell edges between a marked cell and an unmarked neighbour (rows along y, columns
+    along x; edges xe, ye), as segments ((x0, y0), (x1, y1)): the boundary of the marked region
+    inside the grid (the grid's own border is none)."""
+    segs = []
+    for i, j in zip(*np.nonzero(mark[:, 1:] != mark[:, :-1])):  # between columns j and j + 1
+        segs.append(((xe[j + 1], ye[i]), (xe[j + 1], ye[i + 1])))
+    for i, j in zip(*np.nonzero(mark[1:, :] != mark[:-1, :])):  # between rows i and i + 1
+        segs.append(((xe[j], ye[i + 1]), (xe[j + 1], ye[i + 1])))
+    return segs
 
 
 def _edges(v: np.ndarray) -> np.ndarray:

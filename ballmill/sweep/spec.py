@@ -29,6 +29,12 @@ command-line options; both become a `Study`:
                                             # (step doubling: a second full run at 2h)
     dt = 0.01                               # sampling of the outputs the indicators read [s]
 
+    [contact]                               # optional: run the ball as the hybrid model (rolling,
+    mu_k = 0.3                              # sliding, flight, impacts: physics.hybrid.Contact), on
+    e_n = 0.5                               # the evaluator "hybrid-kernel" (DOP853 at the tolerance
+    v_rest = 0.01                           # by default); its indicators add hybrid ones (mode
+                                            # fractions, impacts, friction and impact energy)
+
     [[indicators]]                          # extra indicators on any recorded variable
     name = "xP_rms_late"
     variable = "ball.xP"
@@ -102,6 +108,7 @@ class Study:
     stop: float | None = None  # overrides the scenario's experiment stop [s]
     case: str | None = None  # a built-in model case instead of an FMU scenario (evaluators.CASES)
     mode: str | None = None  # the case's mode (absorber: steady, up, down, both)
+    contact: dict | None = None  # the hybrid ball's Contact parameters (None: the rolling model)
     # "inst.param" -> where a fixed or swept value came from ("--grid drive.t0=1,2", "FILE: set.ball.mu"),
     # for the problems the checks report (not part of the context: it does not change the results)
     origins: dict = field(default_factory=dict)
@@ -140,6 +147,8 @@ class Study:
                 "indicators": [i.to_dict() for i in self.indicators]}
         if self.case is not None:  # (absent for FMU scenarios: their contexts stay as they were)
             ctx.update(case=self.case, mode=self.mode)
+        if self.contact is not None:  # (absent for the rolling model: its contexts stay as they were)
+            ctx["contact"] = dict(sorted(self.contact.items()))
         return ctx
 
 
@@ -222,11 +231,13 @@ def _window_ok(w) -> bool:
 def build(scenario: str, *, name: str | None = None, description: str = "", set_=(), grid=None,
           sample=None, model=None, indicators=(), source: Path | None = None, where: str = "study",
           stop: float | None = None, case: str | None = None, mode: str | None = None,
-          origins: dict | None = None) -> Study:
+          origins: dict | None = None, contact: dict | None = None) -> Study:
     """A checked Study (StudyError lists every problem). ``case``: a built-in model case
     (`evaluators.CASES`, e.g. "absorber") instead of the FMU scenario ``scenario``; its
     ``mode``, model settings and pseudo-parameters come from the case. ``origins``:
-    "inst.param" -> where a fixed or swept value came from (the problems name it)."""
+    "inst.param" -> where a fixed or swept value came from (the problems name it). ``contact``:
+    the hybrid ball's `physics.hybrid.Contact` parameters (mu_k, e_n, v_rest, slip_eps; {} for
+    its defaults): the points run on the evaluator "hybrid-kernel", by default with DOP853."""
     origins = dict(origins or {})
     problems: list[str] = []
     spec_case = None
@@ -300,6 +311,11 @@ def build(scenario: str, *, name: str | None = None, description: str = "", set_
          "error": "one-pass"}
     if spec_case is not None:
         m = dict(spec_case.MODEL)
+    if contact is None and (model or {}).get("kind") == HYBRID:
+        contact = {}  # the hybrid evaluator asked for by name: Contact's defaults
+    if contact is not None:
+        m.update(kind=HYBRID, method="DOP853")
+        problems += _check_contact(contact, case, (model or {}).get("kind", "auto"), where)
     for key, v in (model or {}).items():
         if key not in m:
             problems.append(f"{where}: model.{key}: unknown key (known: {', '.join(m)})")
@@ -314,6 +330,10 @@ def build(scenario: str, *, name: str | None = None, description: str = "", set_
         g = spec_case.study_grid(g, mode)
     elif m["method"] not in ("RK4", "RK45", "DOP853"):
         problems.append(f"{where}: model.method: expected RK4, RK45 or DOP853, got {m['method']!r}")
+    elif contact is not None and m["method"] == "RK4":
+        problems.append(f"{where}: model.method: the hybrid ball ([contact]) needs an adaptive method, DOP853 "
+                        f"or RK45, got 'RK4' (a fixed step cannot follow the stiff Coulomb direction of "
+                        f"sliding near zero slip: at h = 0.01 s the fast start's energy diverges)")
     if spec_case is None and m["error"] not in ("one-pass", "richardson"):
         problems.append(f"{where}: model.error: expected one-pass or richardson, got {m['error']!r}")
     inds = []
@@ -348,7 +368,40 @@ def build(scenario: str, *, name: str | None = None, description: str = "", set_
         raise StudyError(problems)
     return Study(name=name or Path(str(scenario)).stem, scenario=str(scenario), description=description,
                  set=list(set_), grid=g, sample=smp, model=m, indicators=inds, source=source,
-                 stop=None if stop is None else float(stop), case=case, mode=mode, origins=origins)
+                 stop=None if stop is None else float(stop), case=case, mode=mode, origins=origins,
+                 contact=None if contact is None else dict(contact))
+
+
+HYBRID = "hybrid-kernel"  # the evaluator of a study with a [contact] table
+CONTACT_KEYS = {"mu_k": "1", "e_n": "1", "v_rest": "m/s", "slip_eps": "m/s"}
+
+
+def _check_contact(contact, case, kind, where) -> list[str]:
+    """The problems of a [contact] table: its keys and values (as physics.hybrid.Contact checks
+    them), and a model or case it does not go with."""
+    from ..physics.errors import ParameterError
+    from ..physics.hybrid import Contact
+
+    if not isinstance(contact, dict):
+        return [f"{where}: contact: expected a table of {', '.join(CONTACT_KEYS)}, got {contact!r}"]
+    problems = []
+    if case is not None:
+        problems.append(f"{where}: contact: does not apply to case {case!r} (the hybrid ball runs a crank scenario)")
+    if kind not in ("auto", HYBRID):
+        problems.append(f"{where}: model.kind: a study with a [contact] table runs on {HYBRID!r}, got {kind!r}")
+    unknown = sorted(set(contact) - set(CONTACT_KEYS))
+    if unknown:
+        problems.append(f"{where}: contact: unknown key(s) {unknown} (known: "
+                        f"{', '.join(f'{k} [{u}]' for k, u in CONTACT_KEYS.items())})")
+    for k, v in contact.items():
+        if k in CONTACT_KEYS and not (isinstance(v, (int, float)) and not isinstance(v, bool)):
+            problems.append(f"{where}: contact.{k}: expected a number [{CONTACT_KEYS[k]}], got {v!r}")
+    if not problems:
+        try:
+            Contact(**contact)
+        except ParameterError as e:
+            problems.append(f"{where}: contact: {e}")
+    return problems
 
 
 def resolve_study(name_or_path: str) -> Path | None:
@@ -388,12 +441,12 @@ def load(name_or_path: str, *, set_=(), grid=None, sample=None, model=None, stop
     where = path.as_posix()
     doc = tomllib.loads(path.read_text())
     unknown = set(doc) - {"description", "scenario", "case", "mode", "stop", "set", "grid", "sample", "model",
-                          "indicators"}
+                          "indicators", "contact"}
     if unknown:
         design = " (a design study: run it with ballmill optimize or ballmill sensitivity)" \
             if "variables" in unknown else ""
         raise StudyError([f"{where}: unknown key(s) {sorted(unknown)}; expected description, scenario (or case "
-                          f"and mode), stop, set, grid, sample, model, indicators{design}"])
+                          f"and mode), stop, set, grid, sample, model, contact, indicators{design}"])
     if "case" in doc and "scenario" in doc:
         raise StudyError([f"{where}: a study has a scenario or a case, not both"])
     scen = doc.get("scenario", doc.get("case"))
@@ -416,7 +469,7 @@ def load(name_or_path: str, *, set_=(), grid=None, sample=None, model=None, stop
     return build(scen, name=path.stem, description=str(doc.get("description", "")), set_=fixed, grid=g,
                  sample=smp, model=mdl, indicators=doc.get("indicators", []), source=path, where=where,
                  stop=stop if stop is not None else doc.get("stop"), case=doc.get("case"),
-                 mode=mode if mode is not None else doc.get("mode"), origins=origins)
+                 mode=mode if mode is not None else doc.get("mode"), origins=origins, contact=doc.get("contact"))
 
 
 def _text(v, sep: str) -> str:

@@ -645,7 +645,7 @@ def test_load_refusals(tmp_path):
     with pytest.raises(StudyError) as e:
         load(str(f))
     assert e.value.problems == [f"{f.as_posix()}: unknown key(s) ['colour', 'size']; expected description, "
-                                f"scenario (or case and mode), stop, set, grid, sample, model, indicators"]
+                                f"scenario (or case and mode), stop, set, grid, sample, model, contact, indicators"]
     with pytest.raises(StudyError) as e:
         load("fast_start", mode="up")
     assert e.value.problems == ["--mode up: only a study of a built-in case (case = ...) has a mode"]
