@@ -68,13 +68,15 @@ def _states(f):
     return x
 
 
+@pytest.mark.parametrize("call", ["getDerivatives", "getContinuousStates"])
 @pytest.mark.parametrize("model", STATEFUL)
-def test_get_derivatives_before_initialisation_is_refused(me_paths, version, model):
+def test_get_derivatives_before_initialisation_is_refused(me_paths, version, model, call):
     f = _open(me_paths[model], "me", version)
     try:
         dx = np.zeros(_nx(f))
-        assert f.call("getDerivatives", _ptr(dx), _nx(f))[0] == ERROR
-        assert f"{_fn(version, 'GetDerivatives')} is not allowed in state {_fn(version, 'instantiated')}" \
+        assert f.call(call, _ptr(dx), _nx(f))[0] == ERROR
+        name = call[0].upper() + call[1:]
+        assert f"{_fn(version, name)} is not allowed in state {_fn(version, 'instantiated')}" \
             in f.messages()
         assert f.init() == OK  # the instance stays usable
     finally:

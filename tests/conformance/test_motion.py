@@ -116,6 +116,16 @@ def test_a_bad_orientation_at_initialisation_is_refused(open_fmu, flavour):
     assert "initialisation failed: input Q is not a rotation matrix" in fmu.messages(), fmu.messages()
 
 
+def test_a_skewed_orientation_is_refused_showing_the_two_rows_that_disagree(open_fmu, flavour):
+    """Rows 1 and 2 of Q no longer orthogonal: the message gives their product, what it should
+    be, and both rows by element name, so the user sees which entries to check."""
+    fmu = open_fmu("BallInShell", motion=2)
+    feed(fmu, 0.0, Q12=-0.2)
+    assert fmu.init() == flavour.refusal
+    assert ("input Q is not a rotation matrix: row 1 . row 2 = -0.2, expected 0.0 within 1e-06 (Q11 = 1.0, "
+            "Q12 = -0.2, Q13 = 0.0, Q21 = 0.0, Q22 = 1.0, Q23 = -0.0) at t = 0.0 s") in fmu.messages(), fmu.messages()
+
+
 @pytest.mark.parametrize("parameters, expected", [
     ({"formulation": 2}, "motion = 2 needs formulation = 1"),
     ({"input_mode": 2}, "input_mode = 2 is not available with motion = 2"),
