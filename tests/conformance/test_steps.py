@@ -138,7 +138,8 @@ def test_do_step_after_terminate_is_refused(open_fmu, flavour, model):
     assert fmu.step(H) == flavour.step_refusal
     msg = fmu.messages(n)
     assert f"after {flavour.fn('Terminate')} refused" in msg, msg
-    assert f"is not allowed in state {flavour.fn('terminated')}" in msg, msg
+    if flavour.name.startswith("native"):  # the C plumbing names the state too (pythonfmu's the call only)
+        assert f"is not allowed in state {flavour.fn('terminated')}" in msg, msg
     assert fmu.outputs() == before
 
 
