@@ -690,8 +690,9 @@ fmi2Status fmu_do_step(fmu_instance *fi, const char *fn, double currentCommunica
     double t = currentCommunicationPoint, h = communicationStepSize;
     if (fi && fi->state == S_TERMINATED) {
         fmu_log(fi, fmi2Error, "%s '%s': %s(currentCommunicationPoint = %s s, communicationStepSize = "
-                "%s s) after %s refused: %s is not allowed in state terminated",
-                FMU_MODEL.identifier, fi->name, fn, fmu_repr(t, a), fmu_repr(h, b), fmu_fn(fi, "Terminate"), fn);
+                "%s s) after %s refused: %s is not allowed in state %s",
+                FMU_MODEL.identifier, fi->name, fn, fmu_repr(t, a), fmu_repr(h, b), fmu_fn(fi, "Terminate"), fn,
+                fmu_state_name(fi, S_TERMINATED));
         return fmi2Error;
     }
     if (!allowed(fi, fn, S_STEP_COMPLETE)) return fmi2Error;

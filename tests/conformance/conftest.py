@@ -1,8 +1,9 @@
 """The FMU flavours the conformance suite runs over (docs/conformance.md).
 
 `flavours()` is the one place that says which builds of the models exist.
-``pythonfmu`` (build/pythonfmu/<Model>.fmu) and ``native`` (the C FMUs,
-build/<Model>.fmu), both written by `ballmill build`; or, when BALLMILL_TEST_FMU_DIR names
+``pythonfmu`` (build/pythonfmu/<Model>.fmu), ``native`` (the C FMUs, FMI 2.0,
+build/<Model>.fmu) and ``native3`` (the same C FMUs as FMI 3.0 archives,
+build/fmi3/<Model>.fmu), all written by `ballmill build`; or, when BALLMILL_TEST_FMU_DIR names
 a folder, the FMUs already built there (the C mutation runner, tests/mutation/c/run.py).
 
 A flavour also says which FMI status its refusals carry: the specification asks
@@ -13,6 +14,10 @@ pythonfmu's fmi2Fatal the instance is gone (pythonfmu releases its Python object
 while reporting the exception; any later call on it, fmi2FreeInstance included,
 touches freed memory), so a flavour also says whether an instance stays usable
 after a refused call: the tests then check that it kept its state.
+
+A flavour's FMI version decides the driver (harness.Fmu or harness.Fmu3: `Flavour.open`)
+and the function and state names its messages use (`Flavour.fn`); the statuses are
+numbered alike in both versions (OK 0 .. Fatal 4).
 """
 from __future__ import annotations
 
@@ -38,9 +43,23 @@ class Flavour:
     refusal: int  # status of a refused call other than doStep (spec: ERROR)
     step_refusal: int  # status of a doStep refused for its arguments or phase (spec: ERROR)
     usable_after_refusal: bool  # the instance keeps its state after a refused call (spec: True)
+    fmi: int = 2  # the FMI version of the archives (2 or 3)
 
     def __str__(self):
         return self.name
+
+    def open(self, path, name, **parameters):
+        """a co-simulation instance of the FMU at `path`, driven through this flavour's FMI version"""
+        from .harness import driver
+
+        return driver(self.fmi)(path, name, **parameters)
+
+    def fn(self, name: str) -> str:
+        """an FMI function's name ("Terminate") or a state's ("terminated") as this flavour's
+        messages write it"""
+        from .harness import fmi_name
+
+        return fmi_name(self.fmi, name)
 
 
 def _paths(flavour: str) -> dict:
@@ -53,6 +72,11 @@ def _paths(flavour: str) -> dict:
     return {p.stem: p for p in paths}
 
 
+def fmi3_paths(paths: dict) -> dict:
+    """the FMI 3.0 archives `ballmill build` writes beside the native FMI 2.0 ones (build/fmi3/)"""
+    return {name: path.parent / "fmi3" / path.name for name, path in paths.items()}
+
+
 def _pythonfmu_paths() -> dict:
     return _paths("pythonfmu")
 
@@ -61,10 +85,15 @@ def _native_paths() -> dict:
     return _paths("native")
 
 
+def _native3_paths() -> dict:
+    return fmi3_paths(_native_paths())
+
+
 def flavours() -> list[Flavour]:
     return [
         Flavour("pythonfmu", _pythonfmu_paths, refusal=FATAL, step_refusal=DISCARD, usable_after_refusal=False),
         Flavour("native", _native_paths, refusal=ERROR, step_refusal=ERROR, usable_after_refusal=True),
+        Flavour("native3", _native3_paths, refusal=ERROR, step_refusal=ERROR, usable_after_refusal=True, fmi=3),
     ]
 
 
@@ -84,14 +113,12 @@ def fmus(flavour) -> dict:
 
 
 @pytest.fixture
-def open_fmu(fmus):
-    """open_fmu(model, **parameters) -> harness.Fmu, freed after the test."""
-    from .harness import Fmu
-
+def open_fmu(fmus, flavour):
+    """open_fmu(model, **parameters) -> harness.Fmu (or Fmu3), freed after the test."""
     opened = []
 
     def open_(model, /, **parameters):
-        fmu = Fmu(fmus[model], model.lower(), **parameters)
+        fmu = flavour.open(fmus[model], model.lower(), **parameters)
         opened.append(fmu)
         return fmu
     yield open_

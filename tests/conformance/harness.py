@@ -155,14 +155,6 @@ class Fmu3(Fmu):
     def _on_message(self, env, status, category, message):
         self.log.append((status, message.decode("utf-8", "replace") if message else ""))
 
-    dead = False
-
-    def _status(self, call, *args):
-        try:
-            return OK, call(*args)
-        except FMICallException as e:
-            return e.status, None
-
     def call(self, name, *args):
         return self._status(getattr(self.fmu, self.NAMES.get(name, name)), *args)
 
@@ -172,3 +164,25 @@ class Fmu3(Fmu):
         if st:
             return st
         return self._status(self.fmu.exitInitializationMode)[0]
+
+
+def driver(version: int) -> type:
+    """the driver of FMI version `version`'s archives: Fmu (2) or Fmu3 (3)"""
+    return {2: Fmu, 3: Fmu3}[version]
+
+
+# FMI 2.0's function and state names as FMI 3.0 writes them, where they differ
+FMI3_FUNCTIONS = {"GetDerivatives": "GetContinuousStateDerivatives", "NewDiscreteStates": "UpdateDiscreteStates",
+                  "GetFMUstate": "GetFMUState", "SetFMUstate": "SetFMUState", "FreeFMUstate": "FreeFMUState",
+                  "SerializeFMUstate": "SerializeFMUState", "DeSerializeFMUstate": "DeserializeFMUState",
+                  "SetupExperiment": "EnterInitializationMode"}
+STATES = {2: {"instantiated": "instantiated", "eventMode": "eventMode", "terminated": "terminated"},
+          3: {"instantiated": "Instantiated", "eventMode": "Event Mode", "terminated": "Terminated"}}
+
+
+def fmi_name(version: int, name: str) -> str:
+    """an FMI function's name (FMI 2.0's, capitalised and without prefix: "GetDerivatives") or
+    a state's ("instantiated"), as the messages of FMI version `version` write it"""
+    if name[0].isupper():
+        return f"fmi2{name}" if version == 2 else f"fmi3{FMI3_FUNCTIONS.get(name, name)}"
+    return STATES[version][name]

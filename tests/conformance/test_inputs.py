@@ -15,13 +15,11 @@ H = 2e-3
 
 
 @pytest.fixture(scope="module")
-def base(fmus):
-    from .harness import Fmu
-
+def base(fmus, flavour):
     opened = []
 
     def open_fmu(model, **p):
-        opened.append(Fmu(fmus[model], "base", **p))
+        opened.append(flavour.open(fmus[model], "base", **p))
         return opened[-1]
     fmu, st = run_ball(open_fmu, [H] * 100)
     assert st == OK

@@ -7,8 +7,8 @@ import ctypes
 import numpy as np
 import pytest
 
-from .conftest import ERROR, OK, _native_paths
-from .harness import Fmu, Fmu3
+from .conftest import ERROR, OK, _native_paths, fmi3_paths
+from .harness import Fmu, driver, fmi_name
 
 from .conftest import MODELS as ME_MODELS  # every model has Model Exchange
 STATEFUL = ("BallInShell", "InductionMotor", "Structure")
@@ -27,22 +27,11 @@ def version(request):
 @pytest.fixture(scope="module")
 def me_paths(native_paths, version):
     """the archives of FMI version `version`: build/<Model>.fmu or build/fmi3/<Model>.fmu"""
-    if version == 2:
-        return native_paths
-    return {name: path.parent / "fmi3" / path.name for name, path in native_paths.items()}
+    return native_paths if version == 2 else fmi3_paths(native_paths)
 
 
 def _open(path, name, version, **parameters):
-    return (Fmu if version == 2 else Fmu3)(path, name, interface="me", **parameters)
-
-
-def _fn(version, name):
-    """an FMI function's name and a state's, as the version's messages write them"""
-    v3 = {"GetDerivatives": "GetContinuousStateDerivatives"}
-    states = {"instantiated": "Instantiated", "eventMode": "Event Mode"}
-    if version == 2:
-        return f"fmi2{name}" if name[0].isupper() else name
-    return f"fmi3{v3.get(name, name)}" if name[0].isupper() else states[name]
+    return driver(version)(path, name, interface="me", **parameters)
 
 
 def _ptr(a):
@@ -76,7 +65,7 @@ def test_get_derivatives_before_initialisation_is_refused(me_paths, version, mod
         dx = np.zeros(_nx(f))
         assert f.call(call, _ptr(dx), _nx(f))[0] == ERROR
         name = call[0].upper() + call[1:]
-        assert f"{_fn(version, name)} is not allowed in state {_fn(version, 'instantiated')}" \
+        assert f"{fmi_name(version, name)} is not allowed in state {fmi_name(version, 'instantiated')}" \
             in f.messages()
         assert f.init() == OK  # the instance stays usable
     finally:
@@ -88,7 +77,7 @@ def test_enter_event_mode_before_initialisation_is_refused(me_paths, version, mo
     f = _open(me_paths[model], "me", version)
     try:
         assert f.call("enterEventMode")[0] == ERROR
-        assert f"{_fn(version, 'EnterEventMode')} is not allowed in state {_fn(version, 'instantiated')}" \
+        assert f"{fmi_name(version, 'EnterEventMode')} is not allowed in state {fmi_name(version, 'instantiated')}" \
             in f.messages()
         assert f.init() == OK  # the instance stays usable
     finally:
@@ -144,7 +133,7 @@ def test_states_set_in_event_mode_are_refused(me_paths, version, model):
         x = before + 0.01
         n = len(f.log)
         assert f.call("setContinuousStates", _ptr(x), _nx(f))[0] == ERROR
-        assert f"{_fn(version, 'SetContinuousStates')} is not allowed in state {_fn(version, 'eventMode')}" \
+        assert f"{fmi_name(version, 'SetContinuousStates')} is not allowed in state {fmi_name(version, 'eventMode')}" \
             in f.messages(n)
         assert np.array_equal(_states(f), before)
     finally:
@@ -221,7 +210,7 @@ def test_co_simulation_reads_its_model_exchange_variables_from_its_own_state(me_
     own steps is its derivative), and its derivatives and event indicators are bit for bit what a
     Model Exchange instance set to the same time, states and inputs gives"""
     parameters, u_step, u_read = CS_LOCALS[model]
-    cs = (Fmu if version == 2 else Fmu3)(me_paths[model], "cs", **parameters)
+    cs = driver(version)(me_paths[model], "cs", **parameters)
     me = None
     try:
         assert cs.set(**u_step) == OK and cs.init() == OK
