@@ -253,7 +253,7 @@ def mill_indicators(res: RunResult, models, ball: str) -> dict:
     grinding work per crank revolution, the slip and lift-off margins), computed as the sweep
     computes them, each {"value": ..., "unit": ..., "description": ...} (value None where the run
     does not say: not recorded, or past the model's validity)."""
-    from ..sweep import indicators as ind
+    from ..sweep import indicators as ind  # the module alone (ballmill.sweep imports lazily)
 
     sc = res.scenario
     t = res.column("time")
@@ -271,8 +271,15 @@ def mill_indicators(res: RunResult, models, ball: str) -> dict:
 
 
 def write_csv(res: RunResult, path: Path):
-    header = ",".join(res.columns)
-    np.savetxt(path, res.data, delimiter=",", header=header, comments="", fmt="%.12g")
+    """The recorded columns as CSV: a header of the names, then every row with each value as
+    "%.12g" (what numpy.savetxt(fmt="%.12g") writes, byte for byte), formatted in one operation
+    over all the values rather than row by row."""
+    data = np.asarray(res.data, dtype=float)
+    if data.ndim == 1:
+        data = data[:, None]
+    rows = "\n".join([",".join(["%.12g"] * data.shape[1])] * data.shape[0]) % tuple(data.ravel().tolist())
+    Path(path).write_text(",".join(res.columns) + "\n" + (rows + "\n" if data.shape[0] else ""),
+                          encoding="utf-8")
 
 
 def _plot_shell(res: RunResult, models, spec, plt):
@@ -434,13 +441,14 @@ def plot(res: RunResult, out_dir: Path, models=None, summary: dict | None = None
     from ..plotting import figures as plt  # Figure objects on Agg canvases, without pyplot
 
     files = []
-    for spec in res.scenario.plots:
-        kind = spec.get("kind", "series")
-        if kind in ("shell", "slip_margin"):
-            fig = (_plot_shell if kind == "shell" else _plot_slip_margin)(res, models, spec, plt)
-        else:
-            fig = _plot_series(res, models, spec, plt, summary)
-        files.append(plt.save(fig, out_dir / spec["file"]))
+    with plt.Writer() as writer:  # the figures drawn side by side, one process per core
+        for spec in res.scenario.plots:
+            kind = spec.get("kind", "series")
+            if kind in ("shell", "slip_margin"):
+                fig = (_plot_shell if kind == "shell" else _plot_slip_margin)(res, models, spec, plt)
+            else:
+                fig = _plot_series(res, models, spec, plt, summary)
+            files.append(writer.save(fig, out_dir / spec["file"]))
     return files
 
 
