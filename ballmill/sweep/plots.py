@@ -106,12 +106,13 @@ def write(study, rows: list[dict], out_dir: Path) -> list[Path]:
         ax.set_xlabel(_parameter_label(fmus, px, width=60))
         ax.set_ylabel(_parameter_label(fmus, py, width=45))
         fig.suptitle(title, fontsize=9)
-        for m in main:
-            mesh.set_array(np.ma.masked_invalid(Z[m]))
-            mesh.autoscale()
-            bar.set_label(_label(m, width=45))
-            ax.set_title(f"{m}" + (" (hatched: model not valid)" if hatched is not None else ""), fontsize=10)
-            files.append(plt.save(fig, out_dir / f"map_{m}.png"))
+        with plt.Writer() as writer:  # each map drawn as the figure stands when saved, side by side
+            for m in main:
+                mesh.set_array(np.ma.masked_invalid(Z[m]))
+                mesh.autoscale()
+                bar.set_label(_label(m, width=45))
+                ax.set_title(f"{m}" + (" (hatched: model not valid)" if hatched is not None else ""), fontsize=10)
+                files.append(writer.save(fig, out_dir / f"map_{m}.png"))
         return files
 
     # a sample, or more than two parameters: scatter
