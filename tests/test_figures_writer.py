@@ -39,7 +39,7 @@ def test_writer_draws_each_figure_as_it_stood_and_names_a_failure(tmp_path):
     fig, ax = figures.subplots(figsize=(4.0, 3.0), dpi=50, layout="tight")
     ax.plot([0, 1, 2], [0, 1, 0])
     with figures.Writer(jobs=2) as w:
-        assert w.fork  # this machine forks: the test checks the forked path
+        assert w.fork  # this machine forks: the second figure takes the forked path
         for title in ("first", "second"):
             ax.set_title(title)
             w.save(fig, tmp_path / f"{title}.png")
@@ -51,6 +51,6 @@ def test_writer_draws_each_figure_as_it_stood_and_names_a_failure(tmp_path):
     bad = tmp_path / "missing" / "x.png"
     with pytest.raises(RuntimeError, match=f"{bad} \\(exit status 1\\)"):
         with figures.Writer(jobs=2) as w:
-            w.save(fig, bad)
-            w.save(fig, tmp_path / "fine.png")
+            w.save(fig, tmp_path / "fine.png")  # the first: drawn in this process
+            w.save(fig, bad)  # forked: its failure is reported by wait
     assert (tmp_path / "fine.png").exists()

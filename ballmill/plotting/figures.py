@@ -14,11 +14,13 @@ scatter plots, the absorber's response curves) is made by `subplots` and written
   pixels cost about a third more in drawing and twice as much in encoding (level 1 files
   are ~10 % larger).
 
-`Writer` saves several figures at once: each `save` forks a process that draws and writes
-that figure as it stands when the call is made (a figure reused for the next PNG can be
-changed right away), at most one process per core at a time, so that a command's PNGs take
-about the wall time of the slowest share rather than of all of them (the drawing itself, CPU
-time, is the same). Without os.fork (or on one core) it saves in the calling process.
+`Writer` saves several figures at once: after the first (drawn in the command), each `save`
+forks a process that draws and writes that figure as it stands when the call is made (a
+figure reused for the next PNG can be changed right away), at most one process per idle
+core at a time, so that on free cores a
+command's PNGs take about the wall time of the slowest share rather than of all of them (the
+drawing costs somewhat more CPU that way: on a busy machine, or without os.fork, it saves in
+the calling process).
 
 `close` is there for code that is handed either this module or pyplot (a figure here needs
 no closing: it is freed with its last reference).
@@ -77,17 +79,33 @@ def _cores() -> int:
         return os.cpu_count() or 1
 
 
+def _idle_jobs() -> int:
+    """How many drawings can run side by side: the cores this process may use that the load
+    average (last minute; this command counts as one) leaves free, at least 1. A forked drawing
+    costs more CPU than one in the command (its copied pages, caches it starts again), which
+    pays off only on a core nothing else wants."""
+    cores = _cores()
+    try:
+        load = os.getloadavg()[0]
+    except (AttributeError, OSError):
+        return cores
+    return max(1, min(cores, int(cores - load + 1.5)))
+
+
 class Writer:
     """Figures saved as PNG files in forked processes, at most ``jobs`` (default: the cores this
-    process may use) drawing at a time; `wait` (or leaving the ``with`` block) waits for all
+    process may use that the load leaves free) drawing at a time; `wait` (or leaving the ``with`` block) waits for all
     and raises if one failed (its traceback is on stderr). Each `save` draws the figure as it
-    is when called. In the calling process when ``jobs`` is 1 or os.fork is missing."""
+    is when called. The first figure is drawn in the calling process (the forked drawings
+    start from the caches it fills: without it each would redo that work, about 40 % more CPU
+    for a sweep's heat maps); all of them there when ``jobs`` is 1 or os.fork is missing."""
 
     def __init__(self, jobs: int | None = None):
-        self.jobs = jobs if jobs is not None else _cores()
+        self.jobs = jobs if jobs is not None else _idle_jobs()
         self.fork = self.jobs > 1 and hasattr(os, "fork") and sys.platform.startswith("linux")
         self._running: dict[int, Path] = {}
         self._failed: list[str] = []
+        self._warm = False
 
     def __enter__(self):
         return self
@@ -100,7 +118,10 @@ class Writer:
 
     def save(self, fig, path, dpi: float | None = None) -> Path:
         path = Path(path)
-        if not self.fork:
+        if not self.fork or not self._warm:
+            # the first figure here: its drawing fills matplotlib's caches (fonts, text
+            # metrics, a reused figure's layout) that every forked drawing then starts with
+            self._warm = True
             return save(fig, path, dpi)
         if len(self._running) >= self.jobs:
             self._reap(1)
