@@ -8,10 +8,12 @@ scatter plots, the absorber's response curves) is made by `subplots` and written
   import is not needed) and at the dpi it will be written at, so that nothing is laid out
   twice;
 * `save` draws the figure once (the layout engine, constrained or tight, runs inside that
-  draw) and encodes the canvas's pixels as PNG at zlib level 1. ``Figure.savefig`` draws a
-  figure with a layout engine twice (once with rendering disabled, to lay it out, then for
-  real) and encodes at level 6: the same pixels cost about a third more in drawing and
-  twice as much in encoding (level 1 files are ~10 % larger).
+  draw) and encodes the canvas's pixels as PNG at zlib level 1 (RGB when every pixel is
+  opaque). ``Figure.savefig`` draws a figure with a layout engine twice (once with
+  rendering disabled, to lay it out, then for real) and encodes RGBA at level 6: the same
+  pixels cost about a third more in drawing and twice as much in encoding (level 1 files
+  are ~10 % larger).
+
 
 `close` is there for code that is handed either this module or pyplot (a figure here needs
 no closing: it is freed with its last reference).
@@ -37,6 +39,7 @@ def subplots(nrows: int = 1, ncols: int = 1, *, figsize=None, dpi: float = DPI, 
 def save(fig, path, dpi: float | None = None) -> Path:
     """The figure as a PNG file, drawn once (its layout engine included) at ``dpi`` (default:
     the figure's own)."""
+    import numpy as np
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from PIL import Image, PngImagePlugin
 
@@ -48,10 +51,14 @@ def save(fig, path, dpi: float | None = None) -> Path:
     info = PngImagePlugin.PngInfo()
     info.add_text("Software", "matplotlib (ballmill.plotting.figures)")
     path = Path(path)
-    Image.frombuffer("RGBA", (w, h), canvas.buffer_rgba(), "raw", "RGBA", 0, 1).save(
-        path, format="png", compress_level=1, pnginfo=info)
+    rgba = np.asarray(canvas.buffer_rgba())
+    # an opaque figure (all of them so far) as RGB: a third less to compress, a tenth smaller
+    image = Image.fromarray(rgba[..., :3], "RGB") if rgba[..., 3].min() == 255 else \
+        Image.frombuffer("RGBA", (w, h), rgba, "raw", "RGBA", 0, 1)
+    image.save(path, format="png", compress_level=1, pnginfo=info)
     return path
 
 
 def close(fig) -> None:
     """Nothing to do for a figure made here (pyplot's close, for code handed this module)."""
+

@@ -254,7 +254,7 @@ def mill_indicators(res: RunResult, models, ball: str) -> dict:
     lift-off margins), computed as the sweep
     computes them, each {"value": ..., "unit": ..., "description": ...} (value None where the run
     does not say: not recorded, or past the model's validity)."""
-    from ..sweep import indicators as ind
+    from ..sweep import indicators as ind  # the module alone (ballmill.sweep imports lazily)
 
     sc = res.scenario
     t = res.column("time")
@@ -277,8 +277,15 @@ def mill_indicators(res: RunResult, models, ball: str) -> dict:
 
 
 def write_csv(res: RunResult, path: Path):
-    header = ",".join(res.columns)
-    np.savetxt(path, res.data, delimiter=",", header=header, comments="", fmt="%.12g")
+    """The recorded columns as CSV: a header of the names, then every row with each value as
+    "%.12g" (what numpy.savetxt(fmt="%.12g") writes, byte for byte), formatted in one operation
+    over all the values rather than row by row."""
+    data = np.asarray(res.data, dtype=float)
+    if data.ndim == 1:
+        data = data[:, None]
+    rows = "\n".join([",".join(["%.12g"] * data.shape[1])] * data.shape[0]) % tuple(data.ravel().tolist())
+    Path(path).write_text(",".join(res.columns) + "\n" + (rows + "\n" if data.shape[0] else ""),
+                          encoding="utf-8")
 
 
 def _plot_shell(res: RunResult, models, spec, plt):

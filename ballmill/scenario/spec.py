@@ -268,8 +268,9 @@ def load(name_or_path: str, overrides: list[str] = (), models: dict | None = Non
         # a sweep's points: each kind of problem once (the first point's), with how many other
         # values have it, so that a sample of hundreds of points does not list hundreds of lines
         like: dict = {}
+        memo: dict = {}
         for point in points:
-            for kind, text in _point_problems(scenario, models, point, origins or {}):
+            for kind, text in _point_problems(scenario, models, point, origins or {}, memo):
                 like.setdefault(kind, {})[text] = None
         problems += [next(iter(texts)) + (f" (and {len(texts) - 1} more like it)" if len(texts) > 1 else "")
                      for texts in like.values()]
@@ -339,7 +340,7 @@ def _bound(text, default: float) -> float:
 
 
 def parameter_problems(name: str, inst: Instance, models: dict, values: dict, only=None,
-                       where: str = "", kinds: list | None = None) -> list[str]:
+                       where: str = "", kinds: list | None = None, rules=None, bad=None) -> list[str]:
     """What is wrong with these parameter ``values`` of instance ``name`` (``inst`` gives its
     model and the origins of its values), checked as the FMU checks them at initialisation:
     a parameter of the model that can be set (causality parameter, variability fixed or
@@ -349,19 +350,23 @@ def parameter_problems(name: str, inst: Instance, models: dict, values: dict, on
     the one shown). ``only``: check just these parameters and the rules reading them (the
     rest was checked before). Each problem starts with where its value came from (default:
     the key in the scenario file ``where``). ``kinds``: gets, for each problem, what it is
-    about (the parameter or the rule, with the origin), whatever the values."""
+    about (the parameter or the rule, with the origin), whatever the values. ``rules``: the
+    indices of the model's rules to evaluate (default: all; ``()``: the values alone);
+    ``bad``: gets the parameters found bad (with ``rules = ()`` the caller can evaluate the
+    rules later, the bad ones given back through ``bad``)."""
     from ..fmi.interface import INTERFACES
 
     def origin(param):
         return inst.origins.get(param) or (f"{where}: " if where else "") + f"instances.{name}.parameters.{param}"
 
-    problems, bad, kinds = [], set(), [] if kinds is None else kinds
+    problems, kinds = [], [] if kinds is None else kinds
+    bad = set() if bad is None else bad
     md = models[inst.fmu] if inst.fmu is not None else None
-    variables = {v.name: v for v in md.modelVariables} if md is not None else {}
+    variables = _variables_of(md)
     parameters = [n for n, v in variables.items() if v.causality == "parameter"]
     check = set(values) if only is None else set(only)
     for param, value in values.items():
-        if param not in check:
+        if param not in check or param in bad:
             continue
         at = origin(param)
         v = variables.get(param)
@@ -392,13 +397,13 @@ def parameter_problems(name: str, inst: Instance, models: dict, values: dict, on
         bad.add(param)
         kinds.append((name, at, param))
     interface = INTERFACES.get(inst.fmu)
-    if interface is None or md is None:
+    if interface is None or md is None or rules == ():
         return problems
     p = {n: _start(variables[n]) for n in parameters}
     p.update({k: float(x) if variables[k].type == "Real" else x for k, x in values.items()
               if k in variables and k not in bad and variables[k].causality == "parameter"})
     for k, rule in enumerate(interface.rules):
-        if not set(rule.names) & check or set(rule.names) & bad:
+        if not set(rule.names) & check or set(rule.names) & bad or (rules is not None and k not in rules):
             continue
         if any(p.get(n) is None for n in rule.names):  # a model description unlike the declaration
             continue
@@ -422,11 +427,35 @@ def parameter_problems(name: str, inst: Instance, models: dict, values: dict, on
     return problems
 
 
-def _point_problems(sc: Scenario, models: dict, point: dict, origins: dict) -> list[tuple]:
+def _variables_of(md) -> dict:
+    """{name: ModelVariable} of a model description ({} for none), made once per description."""
+    if md is None:
+        return {}
+    got = getattr(md, "_ballmill_variables", None)
+    if got is None:
+        got = {v.name: v for v in md.modelVariables}
+        try:
+            md._ballmill_variables = got
+        except AttributeError:
+            pass
+    return got
+
+
+def _point_problems(sc: Scenario, models: dict, point: dict, origins: dict, memo: dict | None = None) -> list[tuple]:
     """A sweep point's values ("instance.parameter" -> value) checked on top of the scenario's:
-    (kind, problem) pairs (``parameter_problems``' kinds)."""
+    (kind, problem) pairs (``parameter_problems``' kinds). ``memo`` (one dict for all the points
+    of a study) keeps what was found for each value and for each rule's values: a value's
+    problems depend on it and its origin alone, a rule's on the values of the parameters it
+    reads, so that a grid's check costs one look per axis value and one evaluation of a rule
+    per distinct combination of the values it reads, not one of everything per point."""
+    from ..fmi.interface import INTERFACES
+
+    memo = {} if memo is None else memo
     problems, given = [], {}
-    broken = _broken(sc, models)
+    broken = memo.get("broken")
+    if broken is None:
+        broken = memo["broken"] = _broken(sc, models)
+    where = sc.path.as_posix()
     for key, value in point.items():
         name, param = key.split(".", 1)
         at = origins.get(key, key)
@@ -436,13 +465,48 @@ def _point_problems(sc: Scenario, models: dict, point: dict, origins: dict) -> l
             given.setdefault(name, {})[param] = (value, at)
     for name, vals in given.items():
         inst = sc.instances[name]
-        moved = Instance(name, fmu=inst.fmu, table=inst.table, columns=inst.columns, data=inst.data,
-                         parameters={**inst.parameters, **{p: v for p, (v, _) in vals.items()}},
-                         origins={**inst.origins, **{p: at for p, (_, at) in vals.items()}})
-        kinds = []
-        texts = parameter_problems(name, moved, models, moved.parameters, only=set(vals), where=sc.path.as_posix(),
-                                   kinds=kinds)
-        problems += zip(kinds, texts)
+        values = {**inst.parameters, **{p: v for p, (v, _) in vals.items()}}
+        found, bad = [], set()
+        # each value alone, in the order parameter_problems checks them
+        for param in values:
+            if param not in vals:
+                continue
+            value, at = vals[param]
+            key = ("value", name, param, type(value), value, at)
+            hit = memo.get(key)
+            if hit is None:
+                one = Instance(name, fmu=inst.fmu, table=inst.table, columns=inst.columns, data=inst.data,
+                               parameters={param: value}, origins={**inst.origins, param: at})
+                kinds, got = [], set()
+                texts = parameter_problems(name, one, models, {param: value}, where=where, kinds=kinds,
+                                           rules=(), bad=got)
+                hit = memo[key] = (list(zip(kinds, texts)), got)
+            found += hit[0]
+            bad |= hit[1]
+        # the rules reading a value of the point, each on the values it reads
+        interface = INTERFACES.get(inst.fmu)
+        if interface is not None and inst.fmu is not None:
+            moved = None
+            for k, rule in enumerate(interface.rules):
+                names = set(rule.names)
+                if not names & set(vals) or names & bad:
+                    continue
+                key = ("rule", name, k, tuple((n, type(vals[n][0]), vals[n][0], vals[n][1]) for n in rule.names
+                                              if n in vals))
+                hit = memo.get(key)
+                if hit is None:
+                    if moved is None:
+                        moved = Instance(name, fmu=inst.fmu, table=inst.table, columns=inst.columns,
+                                         data=inst.data, parameters=values,
+                                         origins={**inst.origins, **{p: at for p, (_, at) in vals.items()}})
+                    kinds = []
+                    texts = parameter_problems(name, moved, models, values, only=set(vals), where=where,
+                                               kinds=kinds, rules=(k,), bad=set(bad))
+                    hit = memo[key] = list(zip(kinds, texts))
+                found += hit
+                if hit:  # as in parameter_problems: a later rule reading these values is left out
+                    bad |= names
+        problems += found
     return problems
 
 

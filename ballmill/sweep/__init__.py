@@ -21,7 +21,18 @@ Layers (each module's docstring has the details):
   read back on a rerun; optimize (`ballmill optimize`: NSGA-II, differential evolution)
   and sensitivity (`ballmill sensitivity`: Sobol indices) on it.
 """
-from .engine import Outcome, columns, run_study
-from .spec import Indicator, Study, StudyError, build, load
+import importlib
 
 __all__ = ["Indicator", "Outcome", "Study", "StudyError", "build", "columns", "load", "run_study"]
+_FROM = {"Outcome": "engine", "columns": "engine", "run_study": "engine",
+         "Indicator": "spec", "Study": "spec", "StudyError": "spec", "build": "spec", "load": "spec"}
+
+
+def __getattr__(name):
+    """The package's names, imported on first use: importing one module of the package (e.g.
+    indicators, for a run's summary) does not import the engine and its dependencies."""
+    if name in _FROM:
+        value = getattr(importlib.import_module(f".{_FROM[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
