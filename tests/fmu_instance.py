@@ -41,6 +41,11 @@ class Instance:
         self.fmu.instantiate(callbacks=self.callbacks, loggingOn=True)
         self.set(**parameters)
 
+    @property
+    def log(self) -> list[tuple[int, str]]:
+        """``messages`` under the name harness.Fmu and the in-process instances give it."""
+        return self.messages
+
     def _on_message(self, env, instance, status, category, message):
         name = instance.decode("utf-8", "replace") if instance else self.name
         target = Instance._by_name.get(name, self)

@@ -148,7 +148,7 @@ def test_spinning_bowl_against_the_library(built_fmus, opened):
     # the ball swings through the bowl's bottom: its contact point leaves the starting point
     assert np.ptp(rows[:, 0]) > 0.05
     # the chamber's fit is exact here: no warning about the positions' resolution (a translation's)
-    assert [m for _, m in inst.messages if "resolution" in m] == []
+    assert [m for _, m in inst.log if "resolution" in m] == []
 
 
 def test_fig1_machine_against_the_library_converges_at_fourth_order(built_fmus, opened):
