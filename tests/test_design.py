@@ -156,6 +156,7 @@ def test_nsga2_pareto_set_lies_on_the_analytic_front(tmp_path, toy, subplots_mad
     assert np.array_equal(line.get_xdata(), f1[order]) and np.array_equal(line.get_ydata(), -f2[order])
     assert ax.get_xlabel() == "ZDT1 f1, zdt_f1 [1]" and ax.get_ylabel() == "-ZDT1 f2, neg_zdt_f2 [1]"
     assert ax.get_title() == "Pareto front: zdt_f1 (min) against neg_zdt_f2 (max)"
+    assert ax.get_xscale() == ax.get_yscale() == "linear"  # f1 spread over [0, 1], f2 negated: no log scale
     conv = rows(out / "convergence.parquet")
     assert [c["generation"] for c in conv] == list(range(1, 41))
     ax1, ax2 = conv_fig.axes
@@ -393,3 +394,16 @@ def test_the_design_guide_studies_run(tmp_path, capsys, name):
     got = rows(out / "results.parquet")
     assert got and all(r["status"] == "ok" for r in got)
     assert all(r["A_swept_bed"] is None or r["A_swept_bed"] >= 0.0 for r in got)
+
+
+def test_a_pareto_axis_turns_logarithmic_only_for_positive_values_over_two_decades():
+    from ballmill.plotting import figures
+    from ballmill.sweep.optimize import _log_if_wide
+
+    for values, scale in (([0.003, 0.01, 0.02, 15.0], "log"), ([0.0, 0.02, 15.0], "linear"), ([0.5, 40.0], "linear"),
+                          ([-1.0, 1e-3, 10.0], "linear"), ([None, 1e-3, 2e-3, 1.0], "log"),
+                          ([1e-4, 0.3, 0.5, 0.7, 1.0], "linear")):  # spread evenly: linear
+        fig, ax = figures.subplots()
+        _log_if_wide(ax, "y", values)
+        _log_if_wide(ax, "x", [1.0, 2.0])
+        assert (ax.get_yscale(), ax.get_xscale()) == (scale, "linear"), values

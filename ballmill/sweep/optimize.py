@@ -481,6 +481,16 @@ def _label(session, name, width=None):
     return labels.label(None, name, unit=unit or None, description=desc, width=width)
 
 
+def _log_if_wide(ax, axis: str, values) -> None:
+    """A logarithmic axis for an objective whose values are all positive, span more than two
+    decades and bunch at the low end (the median below a thirtieth of the largest): a front
+    squeezed against the axis by a few far designs becomes readable; values spread evenly over
+    their range keep a linear axis."""
+    v = sorted(x for x in values if x is not None)
+    if v and v[0] > 0.0 and v[-1] > 100.0 * v[0] and v[len(v) // 2] < v[-1] / 30.0:
+        (ax.set_xscale if axis == "x" else ax.set_yscale)("log")
+
+
 def write_plots(prob, session, rows, best, history, out_dir: Path) -> list[Path]:
     import textwrap
 
@@ -508,6 +518,8 @@ def write_plots(prob, session, rows, best, history, out_dir: Path) -> list[Path]
                     ms=5, lw=1.2, label=f"Pareto set ({len(front)})")
             ax.set_xlabel(_label(session, a, 50))
             ax.set_ylabel(_label(session, b, 50))
+            for name, axis in ((a, "x"), (b, "y")):
+                _log_if_wide(ax, axis, [design.value(r, name) for r in feas + inf])
             ax.set_title(f"Pareto front: {a} ({prob.objectives[i].goal}) against {b} ({prob.objectives[j].goal})",
                          fontsize=10)
             ax.legend(fontsize=8)
