@@ -186,6 +186,17 @@ def test_configurations_me_cannot_run_are_refused_at_initialisation(me_paths, ve
         f.free()
 
 
+@pytest.mark.parametrize("input_mode", [1, 4])
+def test_the_input_modes_model_exchange_runs_are_accepted(me_paths, version, input_mode):
+    """input_mode 1 and 4 read the acceleration inputs as set, all Model Exchange needs."""
+    f = _running(me_paths["BallInShell"], version=version, input_mode=input_mode, xC0=0.05)
+    try:
+        dx = np.zeros(_nx(f))
+        assert f.call("getDerivatives", _ptr(dx), _nx(f))[0] == OK and np.any(dx != 0.0)
+    finally:
+        f.free()
+
+
 # co-simulation answers the Model Exchange variables the archive publishes for both interfaces
 # from its own state: (parameters, inputs while stepping, inputs set before the read)
 CS_LOCALS = {

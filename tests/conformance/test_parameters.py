@@ -79,6 +79,7 @@ def test_a_tunable_parameter_takes_effect_at_the_next_step(open_fmu, flavour):
     ("Structure", "n_x", 0, "parameter n_x = 0 is outside its accepted range [1, 3]"),
     ("Structure", "M_y2", 0.0, "parameter M_y2 = 0.0 kg is outside its accepted range [1e-12, 1e+15] kg"),
     ("MotorStartup", "t0", 1e-300, "parameter t0 = 1e-300 s is outside its accepted range [0.001, 1e+06] s"),
+    ("MotorStartup", "l", 0.0, "l must be positive and finite, got l = 0.0 m"),  # inside [0, 1000]
     ("InductionMotor", "i", 1e300, "parameter i = 1e+300 is outside its accepted range [0.001, 10000]"),
     ("InductionMotor", "i", 1e-300, "parameter i = 1e-300 is outside its accepted range [0.001, 10000]"),
     ("InductionMotor", "eta", 2.0, "parameter eta = 2.0 is outside its accepted range [0, 1]"),
