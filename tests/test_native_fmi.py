@@ -453,3 +453,36 @@ def test_serialising_into_a_short_buffer_is_refused_naming_the_size_asked_for(op
     assert _raw(inst, "fmi2SerializeFMUstate", state, None, size) == ERROR
     assert _errors(inst)[-1].endswith("fmi2SerializeFMUstate: no buffer given")
     inst.fmu.freeFMUstate(state)
+
+
+def test_a_structure_state_with_a_nan_anywhere_is_refused_or_steps_to_finite_outputs(opened, fmus_of):
+    """Every double of the Structure's data (its configuration, modal state, input samples) set
+    to NaN in turn, the checksum made right: fmi2SetFMUstate either refuses the state (the modal
+    state and the input samples are checked) or the instance steps on to finite outputs (what
+    the configuration holds is rebuilt from the parameters); never a NaN answered with fmi2OK."""
+    s = opened(fmus_of("native")["Structure"], "nan_state", F0_x=10.0)
+    s.initialize()
+    for k in range(4):
+        s.set(Fx_ball=0.5 * k)
+        s.fmu.doStep(k * H, H)
+    good = s.fmu.getFMUstate()
+    blob = bytes(s.fmu.serializeFMUstate(good))
+    outputs = [n for n, v in s.vars.items() if v.causality == "output" and v.type == "Real"]
+    refused = 0
+    for at in range(HEADER_BYTES + 8 * len(s.vars), len(blob) - 4 - 8 + 1, 8):
+        forged = bytearray(blob)
+        forged[at:at + 8] = struct.pack("<d", float("nan"))
+        state = s.fmu.deSerializeFMUstate(_sealed(forged))
+        try:
+            s.fmu.setFMUstate(state)
+        except FMICallException:
+            refused += 1
+            assert any("its modal state or input samples are not valid" in m for _, m in s.messages[-2:])
+        else:
+            s.fmu.doStep(4 * H, H)
+            values = s.reals(outputs)
+            assert all(math.isfinite(x) for x in values), (at, dict(zip(outputs, values)))
+        finally:
+            s.fmu.setFMUstate(good)
+            s.fmu.freeFMUstate(state)
+    assert refused > 0

@@ -186,6 +186,31 @@ def test_configurations_me_cannot_run_are_refused_at_initialisation(me_paths, ve
         f.free()
 
 
+@pytest.mark.parametrize("model", STATEFUL)
+def test_states_set_lower_or_higher_are_what_the_derivatives_see(me_paths, version, model):
+    """After setContinuousStates, the derivatives are those of the states just set, whether each
+    went up or down: the same as a second instance given those states directly."""
+    f, g = _running(me_paths[model], "me_f", version), _running(me_paths[model], "me_g", version)
+    try:
+        x = _states(f)
+        dx, dg = np.zeros(_nx(f)), np.zeros(_nx(f))
+        assert f.call("getDerivatives", _ptr(dx), _nx(f))[0] == OK  # evaluated at x
+        at_x = dx.copy()
+        for shift in (-1e-3, 2e-3):
+            y = x + shift * (1.0 + np.abs(x))
+            if model == "BallInShell":  # its states are n (a unit vector) and omega: keep |n| = 1
+                y[:3] = x[:3] + shift * np.array([0.05, 0.0, 0.0])
+                y[:3] /= np.linalg.norm(y[:3])
+            for inst in (f, g):
+                assert inst.call("setContinuousStates", _ptr(y), _nx(f))[0] == OK
+            assert f.call("getDerivatives", _ptr(dx), _nx(f))[0] == OK
+            assert g.call("getDerivatives", _ptr(dg), _nx(f))[0] == OK
+            assert np.array_equal(dx, dg) and not np.array_equal(dx, at_x), (shift, dx, dg, at_x)
+    finally:
+        f.free()
+        g.free()
+
+
 @pytest.mark.parametrize("input_mode", [1, 4])
 def test_the_input_modes_model_exchange_runs_are_accepted(me_paths, version, input_mode):
     """input_mode 1 and 4 read the acceleration inputs as set, all Model Exchange needs."""
