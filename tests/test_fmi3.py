@@ -287,3 +287,33 @@ def test_fmi3_binary_and_clock_calls_take_no_variable_and_refuse_any(fmi3):
     finally:
         slave.terminate()
         slave.freeInstance()
+
+
+def test_fmi3_a_wrong_token_is_named_and_an_empty_read_checks_the_state(fmi3):
+    """fmi3InstantiateCoSimulation with another instantiationToken refuses naming both tokens;
+    a getter with no value references still checks that the instance may be read (not in the
+    Instantiated state) and says so."""
+    import ctypes
+
+    md = read_model_description(str(fmi3["MotorStartup"]))
+    log = []
+
+    def on_message(env, status, category, message):
+        log.append((status, message.decode()))
+    bad = FMU3Slave(guid="{00000000-0000-0000-0000-000000000000}", unzipDirectory=extract(str(fmi3["MotorStartup"])),
+                    modelIdentifier=md.coSimulation.modelIdentifier, instanceName="token")
+    with pytest.raises(Exception):
+        bad.instantiate(loggingOn=True, logMessage=on_message)
+    assert any("instantiationToken {00000000-0000-0000-0000-000000000000} does not match this binary's "
+               f"{md.guid}" in m for _, m in log), log
+    slave, vr, log = _slave(fmi3["MotorStartup"], "empty", False)
+    try:
+        get = slave.dll.fmi3GetFloat64
+        assert get(slave.component, None, ctypes.c_size_t(0), None, ctypes.c_size_t(0)) == 3
+        assert any("fmi3GetFloat64 is not allowed in state Instantiated" in m for _, m in log), log
+        slave.enterInitializationMode(startTime=0.0)
+        assert get(slave.component, None, ctypes.c_size_t(0), None, ctypes.c_size_t(0)) == 0
+        slave.exitInitializationMode()
+    finally:
+        slave.terminate()
+        slave.freeInstance()

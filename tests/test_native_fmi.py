@@ -486,3 +486,25 @@ def test_a_structure_state_with_a_nan_anywhere_is_refused_or_steps_to_finite_out
             s.fmu.setFMUstate(good)
             s.fmu.freeFMUstate(state)
     assert refused > 0
+
+
+def test_a_wrong_guid_is_refused_naming_both(fmus_of):
+    """fmi2Instantiate with another GUID than the binary's: refused (NULL), the message names
+    FMI 2.0's GUID, the one given and the binary's."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+    from fmpy.logging import addLoggerProxy
+
+    path = fmus_of("native")["MotorStartup"]
+    md = read_model_description(str(path))
+    said = []
+    callbacks = fmi2CallbackFunctions()
+    logger = fmi2CallbackLoggerTYPE(lambda env, name, status, category, message: said.append(message.decode()))
+    callbacks.logger = logger
+    addLoggerProxy(ctypes.byref(callbacks))
+    fmu = FMU2Slave(guid="{00000000-0000-0000-0000-000000000000}", unzipDirectory=extract(str(path)),
+                    modelIdentifier=md.coSimulation.modelIdentifier, instanceName="guid")
+    with pytest.raises(Exception):
+        fmu.instantiate(callbacks=callbacks, loggingOn=True)
+    assert said == [f"MotorStartup 'guid': fmi2Instantiate: GUID {{00000000-0000-0000-0000-000000000000}} does not "
+                    f"match this binary's {md.guid}"], said
