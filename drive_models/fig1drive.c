@@ -182,15 +182,6 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
 /* ===================================================================== Model Exchange
  * No continuous states: publish's outputs at the time the importer sets, from the wrench as
  * set; the laws' kinks (t = 0, the cranks' t0, the frame's t0_frame) are time events. */
-static fmi2Status me_start(fmu_instance *fi, void *data, double *v, double t)
-{
-    (void)fi;
-    (void)data;
-    (void)v;
-    (void)t;
-    return fmi2OK;
-}
-
 static fmi2Status me_eval(fmu_instance *fi, void *data, double *v, double t, double *z)
 {
     const char *name;
@@ -217,7 +208,7 @@ static double next_time(const void *data, double t)
 
 static const fmu_me ME = {
     FMU_N_STATES, FMU_N_INDICATORS, FMU_STATE_VRS, FMU_DERIVATIVE_VRS, FMU_STATE_NOMINALS, FMU_INDICATOR_VRS,
-    me_start, me_eval, NULL, next_time,
+    NULL, me_eval, NULL, next_time,
 };
 
 const fmu_model FMU_MODEL = {

@@ -115,15 +115,6 @@ static fmi2Status inputs_set(fmu_instance *fi, void *data, double *v, double t)
  * No continuous states: the outputs are publish's at the time the importer sets, from the
  * input M_reaction as set; the law's kinks (t = 0 where the rise starts, t = t0 where it
  * ends: the acceleration or the jerk jumps) are time events. */
-static fmi2Status me_start(fmu_instance *fi, void *data, double *v, double t)
-{
-    (void)fi;
-    (void)data;
-    (void)v;
-    (void)t;
-    return fmi2OK;
-}
-
 static fmi2Status me_eval(fmu_instance *fi, void *data, double *v, double t, double *z)
 {
     (void)z;
@@ -145,7 +136,7 @@ static double next_time(const void *data, double t)
 
 static const fmu_me ME = {
     FMU_N_STATES, FMU_N_INDICATORS, FMU_STATE_VRS, FMU_DERIVATIVE_VRS, FMU_STATE_NOMINALS, FMU_INDICATOR_VRS,
-    me_start, me_eval, NULL, next_time,
+    NULL, me_eval, NULL, next_time,
 };
 
 const fmu_model FMU_MODEL = {

@@ -151,6 +151,26 @@ def integer(ds: DesignStudy, key: str, default, problems: list, low: int = 1) ->
     return v
 
 
+def tables(doc: dict, name: str, where: str, known: tuple, what: str, expected: str, problems: list,
+           required: bool = False):
+    """The study's [[name]] tables, each as (its key for messages, the table): a value that is not a
+    list (or, when required, an empty one) is named with `expected`; an entry that is not a table
+    (described by `what`) is named and skipped; unknown keys are named and the table kept."""
+    items = doc.get(name) if required else doc.get(name, [])
+    if not isinstance(items, list) or (required and not items):
+        problems.append(f"{where}: {name}: {expected}, got {items!r}")
+        return
+    for i, t in enumerate(items):
+        key = f"{where}: {name}[{i}]"
+        if not isinstance(t, dict):
+            problems.append(f"{key}: expected a table with {what}, got {t!r}")
+            continue
+        unknown = set(t) - set(known)
+        if unknown:
+            problems.append(f"{key}: unknown key(s) {sorted(unknown)} (known: {', '.join(known)})")
+        yield key, t
+
+
 def check_indicator(ds: DesignStudy, key: str, name, known: dict, problems: list) -> bool:
     if name not in known:
         problems.append(f"{ds.where}: {key}: {name!r} is not an indicator of this study's points "

@@ -160,19 +160,9 @@ def load(path: str, population=None, generations=None, seed=None) -> Problem:
     gens = design.integer(ds, "generations", 25, problems, low=1)
     sd = design.integer(ds, "seed", 1, problems, low=0)
     objectives = []
-    objs = doc.get("objectives")
-    if not isinstance(objs, list) or not objs:
-        problems.append(f"{w}: objectives: expected one or more [[objectives]] with indicator and goal "
-                        f"(min or max), got {objs!r}")
-        objs = []
-    for i, o in enumerate(objs):
-        key = f"{w}: objectives[{i}]"
-        if not isinstance(o, dict):
-            problems.append(f"{key}: expected a table with indicator and goal, got {o!r}")
-            continue
-        unknown = set(o) - {"indicator", "goal"}
-        if unknown:
-            problems.append(f"{key}: unknown key(s) {sorted(unknown)} (known: indicator, goal)")
+    for key, o in design.tables(doc, "objectives", w, ("indicator", "goal"), "indicator and goal",
+                                "expected one or more [[objectives]] with indicator and goal (min or max)",
+                                problems, required=True):
         goal = o.get("goal", "min")
         if goal not in ("min", "max"):
             problems.append(f"{key}.goal: expected min or max, got {goal!r}")
@@ -183,18 +173,8 @@ def load(path: str, population=None, generations=None, seed=None) -> Problem:
             problems.append(f"{key}.indicator: {o['indicator']!r} is an objective twice")
         objectives.append(Objective(o["indicator"], goal))
     constraints = []
-    cons = doc.get("constraints", [])
-    if not isinstance(cons, list):
-        problems.append(f"{w}: constraints: expected [[constraints]] tables, got {cons!r}")
-        cons = []
-    for i, c in enumerate(cons):
-        key = f"{w}: constraints[{i}]"
-        if not isinstance(c, dict):
-            problems.append(f"{key}: expected a table with indicator and min and/or max, got {c!r}")
-            continue
-        unknown = set(c) - {"indicator", "min", "max", "scale"}
-        if unknown:
-            problems.append(f"{key}: unknown key(s) {sorted(unknown)} (known: indicator, min, max, scale)")
+    for key, c in design.tables(doc, "constraints", w, ("indicator", "min", "max", "scale"),
+                                "indicator and min and/or max", "expected [[constraints]] tables", problems):
         name = c.get("indicator")
         if not isinstance(name, str):
             problems.append(f"{key}.indicator: expected an indicator's name, got {name!r}")

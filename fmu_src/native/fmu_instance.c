@@ -349,7 +349,7 @@ static fmi2Status cs_locals(fmu_instance *fi, const char *function, const unsign
     if (me) {
         memcpy(fi->v_work, fi->v, nv);
         memcpy(fi->data_work, fi->data, FMU_MODEL.data_size);
-        s = me->start(fi, fi->data_work, fi->v_work, fi->t);
+        s = me->start ? me->start(fi, fi->data_work, fi->v_work, fi->t) : fmi2OK;
         if (s <= fmi2Warning) s = me->eval(fi, fi->data_work, fi->v_work, fi->t, fi->z_work);
         memcpy(fi->data_work, fi->data, FMU_MODEL.data_size); /* keep the copies equal */
         for (int i = 0; s <= fmi2Warning && i < me->n_indicators; i++) fi->v_work[me->indicator_vr[i]] = fi->z_work[i];
@@ -472,7 +472,7 @@ fmi2Status fmu_exit_initialization_mode(fmu_instance *fi, const char *fn)
         /* Model Exchange: the model's start state (after its check of what it supports) */
         size_t nv = (size_t)FMU_MODEL.n_vars * sizeof(double);
         memcpy(fi->v_work, fi->v, nv);
-        fmi2Status m = FMU_MODEL.me->start(fi, fi->data, fi->v_work, fi->t);
+        fmi2Status m = FMU_MODEL.me->start ? FMU_MODEL.me->start(fi, fi->data, fi->v_work, fi->t) : fmi2OK;
         if (m > fmi2Warning) return fmi2Error;
         memcpy(fi->v, fi->v_work, nv);
         fi->dirty = 1;

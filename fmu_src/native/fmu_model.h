@@ -59,7 +59,8 @@ typedef struct {
     const int *indicator_vr;      /* n_indicators: the variables that show the event indicators */
     /* after setup (FMU_SETUP_START) at fmi2ExitInitializationMode: refuse (fmi2Error after
      * fmu_log said why) a configuration Model Exchange does not support; write the start
-     * state into v at state_vr */
+     * state into v at state_vr; NULL for a model without continuous states that runs every
+     * configuration in Model Exchange */
     fmi2Status (*start)(fmu_instance *fi, void *data, double *v, double t);
     /* at time t, from the states and inputs in v: the outputs and the derivatives into v, the
      * event indicators into z (n_indicators; NULL: not wanted). fmi2OK, or fmi2Error after
