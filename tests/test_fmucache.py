@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import os
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from ballmill.scenario import fmucache, runner
+from host import run_host
 
 
 def _fast_start(flavour="native", stop=0.2):
@@ -80,3 +82,39 @@ def test_folders_of_ended_processes_are_removed():
     fmucache.extracted(_fast_start()[2]["MotorStartup"])
     assert not stale.exists()
     assert fmucache._root.name.startswith(f"pid-{os.getpid()}-")
+
+
+PYTHONFMU_AFTER_A_RUN = """
+import sys
+from pathlib import Path
+from ballmill.scenario import runner
+sc, models, paths = runner.prepare("fast_start", [], sys.argv[1], log=lambda m: None, flavour="pythonfmu")
+sc.stop = 0.02
+assert runner.run(sc, models, paths, progress=False, echo=False).success
+import pythonfmu
+finish({"pythonfmu": str(Path(pythonfmu.__file__).parent)})
+"""
+
+
+def test_a_pythonfmu_run_leaves_the_installed_pythonfmu_in_use(fmu_build_dir, tmp_path):
+    """A pythonfmu FMU run in process puts its resources/ first on sys.path; the pythonfmu that
+    the process imports afterwards (e.g. to build FMUs) is still the installed one, with its
+    binaries (the FMU's bundled copy has none, and builds from it would have none either)."""
+    info = run_host(PYTHONFMU_AFTER_A_RUN, [fmu_build_dir], tmp_path / "info.json")
+    assert (Path(info["pythonfmu"]) / "resources" / "binaries").is_dir(), info
+
+
+def test_a_pythonfmu_without_binaries_builds_nothing(tmp_path, monkeypatch):
+    import sys
+    import types
+
+    from ballmill.fmi import build
+
+    fake = types.ModuleType("pythonfmu")
+    fake.__file__ = str(tmp_path / "pythonfmu" / "__init__.py")
+    monkeypatch.setitem(sys.modules, "pythonfmu", fake)
+    script = build.ROOT / "drive_models" / "motorstartup_fmu.py"
+    with pytest.raises(build.BuildError, match=r"motorstartup_fmu.py: the pythonfmu package imported from "
+                                               r".*pythonfmu has no resources/binaries"):
+        build.build_one(script, tmp_path / "out")
+    assert not (tmp_path / "out").exists()

@@ -69,7 +69,7 @@ def model_name(script: Path) -> str:
 
 
 # the compiled kernel's source and builds (their changes make a bundle out of date)
-KERNEL_FILES = ("_kernel.c", "_kernel.*.so", "_kernel.*.pyd", "_kernel.so", "_kernel.pyd", "_kernel.dylib")
+KERNEL_FILES = ("_kernel.c", "crank_law.h", "_kernel.*.so", "_kernel.*.pyd", "_kernel.so", "_kernel.pyd", "_kernel.dylib")
 
 
 def _kernel_files(directory: Path) -> list[Path]:
@@ -174,8 +174,14 @@ def build_native_one(name: str, build_dir: Path | None = None) -> Path:
 def build_one(script: Path, build_dir: Path | None = None) -> Path:
     """Build and validate one pythonfmu FMU (into build_dir/pythonfmu/); raise BuildError
     listing the problems."""
+    import pythonfmu
     from pythonfmu.builder import FmuBuilder
 
+    binaries = Path(pythonfmu.__file__).parent / "resources" / "binaries"
+    if not binaries.is_dir():  # e.g. the copy a pythonfmu FMU run in this process put on sys.path
+        raise BuildError(f"cannot build {script.name}: the pythonfmu package imported from "
+                         f"{Path(pythonfmu.__file__).parent} has no resources/binaries (expected the "
+                         "installed pythonfmu); build in a fresh process")
     target = fmu_path(model_name(script), build_dir, "pythonfmu")
     target.parent.mkdir(parents=True, exist_ok=True)
     # pythonfmu writes the archive in place: built in a folder of its own beside the target and

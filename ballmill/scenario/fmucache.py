@@ -21,6 +21,12 @@ stale one is never used. Per process:
   no state outside their fmi2Component; a pythonfmu library is never unloaded by
   ``dlclose`` anyway.)
 
+A pythonfmu FMU's library puts its ``resources/`` folder first on ``sys.path`` and
+imports its slave there; the ``pythonfmu`` package it bundles (without pythonfmu's
+binaries) would then become this process's ``pythonfmu``, and a later FMU build in the
+same process would package FMUs without binaries. ``extracted`` therefore imports the
+installed pythonfmu before such an FMU is loaded, so that the FMU's slave binds to it.
+
 Nothing here changes what a run computes: the same binary, the same calls.
 """
 from __future__ import annotations
@@ -113,6 +119,8 @@ def extracted(path) -> Path:
             shutil.rmtree(folder, ignore_errors=True)
             extract(str(path), folder, include=lambda name: not name.startswith(_SKIP))
             _folders[key] = folder
+        if (folder / "resources" / "pythonfmu").is_dir():
+            import pythonfmu  # noqa: F401  (the installed one, before the FMU's copy can shadow it)
         return folder
 
 
