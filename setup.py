@@ -3,8 +3,8 @@
 ballmill/physics/_kernel.c becomes the extension module ballmill.physics._kernel,
 which ballmill.physics.fast loads with ctypes. ``optional=True``: without a
 working C compiler the install still succeeds and the library runs in Python.
-The build embeds the first 60 bits of the source's sha256, so that fast.py can
-refuse a build that is older than the _kernel.c beside it.
+The build embeds the first 60 bits of the sources' sha256 (_kernel.c and the crank_law.h it
+includes), so that fast.py can refuse a build that is older than the sources beside it.
 """
 import hashlib
 from pathlib import Path
@@ -13,6 +13,7 @@ from setuptools import Extension, setup
 from setuptools.command.build_ext import build_ext
 
 SOURCE = "ballmill/physics/_kernel.c"
+HEADERS = ["ballmill/physics/crank_law.h"]  # #included by _kernel.c (fast.KERNEL_HEADERS)
 
 
 class BuildKernel(build_ext):
@@ -28,10 +29,12 @@ class BuildKernel(build_ext):
         super().build_extensions()
 
 
-digest = hashlib.sha256((Path(__file__).parent / SOURCE).read_bytes()).hexdigest()[:15]
+here = Path(__file__).parent
+digest = hashlib.sha256(b"".join((here / f).read_bytes() for f in [SOURCE, *HEADERS])).hexdigest()[:15]
 kernel = Extension(
     "ballmill.physics._kernel",
     sources=[SOURCE],
+    depends=HEADERS,
     define_macros=[("BALLMILL_KERNEL_MODULE", "1"), ("BM_SOURCE_HASH", f"0x{digest}ULL")],
     optional=True,
 )

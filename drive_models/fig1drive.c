@@ -6,7 +6,7 @@
  * computes them (kinematics of motions.Fig1Machine, loads and torques of drive.py), in
  * the same operation order, so both flavours give the same values bit for bit
  * (drive_models/fig1drive_fmu.py): the frame turns about its shaft e (x1 or z1 through
- * O1) by phi (constant speed, or a start-up law of startup_law.h), the cranks carry the
+ * O1) by phi (constant speed, or a start-up law of crank_law.h), the cranks carry the
  * platform point O = R_e(phi) (c + l u(psi)) on a circle relative to the frame, the
  * chamber's orientation is R_e(phi). From the ball's wrench (F, M_O1):
  *     M_frame = e . M_O1,   M_crank = T . F,   T = R_e(phi) da/dpsi,
@@ -18,9 +18,9 @@
 
 #include "fmu_model.h"
 #include "Fig1Drive_interface.h"
-#include "startup_law.h"
+#include "crank_law.h"
 
-enum { FRAME_CONSTANT = 0 };   /* frame_law 0; 1..4 are startup_law.h's shapes */
+enum { FRAME_CONSTANT = 0 };   /* frame_law 0; 1..4 are crank_law.h's shapes */
 enum { SHAFT_X = 1, SHAFT_Z = 2 };
 enum { ARR_PERPENDICULAR = 1, ARR_PARALLEL = 2 };
 

@@ -3,7 +3,7 @@
  * generated MotorStartup_interface.h).
  *
  * The crank start-up laws as ballmill.physics.drives.crank.CrankStartup computes them, in
- * the same operation order (startup_law.h; same values bit for bit as the pythonfmu flavour,
+ * the same operation order (crank_law.h; same values bit for bit as the pythonfmu flavour,
  * drive_models/motorstartup_fmu.py): the crank speed rises to w0 = 2 pi n0 / 60 in t0
  * along the law the parameter `law` chooses (1 = the paper's quadratic rise, 2 = S-curve,
  * 3 = linear, 4 = quintic), the platform point moves on a circle of radius l, and with
@@ -16,11 +16,11 @@
 #include "fmu_model.h"
 #include "MotorStartup_interface.h"
 #include "crank_kinematics.h"
-#include "startup_law.h"
+#include "crank_law.h"
 
 typedef struct {
     double l, w0, t0, j_total; /* configuration */
-    int law;                   /* STARTUP_* of startup_law.h (the pythonfmu flavour's LAWS) */
+    int law;                   /* STARTUP_* of crank_law.h (the pythonfmu flavour's LAWS) */
     double unused;             /* dynamic state: none beyond the plumbing's time */
 } motor_startup;
 

@@ -37,6 +37,7 @@ PACKAGE_DIR = Path(__file__).resolve().parent.parent
 ROOT = PACKAGE_DIR.parent
 PLUMBING = ROOT / "fmu_src" / "native"
 KERNEL = PACKAGE_DIR / "physics" / "_kernel.c"
+CRANK_LAW = PACKAGE_DIR / "physics" / "crank_law.h"  # #included by the kernel and the drive models
 
 # model -> its C file; the FMI plumbing and the kernel come with every model
 MODEL_SOURCES = {
@@ -48,8 +49,7 @@ MODEL_SOURCES = {
 }
 # model -> the headers its C file includes besides the plumbing's, the kernel and the generated ones
 MODEL_HEADERS = {
-    "MotorStartup": [ROOT / "drive_models" / "crank_kinematics.h", ROOT / "drive_models" / "startup_law.h"],
-    "Fig1Drive": [ROOT / "drive_models" / "startup_law.h"],
+    "MotorStartup": [ROOT / "drive_models" / "crank_kinematics.h"],
     "InductionMotor": [ROOT / "drive_models" / "crank_kinematics.h"],
 }
 FMI_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
@@ -79,7 +79,7 @@ def source_files(name: str, model_source: Path | None = None, fmi: int = 2) -> l
     hdr = fmi_headers_dir()
     return ([PLUMBING / f"fmi{fmi}.c", PLUMBING / "fmu_instance.c", PLUMBING / "fmu_state.c",
              PLUMBING / "fmu_model.h", PLUMBING / "fmu_instance.h", PLUMBING / "fmu_state.h",
-             model_source or MODEL_SOURCES[name], KERNEL]
+             model_source or MODEL_SOURCES[name], KERNEL, CRANK_LAW]
             + MODEL_HEADERS.get(name, []) + [hdr / h for h in FMI_HEADERS]
             + ([hdr / h for h in FMI3_HEADERS] if fmi == 3 else []))
 

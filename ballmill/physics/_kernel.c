@@ -59,6 +59,8 @@
 #include <stddef.h>
 #include <string.h>
 
+#include "crank_law.h" /* the crank start-up law and the platform point, shared with the drive FMUs */
+
 #ifdef _WIN32
 #define BM_EXPORT __declspec(dllexport)
 #else
@@ -78,7 +80,8 @@
 
 enum { BM_FIXED = 0, BM_CRANK = 1, BM_HARMONIC = 2, BM_CIRCLE = 3, BM_POLY = 4 };
 /* start-up laws of BM_CRANK, in the order of drives.LAWS */
-enum { BM_LAW_QUADRATIC = 0, BM_LAW_LINEAR = 1, BM_LAW_SCURVE = 2, BM_LAW_QUINTIC = 3 };
+/* CrankStartup.law as its index in drives.LAWS (quadratic, linear, scurve, quintic) -> crank_law.h's shape */
+static const int BM_STARTUP_LAW[4] = {STARTUP_QUADRATIC, STARTUP_LINEAR, STARTUP_SCURVE, STARTUP_QUINTIC};
 enum { BM_VECTOR = 0, BM_PAPER = 1, BM_GENERIC = 2, BM_ABSORBER = 3 }; /* formulations */
 #define BM_NMP 9 /* motion parameters */
 
@@ -135,49 +138,15 @@ static void bm_motion_state(const bm_problem *P, double t, double o[6])
     const double *p = P->mp;
     switch (P->motion) {
     case BM_CRANK: { /* CrankStartup.angle / state; p[3]: the law (drives.LAWS index) */
-        double l = p[0], w0 = p[1], t0 = p[2], psi, wd, wdd;
-        int law = (int)p[3];
-        if (t < 0.0) {
-            psi = 0.0; wd = 0.0; wdd = 0.0;
-        } else if (law == BM_LAW_QUADRATIC) {
-            if (t <= t0) {
-                double s = t / t0, u = 1.0 - s;
-                psi = w0 * t0 * s * s * (1.0 - s / 3.0); /* crank.rise_angle's form: 0 at t = 0 */
-                wd = w0 * (1.0 - u * u);
-                wdd = 2.0 * w0 * u / t0;
-            } else {
-                psi = 2.0 / 3.0 * w0 * t0 + w0 * (t - t0);
-                wd = w0;
-                wdd = 0.0;
-            }
-        } else if (t > t0) {
-            psi = 0.5 * w0 * t0 + w0 * (t - t0);
-            wd = w0;
-            wdd = 0.0;
-        } else {
-            double s = t / t0;
-            if (law == BM_LAW_LINEAR) {
-                psi = 0.5 * w0 * t0 * s * s;
-                wd = w0 * s;
-                wdd = w0 / t0;
-            } else if (law == BM_LAW_SCURVE) {
-                psi = w0 * t0 * s * s * s * (1.0 - 0.5 * s);
-                wd = w0 * s * s * (3.0 - 2.0 * s);
-                wdd = 6.0 * w0 * s * (1.0 - s) / t0;
-            } else { /* BM_LAW_QUINTIC */
-                double u = 1.0 - s;
-                psi = w0 * t0 * pow(s, 4.0) * (2.5 - 3.0 * s + s * s);
-                wd = w0 * pow(s, 3.0) * (10.0 - 15.0 * s + 6.0 * s * s);
-                wdd = 30.0 * w0 * s * s * u * u / t0;
-            }
-        }
-        double c = cos(psi), s = sin(psi);
-        o[0] = l * c;
-        o[1] = l * s;
-        o[2] = -l * s * wd;
-        o[3] = l * c * wd;
-        o[4] = -l * (s * wdd + c * wd * wd);
-        o[5] = l * (c * wdd - s * wd * wd);
+        double ps[3];
+        startup_angle(BM_STARTUP_LAW[(int)p[3]], p[1], p[2], t, ps);
+        crank_point c = crank_kinematics(p[0], ps[0], ps[1], ps[2]);
+        o[0] = c.x;
+        o[1] = c.y;
+        o[2] = c.vx;
+        o[3] = c.vy;
+        o[4] = c.ax;
+        o[5] = c.ay;
         return;
     }
     case BM_HARMONIC: {
@@ -1273,17 +1242,7 @@ static void bmg_law(int law, const double *p, double t, double a[3])
         a[0] = p[1] + p[0] * t; a[1] = p[0]; a[2] = 0.0;
         return;
     }
-    double w0 = p[0], t0 = p[1];
-    if (t < 0.0) {
-        a[0] = 0.0; a[1] = 0.0; a[2] = 0.0;
-    } else if (t <= t0) {
-        double s = t / t0, u = 1.0 - s;
-        a[0] = w0 * t0 * s * s * (1.0 - s / 3.0); /* crank.rise_angle's form: 0 at t = 0 */
-        a[1] = w0 * (1.0 - u * u);
-        a[2] = 2.0 * w0 * u / t0;
-    } else {
-        a[0] = 2.0 / 3.0 * w0 * t0 + w0 * (t - t0); a[1] = w0; a[2] = 0.0;
-    }
+    startup_angle(STARTUP_QUADRATIC, p[0], p[1], t, a);
 }
 
 /* Fig1Machine._kin: c, s, phi', phi'', psi', psi'' in k[0..5]; A, T, U */

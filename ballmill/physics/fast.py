@@ -68,6 +68,7 @@ NYMAX = 25  # BM_NYMAX: the integrators' largest state (the absorber's coupled o
 NOUT = len(Outputs._fields)
 NS_MAX = 12
 SOURCE = Path(__file__).with_name("_kernel.c")
+KERNEL_HEADERS = ("crank_law.h",)  # beside _kernel.c, #included by it (setup.py's HEADERS)
 
 
 class KernelUnavailable(RuntimeError):
@@ -111,10 +112,11 @@ _dp = ctypes.POINTER(ctypes.c_double)
 
 
 def source_hash(path: Path = SOURCE) -> int | None:
-    """The first 60 bits of the sha256 of _kernel.c, as setup.py embeds them in the build
-    (None without the file: an FMU's bundle, checked when it was built, has none)."""
+    """The first 60 bits of the sha256 of _kernel.c and the headers it includes
+    (KERNEL_HEADERS), as setup.py embeds them in the build (None without the files: an FMU's
+    bundle, checked when it was built, has none)."""
     try:
-        data = path.read_bytes()
+        data = b"".join(f.read_bytes() for f in [path, *(path.with_name(h) for h in KERNEL_HEADERS)])
     except OSError:
         return None
     import hashlib  # only here: importing it costs milliseconds

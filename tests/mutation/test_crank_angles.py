@@ -29,7 +29,7 @@ RATE = {"quadratic": (lambda tau: 1.0 - (1.0 - tau) ** 2, 2.0 / 3.0),
 def test_rise_angle_is_the_documented_law(law):
     """psi' from the documented rate, psi its integral from 0 (quadrature), psi'' its
     derivative (central difference); after t0 the steady rotation from c w0 t0; at rest
-    before 0; at t0 itself the rise's own (left) values, as the kernel's startup_law.h."""
+    before 0; at t0 itself the rise's own (left) values, as the kernel's crank_law.h."""
     from scipy.integrate import quad
 
     from ballmill.physics.drives.crank import rise_angle

@@ -28,7 +28,7 @@ def rise_angle(law: str, w0: float, t0: float, t: float):
     w0 [rad/s] in t0 [s] along ``law`` (one of LAWS, formulas in `CrankStartup`), w0
     kept after t0, at rest before t = 0. CrankStartup's crank law; also the frame law of
     the Fig. 1 machine (turning/motions.py, SpeedRise). The native drive models mirror
-    it operation for operation (drive_models/startup_law.h)."""
+    it operation for operation (ballmill/physics/crank_law.h)."""
     if t < 0.0:
         return 0.0, 0.0, 0.0
     if law == "quadratic":
