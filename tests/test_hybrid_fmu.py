@@ -10,10 +10,12 @@ import numpy as np
 import pytest
 
 from ballmill.physics import CrankStartup, InputReconstruction
+from ballmill.physics.drives.crank import Harmonic
 from ballmill.physics.turning.reconstruction import ChamberReconstruction, ReconstructedChamber
 
 H = 2e-3
 FAST = CrankStartup(t0=0.5)  # the fast start: n0 = 60 1/min in 0.5 s, slips at once
+SHAKE = Harmonic(x_amp=0.05, x_omega=25.0)  # with mu = 0.2: slip, flight, impacts
 
 # -- the chamber along the reconstruction (platform.ReconstructedPlatform) ------------------------
 _GL = {2: ((-1 / math.sqrt(3), 1.0), (1 / math.sqrt(3), 1.0)),
@@ -67,3 +69,34 @@ def test_the_reconstructed_turning_chamber_is_the_fit_itself():
     for t in (3 * H, 3.5 * H, 4 * H):
         assert mot.state(t) == rec.state(t)
         assert mot.accel(t) == rec.accel_function()(t)
+
+
+# -- the library's step from a state (HybridBall.resume) --------------------------------------
+def test_resuming_a_run_step_by_step_is_the_run_bit_for_bit():
+    """A run resumed at every grid point from (mode, y, h, bookkeeping) alone, the bookkeeping
+    scrambled in between (so nothing survives in the system but what the state carries), is
+    simulate_hybrid's run, every row and event time the same floats: slip, flight and
+    impacts in a shaken chamber."""
+    from ballmill.physics import Ball
+    from ballmill.physics.hybrid import Contact, HybridBall, simulate_hybrid
+
+    ball, contact, shake = Ball(mu=0.2), Contact(e_n=0.6, mu_k=0.15), SHAKE
+    ref = simulate_hybrid(ball, shake, 1.0, 0.01, contact, kernel="python")
+    kinds = {e.kind for e in ref.events}
+    assert ref.success and len(ref.of_kind("impact")) >= 3 and {"slip", "leave"} <= kinds, kinds
+    system = HybridBall(ball, shake, contact)
+    t, mode, y = system.begin(0.0)
+    h, book = None, system.bookkeeping()
+    rows, events = [system.sample(mode, t, y)], []
+    for k in range(1, len(ref.t)):
+        system.set_bookkeeping((1.0, 7.0, 3.0, 0.5, 0.5, 2.0, 2.0, 1.0, 0.0, 0.0, 1.0, 0.0))  # scrambled
+        run = system.resume(mode, t, y, h, book, float(ref.t[k]))
+        assert run.success, run.message
+        mode, t, y, h, book = run.mode, run.t_last, run.y, run.h, system.bookkeeping()
+        rows.append(run.rows[-1])
+        events += run.events
+    assert [e.t for e in events] == [e.t for e in ref.events]
+    assert [e.kind for e in events] == [e.kind for e in ref.events]
+    got = np.array(rows, dtype=float)
+    want = np.column_stack([ref.out[c] for c in HybridBall.COLUMNS])
+    assert np.array_equal(got, want, equal_nan=True)
