@@ -307,13 +307,14 @@ class HybridBall:
         y = y.tolist()
         return (y[3], y[4], y[5], 0.0, 0.0, -self.ball.g, 0.0, 0.0, 0.0, 0.0, 0.0)
 
-    def _slide_forces(self, t, y, seed=None):
+    def _slide_forces(self, t, y, seed=None, chamber=None):
         """(N, friction force on the ball F_t, slip speed |u_t|, n, the wall's velocity at P)
-        of a sliding state."""
+        of a sliding state; ``chamber``: (A, v_A, a_A, Omega, Omega') to use instead of the
+        motion's at t (an FMU's outputs with the inputs just set)."""
         b = self.ball
         if type(y) is not list:
             y = y.tolist()  # Python floats: faster than numpy scalars here
-        A, vA, aA, Om, _ = self.chamber(t)
+        A, vA, aA, Om, _ = self.chamber(t) if chamber is None else chamber
         rho = (y[0] - A[0], y[1] - A[1], y[2] - A[2])
         dist = math.sqrt(_dot(rho, rho))
         n = (rho[0] / dist, rho[1] / dist, rho[2] / dist)
