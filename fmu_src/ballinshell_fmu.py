@@ -127,11 +127,14 @@ class BallInShell(Slave):
     def _new_system(self):
         """contact_model = 2: the hybrid ball (hybrid.HybridBall) over the current fit of the inputs
         (its motion is replaced at every step: HybridBall.resume), rolling without the work
-        quadrature (energy = False: the rolling model's own floats), the FMU's integrator."""
+        quadrature (energy = False: the rolling model's own floats), the FMU's integrator with the
+        library's bound on internal steps (Integrator's 1e6, fmu_src/ballinshell.c's HYB_MAX_STEPS,
+        not MAX_INTERNAL_STEPS: a slide that starts from zero slip may take more than that within
+        one step, and the flavours must fail alike)."""
         ball = self._model.ball
         contact = Contact(mu_k=None if self.mu_k == -1.0 else self.mu_k, e_n=self.e_n, v_rest=self.v_rest)
         self._system = HybridBall(ball, self._inputs.motion(), contact, METHODS[self.integrator], self.tolerance,
-                                  None, False, self.h_fixed, max_steps=MAX_INTERNAL_STEPS, t_ref=self._time)
+                                  None, False, self.h_fixed, t_ref=self._time)
 
     def _check_contact(self):
         """The hybrid contact's parameters (interface._BALL_RULES; fmu_src/ballinshell.c's

@@ -106,7 +106,7 @@ def test_resuming_a_run_step_by_step_is_the_run_bit_for_bit():
 # -- the FMU, contact_model = 2 ---------------------------------------------------------------
 # DOP853 at 1e-9: with RK45 at the FMU's default 1e-8 a slide that starts from zero slip (the
 # fast start at 0.2687 s) takes tens of thousands of steps (the slip direction's seed threshold,
-# 1e-3 slip_eps = 1e-9 m/s, is below RK45's error in the slip there) and the step is refused
+# 1e-3 slip_eps = 1e-9 m/s, is below RK45's error in the slip there): seconds for one 2 ms step
 HYBRID = dict(contact_model=2, integrator=1, tolerance=1e-9)
 SHAKEN = dict(mu=0.2, mu_k=0.15, e_n=0.6)  # Harmonic(0.1 m, 30 rad/s): slip, flight, 5 impacts, rest
 
@@ -324,3 +324,24 @@ def test_a_turning_chamber_through_the_fmu_is_the_librarys_hybrid_ball(fmus_of):
         assert np.max(np.abs(out[a] - ref[b])) < 1e-9, a
     assert out["E_friction"][-1] == pytest.approx(ref["E_friction"][-1], rel=1e-9) and out["E_friction"][-1] > 0.01
     assert np.all(out["valid"] == 1.0)
+
+
+def test_a_sliding_balls_force_follows_the_inputs_set_between_steps(fmus_of):
+    """Direct feedthrough off rolling: sliding (the fast start at 0.05 s), the platform
+    acceleration set 1 m/s2 higher in y without a step changes N by -m n_y (section 14's N,
+    n_y = yC / (R - r) from the outputs) and the friction with it (Ft = mu_k N)."""
+    from ballmill.physics import Ball
+
+    ball = Ball()
+    out, fmu = run_scene(fmus_of, "pythonfmu", FAST, 0.05, keep=True, **HYBRID)
+    try:
+        assert fmu.get("mode") == 2
+        x, y, vx, vy, ax, ay = FAST.state(fmu.time)
+        N0 = fmu.get("N")
+        ny = fmu.get("yC") / ball.d
+        assert fmu.set(x1O=x, y1O=y, vx1O=vx, vy1O=vy, ax1O=ax, ay1O=ay + 1.0) == 0
+        N1 = fmu.get("N")
+        assert N1 - N0 == pytest.approx(-ball.m * ny, rel=1e-6) and abs(ny) > 0.01
+        assert fmu.get("Ft") == pytest.approx(ball.mu * N1, rel=1e-12)  # mu_k = -1: mu
+    finally:
+        fmu.free()
