@@ -612,7 +612,7 @@ class BallInShell(Slave):
     def _values(self, out):
         """The output values to publish (ArithmeticError naming an output that is not finite;
         friction_ratio is +inf when N <= 0, published as 1e300)."""
-        hybrid = [(name, v if type(v) is int else self.finite(name, v)) for name, v in out.hybrid]
+        hybrid = [(name, v if type(v) is int else self.finite(name, v)) for name, v in getattr(out, "hybrid", ())]
         if type(out) is _General:
             finite = self.finite
             return [(name, finite(name, v, allow_infinite=(name == "friction_ratio")))
