@@ -1,0 +1,86 @@
+"""What a study's fixed costs leave out changes nothing a user reads: results.parquet holds the
+bytes pyarrow.array's columns gave, without pandas' import in the command.
+
+No timing assertions: the costs are held by what is imported and what is computed."""
+from __future__ import annotations
+
+import io
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from ballmill.sweep import engine
+
+ROOT = Path(__file__).resolve().parents[1]
+ROWS = [
+    {"drive.t0": 1.5, "N_max": None, "status": "ok", "valid": True, "point": 3, "message": "x\u00e9\u2713",
+     "n": 2, "model": "crank-kernel"},
+    {"drive.t0": float("nan"), "N_max": 2, "status": None, "valid": None, "point": 4, "message": "",
+     "n": None, "model": None},
+    {"drive.t0": float("inf"), "N_max": -0.0, "status": "failed", "valid": False, "point": 5, "message": None,
+     "n": -7, "model": 12},
+    {"drive.t0": None, "N_max": 1e300, "status": "ok", "valid": True, "point": 6, "message": "a,b\n\"c\"",
+     "n": 2 ** 62, "model": "m"},
+]
+COLS = ["drive.t0", "N_max", "status", "valid", "point", "message", "n", "model", "absent"]
+UNITS = {"drive.t0": "s", "N_max": "N"}
+
+
+def _parquet(table) -> bytes:
+    buf = io.BytesIO()
+    pq.write_table(table, buf)
+    return buf.getvalue()
+
+
+def test_results_table_is_what_pyarrow_array_made():
+    """Every column type (float64 with NaN, infinities and -0.0; int64; bool; string, with str()
+    of a non-string), None as null, the units in the fields' metadata: the same Parquet bytes as
+    the columns pyarrow.array makes of the same values, for 0, 1 and 4 rows."""
+    for k in (0, 1, len(ROWS)):
+        rows = ROWS[:k]
+        table = engine._table(rows, COLS, UNITS)
+        ref = []
+        for c, f in zip(COLS, table.schema):
+            vals = [r.get(c) for r in rows]
+            if f.type == pa.string():
+                vals = [None if v is None else str(v) for v in vals]
+            elif f.type == pa.float64():
+                vals = [None if v is None else float(v) for v in vals]
+            ref.append(pa.array(vals, type=f.type))
+        assert [f.type for f in table.schema] == ([pa.float64(), pa.float64(), pa.string(), pa.bool_(), pa.int64(),
+                                                  pa.string(), pa.int64(), pa.string(), pa.float64()] if k else
+                                                 [pa.float64(), pa.float64(), pa.string(), pa.bool_(), pa.int64(),
+                                                  pa.string(), pa.float64(), pa.string(), pa.float64()])
+        assert table.schema.field("N_max").metadata == {b"unit": b"N"}
+        assert _parquet(table) == _parquet(pa.Table.from_arrays(ref, schema=table.schema))
+
+
+WRITE_SCRIPT = """
+import json, sys
+from pathlib import Path
+from ballmill.sweep import engine
+rows, cols, units = json.loads(sys.argv[1])
+engine._write(engine._table(rows, cols, units), Path(sys.argv[2]))
+print(json.dumps(sorted(m for m in ("pandas",) if m in sys.modules)))
+"""
+
+
+def test_writing_results_does_not_import_pandas(tmp_path):
+    """Writing results.parquet loads no pandas (pyarrow.array would, on its first call), and
+    the file reads back as the rows."""
+    rows = [{k: v for k, v in r.items() if not (isinstance(v, float) and v != v) and v not in (float("inf"),)}
+            for r in ROWS]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
+    path = tmp_path / "results.parquet"
+    proc = subprocess.run([sys.executable, "-c", WRITE_SCRIPT, json.dumps([rows, COLS, UNITS]), str(path)],
+                          capture_output=True, text=True, env=env, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads(proc.stdout.strip().splitlines()[-1]) == []
+    back = pq.read_table(path).to_pylist()
+    assert [r["point"] for r in back] == [3, 4, 5, 6] and back[0]["message"] == "x\u00e9\u2713"
+    assert back[2]["model"] == "12" and back[1]["N_max"] == 2.0 and back[3]["n"] == 2 ** 62
