@@ -84,3 +84,38 @@ def test_writing_results_does_not_import_pandas(tmp_path):
     back = pq.read_table(path).to_pylist()
     assert [r["point"] for r in back] == [3, 4, 5, 6] and back[0]["message"] == "x\u00e9\u2713"
     assert back[2]["model"] == "12" and back[1]["N_max"] == 2.0 and back[3]["n"] == 2 ** 62
+
+
+def test_maps_after_the_first_keep_its_layout_unless_their_text_would_leave_the_figure(tmp_path, monkeypatch):
+    """The heat maps share one figure, laid out for the first; a later map whose colour bar
+    carries much wider tick labels and label (six digits with a sign after values below 1, a
+    label of three lines after two) is laid out again, so
+    that on every PNG everything drawn lies inside the figure; a map whose texts fit
+    keeps the first map's axes where they were."""
+    from ballmill.plotting import figures
+    from ballmill.sweep import plots
+    from ballmill.sweep.spec import build
+
+    drawn = {}  # PNG -> (the map's axes, everything drawn inside the figure) as last written
+    save = figures.save
+
+    def recording(fig, path, dpi=None):
+        out = save(fig, path, dpi)
+        box = fig.get_tightbbox()  # what the PNG shows: every drawn artist [in]
+        w, h = fig.get_size_inches()
+        drawn[Path(path).name] = (fig.axes[0].get_position().bounds,
+                                  box.x0 >= 0 and box.y0 >= 0 and box.x1 <= w and box.y1 <= h)
+        return out
+
+    monkeypatch.setattr(figures, "save", recording)
+    t0s, n0s = [1.0, 2.0, 3.0], [60, 70, 80]
+    study = build("fast_start", grid={"drive.t0": t0s, "drive.n0": n0s})
+    rows = [{"drive.t0": t0, "drive.n0": n0, "status": "ok", "valid": True, "N_range_after": 0.1 * t0,
+             "ring_width": 0.2 * t0, "T_drive_peak": -3000.0 * n0 * t0}
+            for n0 in n0s for t0 in t0s]
+    files = plots.write(study, rows, tmp_path)
+    assert [f.name for f in files] == ["map_N_range_after.png", "map_ring_width.png", "map_T_drive_peak.png"]
+    assert list(drawn) == [f.name for f in files] and all(inside for _, inside in drawn.values()), drawn
+    first = drawn["map_N_range_after.png"][0]
+    assert drawn["map_ring_width.png"][0] == first  # its texts fit: the first map's layout
+    assert drawn["map_T_drive_peak.png"][0] != first  # laid out again
