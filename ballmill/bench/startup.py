@@ -16,9 +16,12 @@ instance), on a build folder of this section's own:
    interpreter start and ``import ballmill.cli``, the imports the run needs, preparing (the
    build check, the scenario and the model descriptions it uses), FMU load and
    initialisation, the simulation, results and plots, and leaving the process;
-5. the first run on an empty build folder (compiling the FMUs it needs), once.
+5. the first run on an empty build folder (compiling the FMUs it needs), once;
+6. the run's plots in one process (``PLOTS_SCRIPT``, after a run of the scenario there): the
+   first figure made (matplotlib's import), the 4 PNGs first drawn and written, and the same
+   4 again (warm: drawing and encoding only), CPU time and wall time of each.
 
-Items 1-4 also for the code as it was before the start-up work (``BASELINE``; or the
+Items 1-4 and 6 also for the code as it was before the start-up work (``BASELINE``; or the
 revision ``ballmill bench --section startup --baseline REF`` names), extracted
 with ``git archive`` into a temporary folder, its FMUs built by its own first run), in the
 same rounds: each round runs every measurement of both, old and new interleaved, and the
@@ -116,6 +119,42 @@ def _build_check(tree: Path, build_dir: Path, cwd: Path) -> dict:
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
+PLOTS_SCRIPT = """
+import inspect, json, sys, time
+from pathlib import Path
+from ballmill.scenario import report, runner
+build, out = Path(sys.argv[1]), Path(sys.argv[2])
+sc, models, paths = runner.prepare("fast_start", (), build, log=lambda m: None)
+res = runner.run(sc, models, paths, progress=False, echo=False)
+summary = report.summarise(res, models, None)
+kw = {"summary": summary} if "summary" in inspect.signature(report.plot).parameters else {}
+out.mkdir(parents=True, exist_ok=True)
+times = {}
+def clock(name, f):
+    c, t = time.process_time(), time.perf_counter()
+    f()
+    times[name + " wall"], times[name + " cpu"] = time.perf_counter() - t, time.process_time() - c
+try:  # the figures' module (the plain pyplot import before it existed)
+    from ballmill.plotting import figures
+    clock("import", lambda: figures.subplots())
+except ImportError:
+    clock("import", lambda: __import__("matplotlib.pyplot"))
+clock("plots first", lambda: report.plot(res, out, models, **kw))
+clock("plots again", lambda: report.plot(res, out, models, **kw))
+print(json.dumps(times))
+"""
+PLOT_ROWS = (("import", "matplotlib's import (the first figure made)"),
+             ("plots first", "the 4 PNGs of `ballmill run fast_start`, first drawn in the process"),
+             ("plots again", "the same 4 PNGs again (warm: drawing and encoding only)"))
+
+
+def _plots(tree: Path, build_dir: Path, work: Path) -> dict:
+    """PLOTS_SCRIPT in a fresh process of the tree: wall and CPU time of each of PLOT_ROWS [s]."""
+    _, _, _, proc = _timed([sys.executable, "-c", PLOTS_SCRIPT, str(build_dir), str(work / "plots")],
+                           _env(tree), work)
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
 def _run(tree: Path, build_dir: Path, work: Path, clocked: bool) -> dict:
     """One `ballmill run fast_start --quiet`: its wall time and (clocked) its phases [s]."""
     marks = work / "phases.json"
@@ -193,6 +232,8 @@ def measure(quick: bool, progress=print, baseline: str | None = None) -> dict:
                 add(k, "build check (median of 50 more)", check["median"])
                 for name, value in _run(tree, builds[k], work, clocked=(k == "new")).items():
                     add(k, name, value)
+                for name, value in _plots(tree, builds[k], work).items():
+                    add(k, name, value)
         medians = {k: {name: statistics.median(v) for name, v in s.items()} for k, s in samples.items()}
         fastest = {k: {name: min(v) for name, v in s.items()} for k, s in samples.items()}
         return {"medians": medians, "fastest": fastest, "first": first, "rounds": rounds, "baseline": baseline if old else None,
@@ -250,6 +291,15 @@ def report(data: dict, quick: bool) -> str:
     L.append(f"Where a warm `ballmill run {SCENARIO}` spends its time now, phase by phase (the command's "
              f"own clock, `$BALLMILL_PHASES`; medians per phase):\n")
     L.append(_table(["phase", "wall time"], rows) + "\n")
+    rows = []
+    for name, label in PLOT_ROWS:
+        for unit in ("cpu", "wall"):
+            a, b = (old or {}).get(f"{name} {unit}"), new.get(f"{name} {unit}")
+            rows.append([f"{label}: {'CPU' if unit == 'cpu' else 'wall'}", _t(a) if old else "—", _t(b),
+                         f"{a / b:.2f}x" if old and a and b else "—"])
+    L.append("The run's plots in one process, after a run of the scenario there (CPU time is what load "
+             "inflates least; medians):\n")
+    L.append(_table(["", f"before ({data['baseline']})" if old else "before", "now", "before / now"], rows) + "\n")
     L.append(f"The co-simulation's own `wall_time_s` in its summary (FMU load, initialisation and "
              f"simulation): {_t(new['summary wall_time_s'])}.\n")
     L.append(END + "\n")

@@ -20,7 +20,15 @@ variants run interleaved, one of each per round, and the medians are reported:
 
 Also the CPU time of each command and its children (the workers), so that load from
 other processes, which inflates the wall times, can be told apart, and the split of the
-default variant's timing.json.
+default variant's timing.json. For the current code and each baseline, in every round:
+
+* the command's own CPU time (not its workers'), part by part (``FIXED_SCRIPT``: the same
+  command in one process, its functions clocked): imports, checking the scenario, its share
+  of the points (the task graph, the results as they come), results.parquet, matplotlib's
+  import and drawing the PNGs: the fixed costs, which do not run on the workers;
+* a worker's CPU per point, part by part (``SPLIT_SCRIPT``: every 10th point of the grid in
+  one process, no Dask): the kernel's run, the rest of the point's run in Python (its
+  objects, the records), the indicators, and the row's assembly.
 """
 from __future__ import annotations
 
@@ -39,6 +47,84 @@ BEGIN, END = "<!-- section: sweep-grid -->", "<!-- end of section: sweep-grid --
 GRID = ["fast_start", "--grid", "drive.t0=1:5:40", "--grid", "drive.n0=40:80:100"]
 VARIANTS = (("one-pass (default)", []), ("--error richardson", ["--error", "richardson"]),
             ("--error richardson --scheduler local", ["--error", "richardson", "--scheduler", "local"]))
+
+
+SPLIT_SCRIPT = """
+import json, sys, time
+from pathlib import Path
+from ballmill.physics import fast
+from ballmill.sweep import engine, evaluators, spec
+grid = {k: spec.parse_grid_option(g)[1] for k, g in (("drive.t0", "drive.t0=1:5:40"), ("drive.n0", "drive.n0=40:80:100"))}
+study = spec.load("fast_start", grid=grid)
+st = engine.setup(study, Path(sys.argv[1]), None, lambda m: None)
+sample = [(i, spec.point_id(p), p) for i, p in enumerate(study.points())][::10]
+cpu = {}
+def clocked(owner, name, key):
+    f = getattr(owner, name)
+    def g(*a, **k):
+        c = time.process_time()
+        try:
+            return f(*a, **k)
+        finally:
+            cpu[key] = cpu.get(key, 0.0) + time.process_time() - c
+    setattr(owner, name, g)
+clocked(fast, "study_run", "kernel")
+clocked(evaluators.CrankPrepared, "run", "run")
+clocked(evaluators.CrankPrepared, "evaluate", "indicators")
+engine.run_batch(st.prepared, study.indicators, sample[:20])  # (warm: the models, the kernel problems)
+cpu.clear()
+c = time.process_time()
+engine.run_batch(st.prepared, study.indicators, sample)
+total, n = time.process_time() - c, len(sample)
+print(json.dumps({"kernel run (fast.study_run)": cpu["kernel"] / n,
+                  "the run's Python (objects, steps, drive kinematics, record)": (cpu["run"] - cpu["kernel"]) / n,
+                  "indicators": cpu["indicators"] / n,
+                  "row assembly": (total - cpu["run"] - cpu["indicators"]) / n, "per point": total / n}))
+"""
+FIXED_SCRIPT = """
+import json, sys, time
+c0 = time.process_time()
+from ballmill import cli
+from ballmill.plotting import figures
+from ballmill.sweep import engine, plots
+cpu = {}
+def clocked(owner, name, key, once=False):
+    f = getattr(owner, name)
+    def g(*a, **k):
+        c = time.process_time()
+        try:
+            return f(*a, **k)
+        finally:
+            if not (once and key in cpu):
+                cpu[key] = cpu.get(key, 0.0) + time.process_time() - c
+    setattr(owner, name, g)
+clocked(engine, "setup", "setup")
+clocked(engine.Executor, "run", "run")
+clocked(engine, "_table", "table")
+clocked(engine, "_write", "write")
+clocked(figures, "subplots", "mpl", once=True)  # the first: matplotlib's import
+clocked(plots, "write", "plots")
+imports = time.process_time() - c0
+cli.main(["sweep", "fast_start", "--grid", "drive.t0=1:5:40", "--grid", "drive.n0=40:80:100", "--out", sys.argv[1],
+          "--quiet"])
+total = time.process_time() - c0
+print(json.dumps({"imports before the command": imports, "checking the scenario, the evaluator (setup)": cpu["setup"],
+                  "its share of the points (task graph, results as they come, parts)": cpu["run"],
+                  "results.parquet (Arrow table and file, parts included)": cpu.get("table", 0.0) + cpu.get("write", 0.0),
+                  "matplotlib's import (the first figure)": cpu.get("mpl", 0.0),
+                  "the PNGs (drawing, encoding)": cpu.get("plots", 0.0) - cpu.get("mpl", 0.0),
+                  "the command's CPU (its own, not its workers')": total}))
+"""
+
+
+def _script(script: str, out: Path, env: dict) -> dict:
+    """One of the scripts above in a fresh process of env's tree (out: its folder): its JSON."""
+    shutil.rmtree(out, ignore_errors=True)
+    res = subprocess.run([sys.executable, "-c", script, str(out)], capture_output=True, text=True, env=env,
+                         cwd=out.parent)
+    if res.returncode != 0:
+        raise RuntimeError(f"bench script failed ({res.returncode}): {res.stderr[-2000:]}")
+    return json.loads(res.stdout.strip().splitlines()[-1])
 
 
 def _run(args: list[str], out: Path, env: dict) -> dict:
@@ -72,7 +158,8 @@ def measure(repeats: int, baseline: str | None = None, root: Path | None = None,
     here = Path(__file__).resolve().parents[2]
     env = {**os.environ, "PYTHONPATH": str(here)}
     variants = [(label, args, env) for label, args in VARIANTS]
-    data = {"repeats": repeats, "load_start": machine.load(), "nproc": os.cpu_count(), "runs": {}}
+    data = {"repeats": repeats, "load_start": machine.load(), "nproc": os.cpu_count(), "runs": {}, "fixed": {},
+            "split": {}}
     try:
         shas = []
         for ref in (baseline.split(",") if baseline else []):
@@ -86,6 +173,12 @@ def measure(repeats: int, baseline: str | None = None, root: Path | None = None,
             for label, args, e in variants:
                 progress(f"sweep-grid: round {k + 1}/{repeats}: {label}")
                 data["runs"].setdefault(label, []).append(_run(args, work / "out", e))
+            for label, args, e in variants:  # the current code's default and the baselines: their splits
+                if args:
+                    continue
+                progress(f"sweep-grid: round {k + 1}/{repeats}: {label}: the command's and a worker's CPU split")
+                data["fixed"].setdefault(label, []).append(_script(FIXED_SCRIPT, work / "out", e))
+                data["split"].setdefault(label, []).append(_script(SPLIT_SCRIPT, work / "out", e))
     finally:
         shutil.rmtree(work, ignore_errors=True)
     data["load_end"] = machine.load()
@@ -141,6 +234,24 @@ def report(data: dict) -> str:
                        ("indicators", "indicators in the workers"), ("task_cpu", "CPU of the workers' tasks")):
         v = _median(t, lambda r: r["timing"]["workers"].get(key, 0.0))
         L.append(f"| {label} | {v:.3f} ({1e3 * v / n:.3f} ms a point) |")
+    for key, what, unit, scale in (
+            ("fixed", "The command's own CPU time (not its workers'), part by part (the same command in one process, "
+                      "its functions clocked; medians)", "s", 1.0),
+            ("split", "A worker's CPU per point, part by part (every 10th point of the grid in one process, no Dask; "
+                      "medians)", "ms", 1e3)):
+        got = data.get(key) or {}
+        if not got:
+            continue
+        labels = list(got)
+        L.append("")
+        L.append(what + ":")
+        L.append("")
+        L.append("| part | " + " | ".join(f"{lb} [{unit}]" for lb in labels) + " |")
+        L.append("|---|" + "---|" * len(labels))
+        for part in got[labels[0]][0]:
+            L.append(f"| {part} | " + " | ".join(
+                f"{scale * statistics.median(r[part] for r in got[lb]):.3f}" if part in got[lb][0] else "—"
+                for lb in labels) + " |")
     ls, le = data.get("load_start"), data.get("load_end")
     if ls and le:
         L.append("")

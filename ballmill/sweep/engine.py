@@ -115,6 +115,8 @@ def run_batch(prepared, custom, batch):
 # ----------------------------------------------------------------------------
 # results on disk
 def _table(rows: list[dict], cols: list[str], units: dict):
+    """The rows as an Arrow table: a column per name in cols, typed by its values (string,
+    bool, int64, else float64; None is null), with its unit in the field's metadata."""
     import pyarrow as pa
 
     arrays, fields = [], []
@@ -123,18 +125,46 @@ def _table(rows: list[dict], cols: list[str], units: dict):
         present = [v for v in vals if v is not None]
         if c in ("status", "message", "model", "error_method", "point_id") or any(isinstance(v, str) for v in present):
             typ = pa.string()
-            vals = [None if v is None else str(v) for v in vals]
         elif c == "valid" or (present and all(isinstance(v, bool) for v in present)):
             typ = pa.bool_()
         elif c == "point" or (present and all(isinstance(v, int) and not isinstance(v, bool) for v in present)):
             typ = pa.int64()
         else:
             typ = pa.float64()
-            vals = [None if v is None else float(v) for v in vals]
         meta = {b"unit": units[c].encode()} if units.get(c) else None
         fields.append(pa.field(c, typ, metadata=meta))
-        arrays.append(pa.array(vals, type=typ))
+        arrays.append(_arrow_array(vals, typ))
     return pa.Table.from_arrays(arrays, schema=pa.schema(fields))
+
+
+def _arrow_array(vals: list, typ):
+    """What ``pyarrow.array(vals, type=typ)`` makes of the values (str() of each for a string
+    column, float() for float64, None as null; NaN stays NaN), made from numpy buffers:
+    pyarrow.array looks for pandas on its first call (pandas' import: about 0.45 s of CPU in a
+    command that never uses it)."""
+    import numpy as np
+    import pyarrow as pa
+
+    n = len(vals)
+    null = np.array([v is None for v in vals], dtype=bool)
+    nulls = int(null.sum())
+    valid = pa.py_buffer(np.packbits(~null, bitorder="little")) if nulls else None
+    if typ == pa.string():
+        data = [b"" if v is None else str(v).encode("utf-8") for v in vals]
+        offsets = np.zeros(n + 1, np.int64)
+        np.cumsum(np.array([len(d) for d in data], dtype=np.int64), out=offsets[1:])
+        if offsets[-1] >= 2 ** 31:  # beyond a string column's 32-bit offsets
+            return pa.array(vals, type=typ)
+        return pa.Array.from_buffers(typ, n, [valid, pa.py_buffer(offsets.astype(np.int32)),
+                                              pa.py_buffer(b"".join(data))], null_count=nulls)
+    if typ == pa.bool_():
+        bits = np.packbits(np.array([bool(v) for v in vals], dtype=bool), bitorder="little")
+        return pa.Array.from_buffers(typ, n, [valid, pa.py_buffer(bits)], null_count=nulls)
+    if typ == pa.int64():
+        data = np.array([0 if v is None else v for v in vals], dtype=np.int64)
+    else:  # None becomes NaN here, in a slot the validity marks null
+        data = np.array(vals, dtype=np.float64)
+    return pa.Array.from_buffers(typ, n, [valid, pa.py_buffer(data)], null_count=nulls)
 
 
 def read_rows(path: Path) -> list[dict]:
@@ -250,13 +280,16 @@ def _run_forked(prepared, custom, tasks: list, nworkers: int, take, pool=None) -
 
     def posttask(key, result, dsk, state, worker_id):
         nonlocal last
-        take(*result)
-        last = time.perf_counter()
+        if key in batches:  # (not the nodes holding the tasks' points)
+            take(*result)
+            last = time.perf_counter()
 
     # the Prepared as one value of the graph, not traversed (a dataclass's fields would be, for every
     # task: about 20 ms a task for the kernel's)
     prep = dask.delayed(prepared, traverse=False)
-    calls = [dask.delayed(run_batch, pure=False)(prep, custom, task) for task in tasks]
+    # each task's points likewise (a list of 250 tuples of dicts: about 1 ms a task to traverse)
+    calls = [dask.delayed(run_batch, pure=False)(prep, custom, dask.delayed(task, traverse=False)) for task in tasks]
+    batches = {c.key for c in calls}
     with dask.config.set({"multiprocessing.context": "fork"}), Callback(posttask=posttask):
         dask.compute(*calls, scheduler=dask.multiprocessing.get, num_workers=nworkers, chunksize=1,
                      **({"pool": pool} if pool is not None else {}))

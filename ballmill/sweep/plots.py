@@ -122,14 +122,22 @@ def write(study, rows: list[dict], out_dir: Path) -> list[Path]:
         ax.set_xlabel(_parameter_label(fmus, px, width=60))
         ax.set_ylabel(_parameter_label(fmus, py, width=45))
         fig.suptitle(title, fontsize=9)
-        for m in main:
+        for k, m in enumerate(main):
             mesh.set_array(np.ma.masked_invalid(Z[m]))
             mesh.autoscale()
             bar.set_label(_label(m, width=45))
             ax.set_title(f"{m}" + (" (hatched: model not valid)" if hatched is not None else "")
                          + (f"\n{SHOCKLESS} line: where impacts begin (n_impacts > 0 on its inner side)"
                             if border is not None else ""), fontsize=10)
-            files.append(plt.save(fig, out_dir / f"map_{m}.png"))
+            path = plt.save(fig, out_dir / f"map_{m}.png")
+            # the maps after the first keep its layout (laid out again, and drawn again, only when
+            # their colour bar's label, which lies beyond its tick labels, its offset text or their
+            # title would leave the figure)
+            if k and not _within(fig, bar.ax.yaxis.label, bar.ax.yaxis.offsetText, ax.title):
+                fig.set_layout_engine("tight")
+                path = plt.save(fig, path)
+            fig.set_layout_engine("none")
+            files.append(path)
         return files
 
     # a sample, or more than two parameters: scatter
@@ -151,6 +159,17 @@ def write(study, rows: list[dict], out_dir: Path) -> list[Path]:
             ax.grid(alpha=0.3)
     fig.suptitle(title + "  (red x: model not valid)", fontsize=10)
     return [plt.save(fig, out_dir / "scatter.png")]
+
+
+def _within(fig, *texts) -> bool:
+    """Whether the texts, as last drawn, lie inside the figure (an empty one anywhere)."""
+    w, h = fig.bbox.width, fig.bbox.height
+    for text in texts:
+        if text.get_visible() and text.get_text():
+            b = text.get_window_extent()
+            if not (b.x0 >= 0.0 and b.y0 >= 0.0 and b.x1 <= w and b.y1 <= h):
+                return False
+    return True
 
 
 def _grid_values(rows, main, px, py, xs, ys):
