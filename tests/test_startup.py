@@ -60,27 +60,6 @@ def test_import_budget():
     assert len(found) == len(modules) + 2
 
 
-FIGURE_SCRIPT = """
-import json
-from ballmill.plotting import figures
-fig, ax = figures.subplots()  # the first figure: matplotlib's import
-import matplotlib.artist, matplotlib.lines
-print(json.dumps({"set's docstring": matplotlib.lines.Line2D.set.__doc__ or "",
-                  "kwdoc": matplotlib.artist.kwdoc(matplotlib.lines.Line2D)}))
-"""
-
-
-def test_the_first_figure_imports_matplotlib_without_the_set_docstrings():
-    """The first figure imports matplotlib without writing the property table into every
-    Artist class's ``set`` docstring (a third of the import's CPU time, help text no PNG
-    reads), and leaves matplotlib.artist.kwdoc answering as usual afterwards."""
-    proc = _python(FIGURE_SCRIPT)
-    assert proc.returncode == 0, proc.stderr
-    found = json.loads(proc.stdout.strip().splitlines()[-1])
-    assert "drawstyle" not in found["set's docstring"] and found["set's docstring"].startswith("Set multiple")
-    assert "drawstyle" in found["kwdoc"] and "antialiased" in found["kwdoc"]
-
-
 def _short_scenario(tmp_path, name="fast_start", stop=0.2) -> Path:
     """A copy of scenarios/NAME.toml that stops at `stop` [s] (the command, not the physics,
     is under test)."""

@@ -14,18 +14,12 @@ scatter plots, the absorber's response curves) is made by `subplots` and written
   pixels cost about a third more in drawing and twice as much in encoding (level 1 files
   are ~10 % larger).
 
-matplotlib is imported on the first figure (`_matplotlib`), without the property tables it
-writes into the docstring of every Artist class's ``set`` method as the class is defined
-(``matplotlib.artist.kwdoc``, run for each of about a hundred classes: a quarter of the
-import's CPU time, for help text that no figure reads); kwdoc is restored right after, so
-it answers as usual later.
 
 `close` is there for code that is handed either this module or pyplot (a figure here needs
 no closing: it is freed with its last reference).
 """
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 DPI = 110  # the commands' PNGs: 825 x 528 pixels for a 7.5 x 4.8 in figure
@@ -34,29 +28,12 @@ DPI = 110  # the commands' PNGs: 825 x 528 pixels for a 7.5 x 4.8 in figure
 def subplots(nrows: int = 1, ncols: int = 1, *, figsize=None, dpi: float = DPI, layout=None, **kw):
     """(figure, axes) as ``pyplot.subplots`` gives them (``kw``: its squeeze, sharex, ...),
     on an Agg canvas of its own, at ``dpi`` (the dpi `save` writes it at)."""
-    Figure, FigureCanvasAgg = _matplotlib()
-    fig = Figure(figsize=figsize, dpi=dpi, layout=layout)
-    FigureCanvasAgg(fig)
-    return fig, fig.subplots(nrows, ncols, **kw)
-
-
-def _matplotlib():
-    """(matplotlib.figure.Figure, FigureCanvasAgg), imported on first use without the
-    ``set`` docstrings' property tables (see the module docstring)."""
-    if "matplotlib.figure" not in sys.modules:
-        import matplotlib.artist as artist
-
-        kwdoc = artist.kwdoc
-        artist.kwdoc = lambda _artist: ""  # only for the classes the two imports below define
-        try:
-            import matplotlib.backends.backend_agg  # noqa: F401
-            import matplotlib.figure  # noqa: F401
-        finally:
-            artist.kwdoc = kwdoc
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    return Figure, FigureCanvasAgg
+    fig = Figure(figsize=figsize, dpi=dpi, layout=layout)
+    FigureCanvasAgg(fig)
+    return fig, fig.subplots(nrows, ncols, **kw)
 
 
 def save(fig, path, dpi: float | None = None) -> Path:
