@@ -1038,9 +1038,21 @@ static long long bm_drive(bm_system *S, const double *times, long long n, long l
     return last;
 }
 
-/* np.mean as numpy sums a short array: the first element, then the sum of the rest */
+/* np.mean as numpy sums a short array: below 8 elements the first element, then the sum of
+ * the rest; from 8 on numpy's pairwise sum (eight partial sums, combined in pairs, then the
+ * elements left over) */
 static inline double bm_np_mean(const double *a, int n)
 {
+    if (n >= 8) {
+        double r[8];
+        int i = 8;
+        memcpy(r, a, sizeof r);
+        for (; i < n - n % 8; i += 8)
+            for (int j = 0; j < 8; j++) r[j] += a[i + j];
+        double res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]));
+        for (; i < n; i++) res += a[i];
+        return res / n;
+    }
     double rest = 0.0;
     for (int i = 1; i < n; i++) rest += a[i];
     return (a[0] + rest) / n;
@@ -2340,8 +2352,15 @@ typedef struct {
     bm_tab Tr, Tf;
     double *rows, *events, *y_out, h_out;
     long long cap, ne;
+    int ring; /* events: a ring of the last cap records (cap >= burst: what the Zeno guard reads) */
     int mode_out;
 } bmh_sys;
+
+/* event record k of the run */
+static double *bmh_event(const bmh_sys *x, long long k)
+{
+    return x->events + BMH_NEV * (x->ring ? k % x->cap : k);
+}
 
 /* the mode's integrator problem, tableau, right-hand side and guards (HybridBall.integrator,
  * rhs, guards, armed) */
@@ -2377,11 +2396,11 @@ static int bmh_sys_jump(bm_system *S, int *mode, double *t, double *y, double *h
     bmh_sys *x = (bmh_sys *)S;
     const bmh_problem *H = x->run.H;
     int kind = kinds[*mode][ev->j], ny;
-    if (x->ne >= x->cap) {
+    if (!x->ring && x->ne >= x->cap) {
         *status = 3;
         return 0;
     }
-    double *rec = x->events + BMH_NEV * x->ne;
+    double *rec = bmh_event(x, x->ne);
     for (int q = 0; q < BMH_NEV; q++) rec[q] = NAN;
     int new_mode = bmh_jump(&x->run, *mode, kind, ev->t, ev->y, y, &ny, rec);
     rec[0] = ev->t; rec[1] = kind; rec[2] = *mode; rec[3] = new_mode; rec[4] = ev->width;
@@ -2394,7 +2413,7 @@ static int bmh_sys_jump(bm_system *S, int *mode, double *t, double *y, double *h
         bmh_normal_motion(H, *t, y, &vn, &an);
         if (vn < 0.0 && an > 0.0) *h = bm_pymin(*h, bm_pymax(0.5 * -vn / an, 1e-12));
     }
-    if (x->ne >= H->burst && *t - x->events[BMH_NEV * (x->ne - H->burst)] < H->burst / H->max_rate) {
+    if (x->ne >= H->burst && *t - bmh_event(x, x->ne - H->burst)[0] < H->burst / H->max_rate) {
         *status = 2;
         return 0;
     }
@@ -2411,18 +2430,18 @@ static int bmh_record(bm_system *S, long long i, int mode, double t, const doubl
     return 0;
 }
 
-/* events.integrate for the hybrid ball over times[0..n-1] (times[0] the start time, sampled)
- * from *mode and y (size: *mode's) with step *h (the first one from Python's initial step).
- * book: the bookkeeping (BMH_NBOOK values: E_impact, n_impacts, v_impact_max, t_first_slip,
- * t_first_flight, Q[2], seed[3], rebound, W_lost) in and out. rows: BMH_NCOL per point reached;
- * events: BMH_NEV per event, at most cap. Returns the number of points reached (rows); *mode,
- * y and *h the state and step at the last of them, and sets *status: 0 completed; 1 a step failed (Python
- * redoes the run and reports it); 2 a Zeno sequence (the last event is the one that made
- * it); 3 more than cap events (Python redoes the run with more room). *n_events: the events
- * recorded; *total: the work of the completed intervals. */
-BM_EXPORT long long bmh_simulate(const bmh_problem *H, const double *times, long long n, int *mode_io, double *y,
-                                 double *h, double *book, double *rows, double *events, long long cap,
-                                 long long *n_events, int *status, bm_stats *total)
+/* events.integrate for the hybrid ball over times[0..n-1] from *mode and y (size: *mode's)
+ * at times[0] with step *h, book the bookkeeping (BMH_NBOOK values: E_impact, n_impacts,
+ * v_impact_max, t_first_slip, t_first_flight, Q[2], seed[3], rebound, W_lost) in and out;
+ * point 0 sampled only if record_start. rows: BMH_NCOL per point; events: BMH_NEV per event,
+ * at most cap (ring: the last cap, the run going on; *n_events the events before the run in,
+ * all of them out). first_step: an adaptive run whose *h is not a positive number starts
+ * with the initial step of its mode (Integrator.initial_step over the first interval). Returns
+ * the index of the last point reached; *status as bmh_simulate's. */
+static long long bmh_run_grid(const bmh_problem *H, const double *times, long long n, int record_start,
+                              int first_step, int *mode_io, double *y, double *h, double *book, double *rows,
+                              double *events, long long cap, int ring, long long *n_events, int *status,
+                              bm_stats *total)
 {
     bmh_sys x;
     double yy[BM_NYMAX];
@@ -2438,15 +2457,34 @@ BM_EXPORT long long bmh_simulate(const bmh_problem *H, const double *times, long
     x.rows = rows;
     x.events = events;
     x.cap = cap;
+    x.ring = ring;
+    x.ne = ring ? *n_events : 0;
     x.y_out = y;
     x.mode_out = *mode_io;
     x.h_out = *h;
     *status = 0;
-    long long reached = 0;
+    long long last = -1;
     if (n > 0) {
         int mode = *mode_io;
         memcpy(yy, y, (size_t)(mode == BMH_ROLLING ? H->roll.ny : BMH_NZ) * sizeof(double));
-        reached = bm_drive(&x.sys, times, n, 0, 1, &mode, yy, h, total, status) + 1;
+        if (first_step && n > 1) { /* Integrator.steps' start without a step to try */
+            const bm_problem *P;
+            const bm_tab *T;
+            bm_rhs_fn rhs;
+            const void *ctx;
+            bm_events ev;
+            double f0[BM_NYMAX];
+            memset(&ev, 0, sizeof ev);
+            bmh_setup(&x.sys, mode, times[0], yy, &P, &T, &rhs, &ctx, &ev);
+            if (P->adaptive && !(*h > 0.0 && isfinite(*h))) {
+                rhs(P, ctx, times[0], yy, f0);
+                if (bm_all_finite(f0, P->ny)) {
+                    *h = bm_initial_step_np(P, rhs, ctx, times[0], yy, f0, times[1] - times[0]);
+                    total->nfev += 2;
+                }
+            }
+        }
+        last = bm_drive(&x.sys, times, n, 0, record_start, &mode, yy, h, total, status);
     }
     *mode_io = x.mode_out;
     *h = x.h_out;
@@ -2457,7 +2495,42 @@ BM_EXPORT long long bmh_simulate(const bmh_problem *H, const double *times, long
     memcpy(book + 7, x.run.seed, sizeof x.run.seed);
     book[10] = x.run.rebound;
     book[11] = x.run.w_lost;
-    return reached;
+    return last;
+}
+
+/* events.integrate for the hybrid ball over times[0..n-1] (times[0] the start time, sampled)
+ * from *mode and y (size: *mode's) with step *h (the first one from Python's initial step).
+ * book: the bookkeeping (BMH_NBOOK values: E_impact, n_impacts, v_impact_max, t_first_slip,
+ * t_first_flight, Q[2], seed[3], rebound, W_lost) in and out. rows: BMH_NCOL per point reached;
+ * events: BMH_NEV per event, at most cap. Returns the number of points reached (rows); *mode,
+ * y and *h the state and step at the last of them, and sets *status: 0 completed; 1 a step failed (Python
+ * redoes the run and reports it); 2 a Zeno sequence (the last event is the one that made
+ * it); 3 more than cap events (Python redoes the run with more room). *n_events: the events
+ * recorded; *total: the work of the completed intervals. */
+BM_EXPORT long long bmh_simulate(const bmh_problem *H, const double *times, long long n, int *mode_io, double *y,
+                                 double *h, double *book, double *rows, double *events, long long cap,
+                                 long long *n_events, int *status, bm_stats *total)
+{
+    return bmh_run_grid(H, times, n, 1, 0, mode_io, y, h, book, rows, events, cap, 0, n_events, status, total) + 1;
+}
+
+/* One interval t -> t_end of the hybrid ball (events.integrate over the grid (t, t_end)), the
+ * communication step of the native BallInShell FMU (contact = 2): from *mode, y (its mode's
+ * size), the step *h to try (not a positive number: the mode's initial step, as
+ * Integrator.steps starts) and the bookkeeping book (bmh_simulate's), all updated to t_end on
+ * success; row: HybridBall.sample at t_end (BMH_NCOL). events: a ring of the last cap >= burst
+ * event records, *n_events the events so far (in and out), so that the Zeno guard sees the
+ * events of earlier intervals. Returns 0 (done), 1 (a step failed), 2 (a Zeno sequence): then
+ * *mode, y and *h are as they were (book and events are not: the caller keeps its own copy). */
+BM_EXPORT int bmh_interval(const bmh_problem *H, double t, double t_end, int *mode, double *y, double *h,
+                           double *book, double *events, long long cap, long long *n_events, double *row,
+                           bm_stats *total)
+{
+    double times[2] = {t, t_end}, rows[2 * BMH_NCOL];
+    int status;
+    bmh_run_grid(H, times, 2, 0, 1, mode, y, h, book, rows, events, cap, 1, n_events, &status, total);
+    if (!status) memcpy(row, rows + BMH_NCOL, sizeof rows / 2);
+    return status;
 }
 
 BM_EXPORT size_t bmh_problem_size(void) { return sizeof(bmh_problem); }
