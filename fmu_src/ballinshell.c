@@ -554,40 +554,11 @@ static void general_fit(const ball_in_shell *b, const int *idx, int nn, fit *f)
     }
 }
 
-/* reconstruction.rotate: the rotation by theta (Rodrigues) times q, row-major */
-static void rotate(const double th3[3], const double *q, double *out)
-{
-    double tx = th3[0], ty = th3[1], tz = th3[2];
-    double th = sqrt(tx * tx + ty * ty + tz * tz);
-    if (th == 0.0) {
-        memcpy(out, q, 9 * sizeof(double));
-        return;
-    }
-    double ex = tx / th, ey = ty / th, ez = tz / th;
-    double c = cos(th), s = sin(th);
-    double u = 1.0 - c;
-    double m[9] = {c + u * ex * ex, u * ex * ey - s * ez, u * ex * ez + s * ey,
-                   u * ey * ex + s * ez, c + u * ey * ey, u * ey * ez - s * ex,
-                   u * ez * ex - s * ey, u * ez * ey + s * ex, c + u * ez * ez};
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++) out[3 * i + j] = (m[3 * i] * q[j] + m[3 * i + 1] * q[3 + j]) + m[3 * i + 2] * q[6 + j];
-}
-
-/* ChamberReconstruction.state: the 38 fields of a ChamberState at t (drive fields 0) */
+/* ChamberReconstruction.state: the 38 fields of a ChamberState at t (drive fields 0): the kernel's
+ * bmg_poly_state of the fit */
 static void general_state(const fit *f, double t, double cs[BMG_NCS])
 {
-    double s = t - f->t0, th[3];
-    memset(cs, 0, BMG_NCS * sizeof(double));
-    for (int k = 0; k < 3; k++) {
-        const double *p = f->pos[k], *o = f->om[k];
-        cs[k] = p[0] + s * (p[1] + s * (p[2] + s * (p[3] + s * (p[4] + s * p[5]))));
-        cs[3 + k] = p[1] + s * (2.0 * p[2] + s * (3.0 * p[3] + s * (4.0 * p[4] + s * (5.0 * p[5]))));
-        cs[6 + k] = 2.0 * p[2] + s * (6.0 * p[3] + s * (12.0 * p[4] + s * (20.0 * p[5])));
-        cs[9 + k] = o[0] + s * (o[1] + s * (o[2] + s * o[3]));
-        cs[12 + k] = o[1] + s * (2.0 * o[2] + s * (3.0 * o[3]));
-        th[k] = s * (o[0] + s * (0.5 * o[1] + s * (o[2] / 3.0 + s * (0.25 * o[3]))));
-    }
-    rotate(th, f->Q, cs + 15);
+    bmg_poly_state(f->t0, f->pos, f->om, f->Q, t, cs);
 }
 
 static int recon_fit(ball_in_shell *b, fit *f)

@@ -1257,25 +1257,30 @@ BM_EXPORT void bm_eval_outputs(const bm_problem *P, const double *y, double ax, 
  *   n'     = (R/d) Omega x n + lambda n x omega
  *   omega' = k n x (a_A - g + R (Omega' x n + Omega x n') + r n' x omega)
  *
- * Motions: BMG_SPIN (motions.Spin) and BMG_FIG1 (motions.Fig1Machine with the
- * angle laws CrankStartup or ConstantSpeed), in turning/motions.py's operation order.
+ * Motions: BMG_SPIN (motions.Spin), BMG_FIG1 (motions.Fig1Machine with the
+ * angle laws CrankStartup or ConstantSpeed) and BMG_POLY (the chamber's motion over a communication
+ * step as the BallInShell FMU reconstructs it, turning/reconstruction.py), in their operation order.
  * ====================================================================== */
-enum { BMG_SPIN = 1, BMG_FIG1 = 2 };
+enum { BMG_SPIN = 1, BMG_FIG1 = 2, BMG_POLY = 3 };
 enum { BMG_LAW_CONST = 0, BMG_LAW_CRANK = 1 };
 #define BMG_NCS 38  /* fields of motions.ChamberState */
 #define BMG_NOUT 28 /* fields of turning.model.ChamberOutputs */
+#define BMG_NPOLY 34 /* coefficients of the reconstruction's kin(t) (bmg_poly_kin) */
 
 /* Everything a general run needs; filled by turning/kernel.py (ctypes mirror: _GProblem). */
 typedef struct {
     bm_problem base; /* integrator settings, and form = BM_VECTOR, ny = BM_NY (bm_error and bm_project
                         read them); its motion and ball fields are not read */
-    int kind;        /* BMG_SPIN, BMG_FIG1 */
+    int kind;        /* BMG_SPIN, BMG_FIG1, BMG_POLY */
     double sp[10];   /* spin: Omega[3], A[3], axis[3], |Omega| */
     int frame_law, crank_law, parallel;
     double frame_p[2], crank_p[2]; /* const: w, angle0; crank: w0, t0 */
     double l, centre[3];
     double c[6];  /* turning.constants: R/d, lambda, R, r, g, k */
     double oc[10]; /* turning.out_constants: ... d, m, I, mu */
+    /* BMG_POLY: ChamberReconstruction's fit: kin(t)'s coefficients (bmg_poly_kin), and state(t)'s
+     * (bmg_poly_state): t0, the centre's quintics and Omega's cubics in s = t - t0, the newest Q */
+    double poly[BMG_NPOLY], t0, pos[3][6], om[3][4], Q[9];
 } bmg_problem;
 
 /* drives.CrankStartup.angle / chamber.ConstantSpeed.angle */
@@ -1332,9 +1337,67 @@ static void bmg_fig1_acc(const double k[6], const double A[3], const double T[3]
     aA[2] = phdd * A[1] - phd * phd * A[2] + 2.0 * phd * psd * T[1] + psd * psd * U[2] + psdd * T[2];
 }
 
+/* ---------------------------------------------------- turning/reconstruction.py
+ * The chamber's motion over one communication step as the BallInShell FMU (motion = 2)
+ * reconstructs it: ChamberReconstruction's kin(t) closure, its coefficients `poly`
+ * (BMG_NPOLY: t0; a_A cubics x, y, z; Omega cubics; Omega' quadratics, in s = t - t0),
+ * evaluated in the closure's operation order; and its state(t). */
+static void bmg_poly_kin(const double *p, double t, double kin[9])
+{
+    double s = t - p[0];
+    for (int k = 0; k < 3; k++) {
+        const double *a = p + 1 + 4 * k, *o = p + 13 + 4 * k, *d = p + 25 + 3 * k;
+        kin[k] = a[0] + s * (a[1] + s * (a[2] + s * a[3]));
+        kin[3 + k] = o[0] + s * (o[1] + s * (o[2] + s * o[3]));
+        kin[6 + k] = d[0] + s * (d[1] + s * d[2]);
+    }
+}
+
+/* reconstruction.rotate: the rotation by theta (Rodrigues) times q, row-major */
+static void bmg_rotate(const double th3[3], const double *q, double *out)
+{
+    double tx = th3[0], ty = th3[1], tz = th3[2];
+    double th = sqrt(tx * tx + ty * ty + tz * tz);
+    if (th == 0.0) {
+        memcpy(out, q, 9 * sizeof(double));
+        return;
+    }
+    double ex = tx / th, ey = ty / th, ez = tz / th;
+    double c = cos(th), s = sin(th);
+    double u = 1.0 - c;
+    double m[9] = {c + u * ex * ex, u * ex * ey - s * ez, u * ex * ez + s * ey,
+                   u * ey * ex + s * ez, c + u * ey * ey, u * ey * ez - s * ex,
+                   u * ez * ex - s * ey, u * ez * ey + s * ex, c + u * ez * ez};
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) out[3 * i + j] = (m[3 * i] * q[j] + m[3 * i + 1] * q[3 + j]) + m[3 * i + 2] * q[6 + j];
+}
+
+/* ChamberReconstruction.state: the 38 fields of a ChamberState at t (drive fields 0) of the fit
+ * (t0, the centre's quintics pos, Omega's cubics om, the newest Q) */
+static void bmg_poly_state(double t0, const double pos[3][6], const double om[3][4], const double *Q, double t,
+                           double *cs)
+{
+    double s = t - t0, th[3];
+    memset(cs, 0, BMG_NCS * sizeof(double));
+    for (int k = 0; k < 3; k++) {
+        const double *p = pos[k], *o = om[k];
+        cs[k] = p[0] + s * (p[1] + s * (p[2] + s * (p[3] + s * (p[4] + s * p[5]))));
+        cs[3 + k] = p[1] + s * (2.0 * p[2] + s * (3.0 * p[3] + s * (4.0 * p[4] + s * (5.0 * p[5]))));
+        cs[6 + k] = 2.0 * p[2] + s * (6.0 * p[3] + s * (12.0 * p[4] + s * (20.0 * p[5])));
+        cs[9 + k] = o[0] + s * (o[1] + s * (o[2] + s * o[3]));
+        cs[12 + k] = o[1] + s * (2.0 * o[2] + s * (3.0 * o[3]));
+        th[k] = s * (o[0] + s * (0.5 * o[1] + s * (o[2] / 3.0 + s * (0.25 * o[3]))));
+    }
+    bmg_rotate(th, Q, cs + 15);
+}
+
 /* ChamberMotion.accel: a_A, Omega, Omega' */
 static void bmg_accel(const bmg_problem *G, double t, double kin[9])
 {
+    if (G->kind == BMG_POLY) {
+        bmg_poly_kin(G->poly, t, kin);
+        return;
+    }
     if (G->kind == BMG_SPIN) {
         kin[0] = 0.0; kin[1] = 0.0; kin[2] = 0.0;
         kin[3] = G->sp[0]; kin[4] = G->sp[1]; kin[5] = G->sp[2];
@@ -1351,6 +1414,10 @@ static void bmg_accel(const bmg_problem *G, double t, double kin[9])
 /* ChamberMotion.state: the 38 fields of ChamberState */
 static void bmg_state(const bmg_problem *G, double t, double *cs)
 {
+    if (G->kind == BMG_POLY) {
+        bmg_poly_state(G->t0, G->pos, G->om, G->Q, t, cs);
+        return;
+    }
     memset(cs, 0, BMG_NCS * sizeof(double));
     if (G->kind == BMG_SPIN) { /* Spin.state */
         const double *p = G->sp;
@@ -1519,24 +1586,6 @@ BM_EXPORT long long bmg_simulate(const bmg_problem *G, const double *times, long
     bm_tab_make(&G->base, &x.T);
     int mode = 0, status;
     return bm_drive(&x.sys, times, n, start, record_start, &mode, y, h, total, &status);
-}
-
-/* ---------------------------------------------------- turning/reconstruction.py
- * The chamber's motion over one communication step as the BallInShell FMU (motion = 2)
- * reconstructs it: ChamberReconstruction's kin(t) closure, its coefficients `poly`
- * (BMG_NPOLY: t0; a_A cubics x, y, z; Omega cubics; Omega' quadratics, in s = t - t0),
- * evaluated in the closure's operation order. */
-#define BMG_NPOLY 34
-
-static void bmg_poly_kin(const double *p, double t, double kin[9])
-{
-    double s = t - p[0];
-    for (int k = 0; k < 3; k++) {
-        const double *a = p + 1 + 4 * k, *o = p + 13 + 4 * k, *d = p + 25 + 3 * k;
-        kin[k] = a[0] + s * (a[1] + s * (a[2] + s * a[3]));
-        kin[3 + k] = o[0] + s * (o[1] + s * (o[2] + s * o[3]));
-        kin[6 + k] = d[0] + s * (d[1] + s * d[2]);
-    }
 }
 
 /* the general right-hand side along a reconstructed motion: ctx = {constants c[6], poly} */
