@@ -76,7 +76,7 @@
 #define BM_NOUT 24   /* fields of outputs.Outputs */
 #define BM_NS_MAX 12 /* stages of the largest tableau (DOP853) */
 
-enum { BM_FIXED = 0, BM_CRANK = 1, BM_HARMONIC = 2, BM_CIRCLE = 3, BM_POLY = 4 };
+enum { BM_FIXED = 0, BM_CRANK = 1, BM_HARMONIC = 2, BM_CIRCLE = 3, BM_POLY = 4, BM_POLY_KIN = 5 };
 /* start-up laws of BM_CRANK, in the order of drives.LAWS */
 enum { BM_LAW_QUADRATIC = 0, BM_LAW_LINEAR = 1, BM_LAW_SCURVE = 2, BM_LAW_QUINTIC = 3 };
 enum { BM_VECTOR = 0, BM_PAPER = 1, BM_GENERIC = 2, BM_ABSORBER = 3 }; /* formulations */
@@ -85,11 +85,12 @@ enum { BM_VECTOR = 0, BM_PAPER = 1, BM_GENERIC = 2, BM_ABSORBER = 3 }; /* formul
 /* Everything a run needs; filled by fast.py (ctypes mirror: fast._Problem). */
 typedef struct {
     /* platform motion */
-    int motion;       /* BM_FIXED, BM_CRANK, BM_HARMONIC, BM_CIRCLE, BM_POLY */
+    int motion;       /* BM_FIXED, BM_CRANK, BM_HARMONIC, BM_CIRCLE, BM_POLY, BM_POLY_KIN */
     double mp[BM_NMP]; /* crank: l, w0, t0, law; circle: l, w;
                           harmonic: x_amp, x_omega, y_amp, y_omega, x_phase, y_phase,
                           x_omega**2, y_omega**2 (powers taken in Python);
-                          poly: t0, x0, x1, x2, x3, y0, y1, y2, y3 (a(t) only) */
+                          poly: t0, x0, x1, x2, x3, y0, y1, y2, y3 (a(t) only; BM_POLY_KIN:
+                          the same a(t) with the position and velocity, mp_kin) */
     /* right-hand side (the formulation's ball) */
     int rhs_lossy;
     double rhs_lam, rhs_r, rhs_g, rhs_k;
@@ -123,6 +124,8 @@ typedef struct {
      * side bma_rhs; the projection puts the ball's n, y[ny - 9 .. ny - 7], on the unit sphere) */
     int form, ny;
     double pap_d, pap_margin;
+    double mp_kin[4]; /* BM_POLY_KIN: x, vx, y, vy of O at mp[0] (the hybrid ball's chamber in the native
+                         BallInShell FMU: a(t) of BM_POLY integrated from there) */
 } bm_problem;
 
 typedef struct {
@@ -207,6 +210,17 @@ static void bm_motion_state(const bm_problem *P, double t, double o[6])
     case BM_POLY: { /* platform.InputReconstruction._compile_accel's closure: a(t) only */
         double s = t - p[0];
         o[0] = NAN; o[1] = NAN; o[2] = NAN; o[3] = NAN; /* not known (and not needed by bm_rhs) */
+        o[4] = p[1] + s * (p[2] + s * (p[3] + s * p[4]));
+        o[5] = p[5] + s * (p[6] + s * (p[7] + s * p[8]));
+        return;
+    }
+    case BM_POLY_KIN: { /* BM_POLY's a(t), and its integrals from x, v at t0 (the BallInShell FMU's adapter) */
+        double s = t - p[0];
+        const double *q = P->mp_kin;
+        o[0] = q[0] + s * (q[1] + s * (p[1] / 2.0 + s * (p[2] / 6.0 + s * (p[3] / 12.0 + s * (p[4] / 20.0)))));
+        o[1] = q[2] + s * (q[3] + s * (p[5] / 2.0 + s * (p[6] / 6.0 + s * (p[7] / 12.0 + s * (p[8] / 20.0)))));
+        o[2] = q[1] + s * (p[1] + s * (p[2] / 2.0 + s * (p[3] / 3.0 + s * (p[4] / 4.0))));
+        o[3] = q[3] + s * (p[5] + s * (p[6] / 2.0 + s * (p[7] / 3.0 + s * (p[8] / 4.0))));
         o[4] = p[1] + s * (p[2] + s * (p[3] + s * p[4]));
         o[5] = p[5] + s * (p[6] + s * (p[7] + s * p[8]));
         return;
@@ -1971,13 +1985,13 @@ static void bmh_roll_out(const bmh_problem *H, double t, const double *y, double
     *Ft = o[17];
 }
 
-/* HybridBall._slide_forces: N, the friction force Ft, the slip speed, n, v_W (seed NULL: the run's) */
-static double bmh_slide_forces(const bmh_run *run, double t, const double *y, const double *seed, double *Ft,
-                               double *s_out, double *n, double *vW)
+/* HybridBall._slide_forces at the chamber state A, v_A, a_A, Omega: N, the friction force Ft, the
+ * slip speed, n, v_W (seed: the direction kept while the slip is below 1e-3 slip_eps) */
+static double bmh_slide_forces_at(const bmh_problem *H, const double *A, const double *vA, const double *aA,
+                                  const double *Om, const double *y, const double *seed, double *Ft, double *s_out,
+                                  double *n, double *vW)
 {
-    const bmh_problem *H = run->H;
-    double A[3], vA[3], aA[3], Om[3], rho[3], vrel[3], wr[3], on[3], u[3], ut[3], e[3];
-    bmh_chamber(H, t, A, vA, aA, Om, NULL);
+    double rho[3], vrel[3], wr[3], on[3], u[3], ut[3], e[3];
     for (int i = 0; i < 3; i++) rho[i] = y[i] - A[i];
     double dist = sqrt(bmh_dot(rho, rho));
     for (int i = 0; i < 3; i++) n[i] = rho[i] / dist;
@@ -1992,14 +2006,22 @@ static double bmh_slide_forces(const bmh_run *run, double t, const double *y, co
     if (s > 1e-3 * H->slip_eps) {
         for (int i = 0; i < 3; i++) e[i] = ut[i] / s;
     } else {
-        const double *sd = seed ? seed : run->seed;
-        for (int i = 0; i < 3; i++) e[i] = sd[i];
+        for (int i = 0; i < 3; i++) e[i] = seed[i];
     }
     double f = -H->mu_k * N;
     for (int i = 0; i < 3; i++) Ft[i] = f * e[i];
     for (int i = 0; i < 3; i++) vW[i] = vA[i] + H->R * on[i];
     *s_out = s;
     return N;
+}
+
+/* HybridBall._slide_forces: N, the friction force Ft, the slip speed, n, v_W (seed NULL: the run's) */
+static double bmh_slide_forces(const bmh_run *run, double t, const double *y, const double *seed, double *Ft,
+                               double *s_out, double *n, double *vW)
+{
+    double A[3], vA[3], aA[3], Om[3];
+    bmh_chamber(run->H, t, A, vA, aA, Om, NULL);
+    return bmh_slide_forces_at(run->H, A, vA, aA, Om, y, seed ? seed : run->seed, Ft, s_out, n, vW);
 }
 
 /* the modes' right-hand sides (ctx: the bmh_run) */
@@ -2162,15 +2184,22 @@ static double bmh_impulse(const bmh_problem *H, double t, double *z, const doubl
     return before - (0.5 * H->m * bmh_dot(v, v) + 0.5 * H->Ib * (bm_sq(z[6]) + bm_sq(z[7]) + bm_sq(z[8])));
 }
 
-/* HybridBall._slip: the tangential slip of a free state at the wall point C + r n */
-static void bmh_slip(const bmh_problem *H, double t, const double *z, const double *n, double *ut)
+/* HybridBall._slip with the wall's velocity vW at P: the tangential slip of a free state at C + r n */
+static void bmh_slip_at(const bmh_problem *H, const double *vW, const double *z, const double *n, double *ut)
 {
-    double vW[3], wr[3], u[3];
-    bmh_wall_velocity(H, t, n, vW);
+    double wr[3], u[3];
     bmh_cross(z + 6, n, wr);
     for (int i = 0; i < 3; i++) u[i] = z[3 + i] - vW[i] + H->r * wr[i];
     double un = bmh_dot(u, n);
     for (int i = 0; i < 3; i++) ut[i] = u[i] - un * n[i];
+}
+
+/* HybridBall._slip: the tangential slip of a free state at the wall point C + r n */
+static void bmh_slip(const bmh_problem *H, double t, const double *z, const double *n, double *ut)
+{
+    double vW[3];
+    bmh_wall_velocity(H, t, n, vW);
+    bmh_slip_at(H, vW, z, n, ut);
 }
 
 /* HybridBall._friction_free_slip_accel */
