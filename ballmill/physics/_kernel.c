@@ -124,8 +124,10 @@ typedef struct {
      * side bma_rhs; the projection puts the ball's n, y[ny - 9 .. ny - 7], on the unit sphere) */
     int form, ny;
     double pap_d, pap_margin;
-    double mp_kin[4]; /* BM_POLY_KIN: x, vx, y, vy of O at mp[0] (the hybrid ball's chamber in the native
-                         BallInShell FMU: a(t) of BM_POLY integrated from there) */
+    /* BM_POLY_KIN (the hybrid ball's chamber in the native BallInShell FMU: BM_POLY's a(t) integrated
+     * exactly from O's position and velocity at t0 = mp[0], platform.ReconstructedPlatform): x0, vx0,
+     * y0, vy0, then a_j / ((j + 1) (j + 2)) of x and of y, then a_j / (j + 1) of x and of y (j = 0..3) */
+    double mp_kin[20];
 } bm_problem;
 
 typedef struct {
@@ -214,13 +216,13 @@ static void bm_motion_state(const bm_problem *P, double t, double o[6])
         o[5] = p[5] + s * (p[6] + s * (p[7] + s * p[8]));
         return;
     }
-    case BM_POLY_KIN: { /* BM_POLY's a(t), and its integrals from x, v at t0 (the BallInShell FMU's adapter) */
+    case BM_POLY_KIN: { /* platform.ReconstructedPlatform.state: BM_POLY's a(t), x and v its exact integrals */
         double s = t - p[0];
-        const double *q = P->mp_kin;
-        o[0] = q[0] + s * (q[1] + s * (p[1] / 2.0 + s * (p[2] / 6.0 + s * (p[3] / 12.0 + s * (p[4] / 20.0)))));
-        o[1] = q[2] + s * (q[3] + s * (p[5] / 2.0 + s * (p[6] / 6.0 + s * (p[7] / 12.0 + s * (p[8] / 20.0)))));
-        o[2] = q[1] + s * (p[1] + s * (p[2] / 2.0 + s * (p[3] / 3.0 + s * (p[4] / 4.0))));
-        o[3] = q[3] + s * (p[5] + s * (p[6] / 2.0 + s * (p[7] / 3.0 + s * (p[8] / 4.0))));
+        const double *q = P->mp_kin, *px = q + 4, *py = q + 8, *qx = q + 12, *qy = q + 16;
+        o[0] = q[0] + s * (q[1] + s * (px[0] + s * (px[1] + s * (px[2] + s * px[3]))));
+        o[1] = q[2] + s * (q[3] + s * (py[0] + s * (py[1] + s * (py[2] + s * py[3]))));
+        o[2] = q[1] + s * (qx[0] + s * (qx[1] + s * (qx[2] + s * qx[3])));
+        o[3] = q[3] + s * (qy[0] + s * (qy[1] + s * (qy[2] + s * qy[3])));
         o[4] = p[1] + s * (p[2] + s * (p[3] + s * p[4]));
         o[5] = p[5] + s * (p[6] + s * (p[7] + s * p[8]));
         return;

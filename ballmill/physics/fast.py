@@ -98,7 +98,7 @@ class _Problem(ctypes.Structure):
         ("max_steps", ctypes.c_longlong),
         ("scale", ctypes.c_double * NYMAX), ("tols", ctypes.c_double * NYMAX),
         ("form", ctypes.c_int), ("ny", ctypes.c_int), ("pap_d", ctypes.c_double),
-        ("pap_margin", ctypes.c_double), ("mp_kin", ctypes.c_double * 4),
+        ("pap_margin", ctypes.c_double), ("mp_kin", ctypes.c_double * 20),
     ]
 
 
