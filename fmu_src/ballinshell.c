@@ -59,6 +59,7 @@
 #define HYB_XTOL 1e-11      /* s: the event's bracket */
 #define HYB_SLIP_EPS 1e-6   /* m/s: sliding ends below this slip speed */
 #define HYB_HOP_MIN_ULPS 1e4 /* hybrid.HOP_MIN_ULPS: a rebound whose hop the gap cannot resolve is rest */
+#define HYB_MAX_STEPS 1000000 /* internal steps of one interval, at most (integrators.Integrator's default) */
 
 /* one sample of the inputs (in the order of turning/reconstruction.py's NAMES after t); the
  * fields after ay are used with motion = 2 only (0 with motion = 1) */
@@ -707,6 +708,8 @@ static void to_n(const ball_in_shell *b, const double *y, double n[3])
  * event HYB_BURST before it */
 typedef struct {
     int status;
+    double t_from, t_to; /* the interval it could not do */
+    int mode;            /* the mode it started in */
     double t_last, t_first;
     int kind;
 } hyb_stop;
@@ -716,7 +719,6 @@ typedef struct {
 static void hybrid_chamber(ball_in_shell *b, const fit *f)
 {
     bmh_problem *H = &b->H;
-    double A0[3];
     if (b->motion == 2) {
         bmg_problem *G = &H->gen;
         memcpy(G->poly, f->poly, sizeof G->poly);
@@ -724,7 +726,6 @@ static void hybrid_chamber(ball_in_shell *b, const fit *f)
         memcpy(G->pos, f->pos, sizeof G->pos);
         memcpy(G->om, f->om, sizeof G->om);
         memcpy(G->Q, f->Q, sizeof G->Q);
-        for (int k = 0; k < 3; k++) A0[k] = f->pos[k][0];
     } else {
         double o[6], *q = H->roll.mp_kin;
         memcpy(H->roll.mp, f->mp, sizeof H->roll.mp);
@@ -736,10 +737,7 @@ static void hybrid_chamber(ball_in_shell *b, const fit *f)
             q[12 + j] = f->mp[1 + j] / (j + 1.0);
             q[16 + j] = f->mp[5 + j] / (j + 1.0);
         }
-        A0[0] = o[0]; A0[1] = o[1]; A0[2] = H->R;
     }
-    /* HybridBall._gap_res: HOP_MIN_ULPS ulps of the coordinates the gap is computed from */
-    H->gap_res = HYB_HOP_MIN_ULPS * 2.2e-16 * (H->R + sqrt(bmh_dot(A0, A0)));
 }
 
 /* contact_model = 2: the hybrid ball from *in to t_end along the fit (bmh_interval: events inside
@@ -754,10 +752,16 @@ static int hybrid_advance(ball_in_shell *b, const ball_state *in, double t_end, 
     *out = *in;
     out->t = t_end;
     if (!(t_end - in->t > 0.0)) return 1;
+    double A[3], vA[3], aA[3], Om[3]; /* HybridBall.set_motion: the gap's resolution at the run's start */
+    bmh_chamber(&b->H, in->t, A, vA, aA, Om, NULL);
+    b->H.gap_res = HYB_HOP_MIN_ULPS * 2.2e-16 * (b->H.R + sqrt(bmh_dot(A, A)));
     int status = bmh_interval(&b->H, in->t, t_end, &out->mode, out->y, &out->h, out->book, ring, HYB_BURST, &n_ev,
                               row, &st);
     if (!status) return 1;
     stop->status = status;
+    stop->t_from = in->t;
+    stop->t_to = t_end;
+    stop->mode = in->mode;
     if (status == 2) {
         const double *last = ring + BMH_NEV * ((n_ev - 1) % HYB_BURST);
         stop->t_last = last[0];
@@ -897,7 +901,9 @@ static void centre_velocity(const ball_in_shell *b, const double *y, const fit *
  * at the chamber state cs (BMG_NCS: A, v_A, a_A, Omega, Omega', Q): n = (C - A)/|C - A|; the
  * contact point P = A + R n (in flight the wall's point nearest the ball); N and the friction
  * force Ft of the sliding ball (hybrid.HybridBall._slide_forces), 0 in flight; the ball's force on
- * the chamber N n - Ft at P; the rest as the rolling ball's outputs mean them */
+ * the chamber F = N n - Ft at P; the moments about A (R n x F) and O1 (A x F + M_A); the rest as
+ * the rolling ball's outputs mean them (ballinshell_fmu.BallInShell._free_outputs, operation for
+ * operation: motion = 1 with Q = identity, O = A - (0, 0, R)) */
 static void free_outputs(const ball_in_shell *b, const ball_state *s, const double *cs, double o[N_OUT])
 {
     const bmh_problem *H = &b->H;
@@ -912,34 +918,29 @@ static void free_outputs(const ball_in_shell *b, const ball_state *s, const doub
     }
     double Ft = sqrt(bmh_dot(Ftv, Ftv));
     double sx = N * n[0] - Ftv[0], sy = N * n[1] - Ftv[1], sz = N * n[2] - Ftv[2];
+    double e[3] = {R * Q[2], R * Q[5], R * Q[8]}; /* A - O */
+    double O[3] = {A[0] - e[0], A[1] - e[1], A[2] - e[2]};
+    double rn[3] = {R * n[0], R * n[1], R * n[2]};
+    double MA[3] = {rn[1] * sz - rn[2] * sy, rn[2] * sx - rn[0] * sz, rn[0] * sy - rn[1] * sx};
+    double MO[3] = {(A[1] * sz - A[2] * sy) + MA[0], (A[2] * sx - A[0] * sz) + MA[1], (A[0] * sy - A[1] * sx) + MA[2]};
     int contact = N > 0.0;
+    o[O_XP] = rn[0] + e[0]; o[O_YP] = rn[1] + e[1]; o[O_ZP] = rn[2] + e[2];
     o[O_N] = N; o[O_FX] = sx; o[O_FY] = sy; o[O_FZ] = sz;
-    o[O_MAX] = R * (n[1] * sz - n[2] * sy); o[O_MAY] = R * (n[2] * sx - n[0] * sz); o[O_MAZ] = R * (n[0] * sy - n[1] * sx);
+    o[O_MR] = b->motion == 2 ? MO[2] : O[0] * sy - O[1] * sx;
+    o[O_MAX] = MA[0]; o[O_MAY] = MA[1]; o[O_MAZ] = MA[2];
+    o[O_XC] = rho[0] + e[0]; o[O_YC] = rho[1] + e[1]; o[O_ZC] = rho[2] + e[2];
+    o[O_WX] = z[6]; o[O_WY] = z[7]; o[O_WZ] = z[8];
     o[O_FT] = Ft; o[O_RATIO] = contact ? Ft / N : INFINITY;
     o[O_CONTACT] = contact ? 1.0 : 0.0; o[O_ROLLING] = 0.0;
     o[O_PDISS] = 0.0; o[O_PGRIND] = 0.0; o[O_SBED] = 1.0; /* lossless, no bed */
-    o[O_WX] = z[6]; o[O_WY] = z[7]; o[O_WZ] = z[8];
-    if (b->motion == 2) { /* P - O, C - O in fixed axes (A - O = R Q e_z); P, the force in the chamber's axes */
-        double e[3] = {R * Q[2], R * Q[5], R * Q[8]}, P[3];
-        for (int i = 0; i < 3; i++) P[i] = A[i] + R * n[i];
-        o[O_XP] = R * n[0] + e[0]; o[O_YP] = R * n[1] + e[1]; o[O_ZP] = R * n[2] + e[2];
-        o[O_XC] = rho[0] + e[0]; o[O_YC] = rho[1] + e[1]; o[O_ZC] = rho[2] + e[2];
-        o[O_XPCH] = R * (Q[0] * n[0] + Q[3] * n[1] + Q[6] * n[2]);
-        o[O_YPCH] = R * (Q[1] * n[0] + Q[4] * n[1] + Q[7] * n[2]);
-        o[O_ZPCH] = R * (Q[2] * n[0] + Q[5] * n[1] + Q[8] * n[2]) + R;
-        o[O_FXCH] = Q[0] * sx + Q[3] * sy + Q[6] * sz;
-        o[O_FYCH] = Q[1] * sx + Q[4] * sy + Q[7] * sz;
-        o[O_FZCH] = Q[2] * sx + Q[5] * sy + Q[8] * sz;
-        o[O_MO1X] = P[1] * sz - P[2] * sy; o[O_MO1Y] = P[2] * sx - P[0] * sz; o[O_MO1Z] = P[0] * sy - P[1] * sx;
-        o[O_MR] = o[O_MO1Z];
-    } else { /* relative to O = A - (0, 0, R), as outputs.evaluate */
-        o[O_XP] = R * n[0]; o[O_YP] = R * n[1]; o[O_ZP] = R * (1.0 + n[2]);
-        o[O_XC] = rho[0]; o[O_YC] = rho[1]; o[O_ZC] = R + rho[2];
-        o[O_MR] = A[0] * sy - A[1] * sx;
-        translation_extras(R, A[0], A[1], o);
+    for (int i = 0; i < 3; i++) {
+        o[O_XPCH + i] = Q[i] * rn[0] + Q[3 + i] * rn[1] + Q[6 + i] * rn[2];
+        o[O_FXCH + i] = Q[i] * sx + Q[3 + i] * sy + Q[6 + i] * sz;
+        o[O_MO1X + i] = MO[i];
     }
+    o[O_ZPCH] = o[O_ZPCH] + R;
     o[O_SLIP] = s->mode == BMH_SLIDING ? slip : 0.0;
-    o[O_GAP] = s->mode == BMH_FLIGHT ? H->d - dist : 0.0;
+    o[O_GAP] = s->mode == BMH_FLIGHT ? bm_pymax(H->d - dist, 0.0) : 0.0;
     o[O_VXC] = z[3]; o[O_VYC] = z[4]; o[O_VZC] = z[5];
     o[O_EFRIC] = z[10];
 }
@@ -1270,12 +1271,16 @@ static void hybrid_setup(ball_in_shell *b, const double *v, double inertia)
         H->roll = b->P;
         H->roll.motion = BM_POLY_KIN;
     }
+    /* the work bound of every mode: Integrator's default, not MAX_INTERNAL_STEPS: a slip at the
+     * rolling limit starts a sliding phase whose friction direction the integrator resolves in
+     * tiny steps (the fast start, t0 = 0.5 s: 20406 steps between 0.268 s and 0.270 s, the library's
+     * run as much as the FMU's) */
+    H->roll.max_steps = HYB_MAX_STEPS;
     /* HybridBall's free integrator: the scales r, sqrt(g r), sqrt(g r) / r, m g r, no projection */
     bm_problem *F = &H->free;
     *F = H->roll;
     F->form = BM_GENERIC;
     F->ny = BMH_NZ;
-    F->max_steps = 1000000; /* Integrator's default: sliding from a slip at the rolling limit can take 2e4 steps per ms */
     double v_ref = sqrt(g * r), e_ref = m * g * r;
     for (int i = 0; i < BMH_NZ; i++) {
         F->scale[i] = i < 3 ? r : i < 6 ? v_ref : i < 9 ? v_ref / r : e_ref;
@@ -1583,29 +1588,44 @@ static fmi2Status refuse_step(fmu_instance *fi, double t, const char *why)
 }
 
 /* events.zeno's message for the Zeno guard's stop */
-static const char *zeno_text(const hyb_stop *s, char *why, size_t size)
+/* why the hybrid ball's driver stopped (ballinshell_fmu.py's message; a Zeno sequence as events.zeno says it) */
+static const char *hybrid_stop_text(const hyb_stop *s, char *why, size_t size)
 {
     static const char *const kinds[4] = {"slip", "leave", "stick", "impact"};
-    snprintf(why, size, "Zeno sequence: %d events within %.3g s before t = %.9g s (the last: '%s'), more than the "
-             "allowed rate %g events/s", HYB_BURST, s->t_last - s->t_first, s->t_last,
-             kinds[s->kind >= 0 && s->kind < 4 ? s->kind : 0], HYB_MAX_RATE);
+    static const char *const modes[3] = {"flight", "rolling", "sliding"};
+    int n = snprintf(why, size, "the hybrid ball could not be followed from t = %.9g s in mode %s: stopped at t = %.9g "
+                     "s: ", s->t_from, modes[s->mode >= 0 && s->mode < 3 ? s->mode : 1], s->t_from);
+    if (n < 0 || (size_t)n >= size) return why;
+    if (s->status == 2)
+        snprintf(why + n, size - (size_t)n, "Zeno sequence: %d events within %.3g s before t = %.9g s (the last: "
+                 "'%s'), more than the allowed rate %g events/s", HYB_BURST, s->t_last - s->t_first, s->t_last,
+                 kinds[s->kind >= 0 && s->kind < 4 ? s->kind : 0], HYB_MAX_RATE);
+    else
+        snprintf(why + n, size - (size_t)n, "the integrator could not reach t = %.9g s (non-finite values, step "
+                 "size underflow or more than %d internal steps)", s->t_to, HYB_MAX_STEPS);
     return why;
 }
 
-/* the contact direction of a state at t: the formulation's n rolling, (C - A)/|C - A| off rolling
- * with A the fit's */
-static void state_n(ball_in_shell *b, const ball_state *s, const fit *f, double t, double n[3])
+/* the contact directions of the predicted and the corrected state at t, p and q (coupling_error):
+ * the formulation's n; with contact_model = 2, unless both roll, the ball centres C over R - r
+ * (their difference times R is the contact point's; ballinshell_fmu.BallInShell._n_pair) */
+static void n_pair(ball_in_shell *b, const ball_state *ps, const ball_state *qs, const fit *f, double p[3],
+                   double q[3])
 {
-    if (s->mode == BMH_ROLLING) {
-        to_n(b, s->y, n);
+    if (ps->mode == BMH_ROLLING && qs->mode == BMH_ROLLING) {
+        to_n(b, ps->y, p);
+        to_n(b, qs->y, q);
         return;
     }
-    double A[3], vA[3], aA[3], Om[3], rho[3];
+    const ball_state *st[2] = {ps, qs};
+    double *out[2] = {p, q};
     hybrid_chamber(b, f);
-    bmh_chamber(&b->H, t, A, vA, aA, Om, NULL);
-    for (int i = 0; i < 3; i++) rho[i] = s->y[i] - A[i];
-    double q = sqrt(bmh_dot(rho, rho));
-    for (int i = 0; i < 3; i++) n[i] = rho[i] / q;
+    for (int k = 0; k < 2; k++) {
+        bmh_run run = {&b->H, 0.0, 0.0, 0.0, NAN, NAN, {st[k]->book[5], st[k]->book[6]}, {0.0, 0.0, 0.0}, 0, 0};
+        double z[BMH_NZ];
+        bmh_free_state(&run, st[k]->mode, st[k]->t, st[k]->y, z);
+        for (int i = 0; i < 3; i++) out[k][i] = z[i] / b->H.d;
+    }
 }
 
 static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double t_end)
@@ -1630,18 +1650,18 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
         return refuse_step(fi, t, "the input samples do not determine the reconstruction (two samples at the same time?)");
     ball_state hist[MAX_SAMPLES + 1], predicted;
     int n_hist;
-    hyb_stop stop = {0, 0.0, 0.0, 0};
+    hyb_stop stop = {0, 0.0, 0.0, 0, 0.0, 0.0, 0};
     int corrected = corrected_history(b, &f, t, hist, &n_hist, &stop);
     if (corrected < 0) {
-        if (stop.status == 2) return refuse_step(fi, t, zeno_text(&stop, why, sizeof why));
+        if (stop.status) return refuse_step(fi, t, hybrid_stop_text(&stop, why, sizeof why));
         return refuse_step(fi, t, "the integrator failed on the corrector's interval");
     }
     const ball_state *now = &hist[n_hist - 1];
     double confirmed[N_OUT], out[N_OUT];
     outputs_at(b, now, &f, t, confirmed);
     if (!advance(b, now, t_end, &f, &predicted, &stop)) {
-        if (stop.status == 2)
-            zeno_text(&stop, why, sizeof why);
+        if (stop.status)
+            hybrid_stop_text(&stop, why, sizeof why);
         else if (b->P.form == BM_PAPER)
             snprintf(why, sizeof why, "paper formulation stopped before t = %.9g s: the ball centre came within "
                      "%g (R - r) of the chamber's equator, where its coordinates (xC, yC) become singular (or "
@@ -1657,8 +1677,7 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
     if (corrected > 0) {
         /* a-posteriori estimate: predicted vs corrected contact point at t */
         double p[3], q[3];
-        state_n(b, &b->state, &f, t, p);
-        state_n(b, now, &f, t, q);
+        n_pair(b, &b->state, now, &f, p, q);
         double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
         double step_error = b->R * sqrt(py_square(dx) + py_square(dy) + py_square(dz));
         /* what the corrector cannot repair (input noise, modes 2 and 4): each step's change
