@@ -614,10 +614,12 @@ _out = dict(depends=BALL_ALL_INPUTS)
 # input_mode 1, 3 or 4 both flavours recompute them when one of the inputs they depend on is set
 # (the algebraic loop of a ball in a structure that feels it): motion = 1 the position and
 # acceleration x1O, y1O, ax1O, ay1O; motion = 2 also z1O, az1O, Omega, Omega' and Q (the chamber
-# centre's acceleration and the orientation). The velocities enter no force or moment.
+# centre's acceleration and the orientation). The velocities enter the force of a sliding ball
+# (contact_model = 2: N = m (n.(g - a_A) + |v_C - v_A|^2 / |C - A|), the slip against v_W), so every
+# input is declared (with contact_model = 1 they change nothing).
 BALL_FEEDTHROUGH = ("N", "Fx", "Fy", "Fz", "M_reaction", "MAx", "MAy", "MAz", "Ft", "friction_ratio",
                     "contact", "rolling", "P_diss", "P_grind", "Fx_ch", "Fy_ch", "Fz_ch", "MO1x", "MO1y", "MO1z")
-BALL_FEEDTHROUGH_INPUTS = tuple(n for n in BALL_ALL_INPUTS if n not in ("vx1O", "vy1O", "vz1O"))
+BALL_FEEDTHROUGH_INPUTS = BALL_ALL_INPUTS
 _feed = dict(depends=BALL_ALL_INPUTS, feedthrough=BALL_FEEDTHROUGH_INPUTS)
 # the hybrid ball (contact_model = 2; declared after every other variable: earlier value references
 # stay). With contact_model = 1 the outputs say what the rolling model knows: mode 1, no slip, no

@@ -79,11 +79,13 @@ def test_outputs_and_initial_unknowns_list_the_declared_dependencies(model):
             assert len(set(deps)) == len(deps), (section, v.name, deps)
             assert all(causality[names[k - 1]] == "input" for k in deps), (section, v.name, deps)
     if model == "BallInShell":
-        # the force and moments follow the chamber's position, acceleration, angular velocity and
-        # acceleration and orientation between steps (not the velocities); the contact point does not
+        # the force and moments follow the chamber's position, velocity (a sliding ball's N and
+        # slip), acceleration, angular velocity and acceleration and orientation between steps; the
+        # contact point does not
         outs = {names[int(u.get("index")) - 1]: u for u in structure.find("Outputs")}
         assert sorted(_indices(outs["Fx"].get("dependencies"))) == sorted(
-            index[n] for n in ("x1O", "y1O", "ax1O", "ay1O", "z1O", "az1O", "Omega_x", "Omega_y", "Omega_z",
+            index[n] for n in ("x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O", "z1O", "vz1O", "az1O",
+                               "Omega_x", "Omega_y", "Omega_z",
                                "Omega_dot_x", "Omega_dot_y", "Omega_dot_z",
                                "Q11", "Q12", "Q13", "Q21", "Q22", "Q23", "Q31", "Q32", "Q33"))
         assert outs["xP"].get("dependencies") == ""
