@@ -1,0 +1,201 @@
+"""A scenario with the hybrid ball (BallInShell contact = 2: it slides, flies and strikes the
+shell) as a user meets it: its time plots shade the sliding and the flight spans and tick the
+impacts, its shell drawing colours the path by mode and marks the impacts, its summary has the
+hybrid indicators; a scenario with contact = 1 gets none of it.
+
+The report's tests run on a result table built from the library's hybrid ball
+(`simulate_hybrid`, the paper's chamber on a crank started in t0 = 0.1 s to 60 1/min: it
+slides at once, leaves the wall at 0.67 s and strikes the shell 7 times), whose events say
+independently when each mode began and ended and when each impact happened; the figures are
+read back as report.py made them (the ``subplots_made`` fixture).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ballmill.physics.drives.crank import CrankStartup
+from ballmill.physics.hybrid import FLIGHT, ROLLING, SLIDING, Contact, simulate_hybrid
+from ballmill.physics.params import Ball
+from ballmill.scenario import report
+from ballmill.scenario.runner import RunResult
+from ballmill.scenario.spec import Instance, Scenario
+
+DT, STOP = 0.002, 2.0
+BALL = Ball(r=0.025, R=0.25, m=0.5105088062083415, mu=0.3)
+CRANK = CrankStartup(l=0.5, n0=60.0, t0=0.1)
+SLIDES, FLIES = "ball slides on the wall (mode 2)", "ball in flight (mode 0)"
+PLOTS = [{"y": ["ball.N"], "file": "N.png"}, {"kind": "slip_margin", "ball": "ball", "file": "slip.png"},
+         {"x": "ball.xP", "y": ["ball.yP"], "file": "ring.png"}, {"kind": "shell", "ball": "ball", "file": "shell.png"}]
+
+
+@pytest.fixture(scope="module")
+def traj():
+    tr = simulate_hybrid(BALL, CRANK, STOP, DT, Contact())
+    assert tr.success and len(tr.of_kind("impact")) == 7 and tr.t_first_flight > 0.6
+    return tr
+
+
+@pytest.fixture(scope="module")
+def drawn(traj, tmp_path_factory):
+    """write_all of the hybrid table: (its summary, the figures it made, in PLOTS' order)."""
+    from ballmill.plotting import figures
+
+    kept, subplots = [], figures.subplots
+
+    def recording(*a, **kw):
+        fig, ax = subplots(*a, **kw)
+        kept.append(fig)
+        return fig, ax
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(figures, "subplots", recording)
+        summary = report.write_all(table(traj), {}, tmp_path_factory.mktemp("hybrid"))
+    return summary, kept
+
+
+def table(tr, contact=2, never=None) -> RunResult:
+    """The run as `ballmill run` records it: the ball's outputs (P = C + r n, in the chamber's
+    axes too: the chamber translates), the drive's crank angle; ``never``: the FMUs' "not yet"
+    (1e300) in place of the library's NaN in t_first_slip and t_first_flight."""
+    o, t = tr.out, tr.t
+    cols = {"drive.psi": CRANK.angles(t)[0]}
+    for name in ("mode", "n_impacts", "v_impact_max", "E_friction", "E_impact", "t_first_slip", "t_first_flight",
+                 "N", "Ft"):
+        cols[f"ball.{name}"] = np.where(np.isnan(o[name]), never, o[name]) if never else o[name]
+    for ax in "xyz":
+        cols[f"ball.{ax}P"] = cols[f"ball.{ax}P_ch"] = o[ax + "C"] + BALL.r * o["n" + ax]
+    N = o["N"]
+    cols["ball.friction_ratio"] = np.where(N > 0, o["Ft"] / np.where(N > 0, N, 1.0), 1e300)
+    cols["ball.valid"] = np.ones_like(t)
+    params = {"r": BALL.r, "R": BALL.R, "m": BALL.m, "mu": BALL.mu, "contact": contact}
+    sc = Scenario(path=Path("hybrid.toml"), name="hybrid", description="", start=0.0, stop=STOP, step=DT,
+                  instances={"ball": Instance("ball", fmu="BallInShell", parameters=params),
+                             "drive": Instance("drive", fmu="MotorStartup", parameters={"t0": CRANK.t0})},
+                  connections=[("drive", "x1O", "ball", "x1O")], record=[], plots=PLOTS,
+                  summary={"ball": "ball", "after": CRANK.t0})
+    return RunResult(scenario=sc, columns=["time", *cols], data=np.column_stack([t, *cols.values()]),
+                     success=True, message="completed")
+
+
+def mode_intervals(tr, mode):
+    """[from, to] of each stretch of ``mode`` by the library's events (exact switch times)."""
+    out, start, current = [], tr.t[0], int(tr["mode"][0])
+    for e in tr.events:
+        if e.mode_after == current:
+            continue
+        if current == mode:
+            out.append((start, e.t))
+        start, current = e.t, e.mode_after
+    if current == mode:
+        out.append((start, tr.t[-1]))
+    return out
+
+
+def shaded(ax, label):
+    """(from, to) of each rectangle of the shaded collection labelled ``label`` (x in seconds)."""
+    col = [c for c in ax.collections if c.get_label() == label]
+    if not col:
+        return []
+    (col,) = col
+    return [(p.vertices[:, 0].min(), p.vertices[:, 0].max()) for p in col.get_paths()]
+
+
+def ticks(ax):
+    """The impact ticks: their times [s] and their label."""
+    col = [c for c in ax.collections if c.get_label().startswith("impacts on the shell")]
+    if not col:
+        return np.array([]), None
+    (col,) = col
+    return np.array([seg[0][0] for seg in col.get_segments()]), col.get_label()
+
+
+def legend(ax):
+    leg = ax.get_legend()
+    return [t.get_text() for t in leg.get_texts()] if leg is not None else []
+
+
+def test_time_plots_shade_slides_and_flights_and_tick_the_impacts(traj, drawn):
+    """On the plot of N and on the slip margin: every stretch of sliding and of flight the events
+    give, longer than a communication step, is shaded in its own colour with its ends within half
+    a step of the event times (each instant takes the mode of its nearest sample) and no shaded
+    span is without such a stretch; the shaded lengths are the summary's fractions times the run;
+    one impact tick at the first sample after each impact event (7 impacts, 6 steps: two fall in
+    one step); all three in the legend. The slip margin draws no 'rolling first fails' line."""
+    summary, figs = drawn
+    n_ax, slip_ax = figs[0].axes[0], figs[1].axes[0]
+    impacts = np.array([e.t for e in traj.of_kind("impact")])
+    after = np.unique(traj.t[np.searchsorted(traj.t, impacts - 1e-12)])
+    for ax in (n_ax, slip_ax):
+        for label, mode, fraction in ((SLIDES, SLIDING, "sliding_fraction"), (FLIES, FLIGHT, "flight_fraction")):
+            spans, truth = shaded(ax, label), mode_intervals(traj, mode)
+            assert spans and sum(b - a for a, b in spans) == pytest.approx(summary["hybrid"][fraction]["value"] * STOP,
+                                                                           abs=1e-12)
+            for a, b in spans:  # each drawn span is an event stretch, to half a step
+                assert any(abs(a - ta) <= DT / 2 + 1e-12 and abs(b - tb) <= DT / 2 + 1e-12 for ta, tb in truth)
+            assert len(spans) >= sum(tb - ta > DT for ta, tb in truth)
+        at, text = ticks(ax)
+        assert np.array_equal(np.sort(at), after) and len(at) == 6
+        assert text == "impacts on the shell: 7, ticked at the end of each step with any (6 steps)"
+        assert {SLIDES, FLIES, text} <= set(legend(ax))
+    assert not [line for line in slip_ax.get_lines() if "first fails" in line.get_label()]
+    # the path plot (x = xP) has no time axis: no marks
+    assert not shaded(figs[2].axes[0], SLIDES) and ticks(figs[2].axes[0])[1] is None
+
+
+def test_the_shell_drawing_colours_the_path_by_mode_and_marks_the_impacts(traj, drawn):
+    """The shell drawing: the samples of each mode drawn in the mode's colour (rolling, sliding,
+    and in flight the nearest wall point, faint), together every sample once; one hollow red
+    marker per step that ends with impacts, at the contact point of that step's end sample."""
+    axes = drawn[1][3].axes[:2]
+    mode = traj["mode"]
+    drawn = {}
+    for ax in axes:
+        for col in ax.collections:
+            colour = tuple(np.round(col.get_facecolor()[0][:3], 3))
+            drawn[colour] = drawn.get(colour, 0) + len(col.get_offsets())
+    from matplotlib.colors import to_rgb
+    count = {m: int((mode == m).sum()) for m in (ROLLING, SLIDING, FLIGHT)}
+    assert drawn == {tuple(np.round(to_rgb(c), 3)): count[m] for m, c in
+                     ((ROLLING, "tab:blue"), (SLIDING, "tab:orange"), (FLIGHT, "tab:purple"))}
+    markers = [line for ax in axes for line in ax.get_lines() if line.get_marker() == "o" and len(line.get_xdata())]
+    assert sum(len(line.get_xdata()) for line in markers) == 6
+    assert all(line.get_markeredgecolor() == "tab:red" and line.get_markerfacecolor() == "none" for line in markers)
+    labels = legend(axes[0]) + legend(axes[1])
+    assert "in flight: the wall point nearest the ball (no contact), faint" in labels
+    assert any(text.startswith("7 impacts: the point at the end of each step with any") for text in labels)
+
+
+def test_the_summary_has_the_hybrid_indicators(traj, drawn):
+    """summary.json's `hybrid`: the run's impacts, losses and first times as the library counted
+    them, the losses per crank revolution of the drive's psi, the fractions adding up to 1; an
+    FMU's "not yet" (1e300) for t_first_slip / t_first_flight reads as None, not as a time;
+    the mill's indicators are taken over the whole run (the hybrid stays valid)."""
+    h = drawn[0]["hybrid"]
+    v = {k: x["value"] for k, x in h.items()}
+    turns = CRANK.angles(np.array([STOP]))[0][0] / (2 * np.pi)
+    assert v["n_impacts"] == 7 and v["v_impact_max"] == traj["v_impact_max"][-1] > 0.5
+    assert v["E_friction"] == traj["E_friction"][-1] > 0 and v["E_impact"] == traj["E_impact"][-1] > 0
+    assert v["E_friction_rev"] == pytest.approx(v["E_friction"] / turns, rel=1e-12)
+    assert v["E_impact_rev"] == pytest.approx(v["E_impact"] / turns, rel=1e-12)
+    assert (v["t_first_slip"], v["t_first_flight"]) == (0.0, traj.t_first_flight)
+    assert v["rolling_fraction"] + v["sliding_fraction"] + v["flight_fraction"] == pytest.approx(1.0, abs=1e-12)
+    assert h["E_impact"]["unit"] == "J" and h["v_impact_max"]["unit"] == "m/s"
+    # a ball that never flies, through the FMU's convention
+    rolling = simulate_hybrid(BALL, CrankStartup(l=0.5, n0=60.0, t0=0.5), 0.5, DT, Contact())
+    assert rolling.t_first_flight is None
+    s = report.summarise(table(rolling, never=1e300), {})
+    assert s["hybrid"]["t_first_flight"]["value"] is None and s["hybrid"]["n_impacts"]["value"] == 0
+
+
+def test_a_ball_with_contact_1_gets_no_marks_and_no_hybrid_summary(tmp_path, traj, subplots_made):
+    """The same table with contact = 1 (the rolling model's ball): no shaded modes, no ticks, no
+    mode colours on the shell, no `hybrid` in the summary."""
+    summary = report.write_all(table(traj, contact=1), {}, tmp_path)
+    assert "hybrid" not in summary and "contact_model" not in summary["validity"]
+    for fig in subplots_made[:2]:
+        ax = fig.axes[0]
+        assert not shaded(ax, SLIDES) and not shaded(ax, FLIES) and ticks(ax)[1] is None
+    labels = legend(subplots_made[3].axes[0])
+    assert not any("flight" in text or "impacts" in text for text in labels)
