@@ -1,7 +1,7 @@
-"""A scenario with the hybrid ball (BallInShell contact = 2: it slides, flies and strikes the
+"""A scenario with the hybrid ball (BallInShell contact_model = 2: it slides, flies and strikes the
 shell) as a user meets it: its time plots shade the sliding and the flight spans and tick the
 impacts, its shell drawing colours the path by mode and marks the impacts, its summary has the
-hybrid indicators; a scenario with contact = 1 gets none of it.
+hybrid indicators; a scenario with contact_model = 1 gets none of it.
 
 The report's tests run on a result table built from the library's hybrid ball
 (`simulate_hybrid`, the paper's chamber on a crank started in t0 = 0.1 s to 60 1/min: it
@@ -21,7 +21,7 @@ from ballmill.physics.hybrid import FLIGHT, ROLLING, SLIDING, Contact, simulate_
 from ballmill.physics.params import Ball
 from ballmill.scenario import report
 from ballmill.scenario.runner import RunResult
-from ballmill.scenario.spec import Instance, Scenario
+from ballmill.scenario.spec import CONTACT, Instance, Scenario
 
 DT, STOP = 0.002, 2.0
 BALL = Ball(r=0.025, R=0.25, m=0.5105088062083415, mu=0.3)
@@ -69,7 +69,7 @@ def table(tr, contact=2, never=None) -> RunResult:
     N = o["N"]
     cols["ball.friction_ratio"] = np.where(N > 0, o["Ft"] / np.where(N > 0, N, 1.0), 1e300)
     cols["ball.valid"] = np.ones_like(t)
-    params = {"r": BALL.r, "R": BALL.R, "m": BALL.m, "mu": BALL.mu, "contact": contact}
+    params = {"r": BALL.r, "R": BALL.R, "m": BALL.m, "mu": BALL.mu, CONTACT: contact}
     sc = Scenario(path=Path("hybrid.toml"), name="hybrid", description="", start=0.0, stop=STOP, step=DT,
                   instances={"ball": Instance("ball", fmu="BallInShell", parameters=params),
                              "drive": Instance("drive", fmu="MotorStartup", parameters={"t0": CRANK.t0})},
@@ -190,10 +190,10 @@ def test_the_summary_has_the_hybrid_indicators(traj, drawn):
 
 
 def test_a_ball_with_contact_1_gets_no_marks_and_no_hybrid_summary(tmp_path, traj, subplots_made):
-    """The same table with contact = 1 (the rolling model's ball): no shaded modes, no ticks, no
+    """The same table with contact_model = 1 (the rolling model's ball): no shaded modes, no ticks, no
     mode colours on the shell, no `hybrid` in the summary."""
     summary = report.write_all(table(traj, contact=1), {}, tmp_path)
-    assert "hybrid" not in summary and "contact_model" not in summary["validity"]
+    assert "hybrid" not in summary and "note" not in summary["validity"]
     for fig in subplots_made[:2]:
         ax = fig.axes[0]
         assert not shaded(ax, SLIDES) and not shaded(ax, FLIES) and ticks(ax)[1] is None

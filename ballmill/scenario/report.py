@@ -14,7 +14,7 @@ structure's displacement with and without the ball.
 A ball in a turning chamber (BallInShell with motion = 2: outputs
 xP_ch, yP_ch, zP_ch) adds the fraction of the shell its contact point visits
 (ballmill/plotting/shell.py) and the failure times interpolated between samples.
-A hybrid ball (BallInShell with contact = 2: it slides, flies and strikes the shell, and stays
+A hybrid ball (BallInShell with contact_model = 2: it slides, flies and strikes the shell, and stays
 valid through all of it) adds the hybrid indicators (`hybrid`: the fractions of time rolling,
 sliding and flying, the impacts, the friction and impact losses, per crank revolution where a
 drive's psi is recorded; ballmill.sweep.indicators.hybrid computes them, as for the studies); its
@@ -104,7 +104,7 @@ def validity_end(res: RunResult, ball: str, hybrid: bool = False):
     """Where the ball model's validity ended: (index of the first row with valid false, t_invalid
     [s] (the FMU's, else that row's time), why: "loss of contact", "slip", or "inconsistent
     inputs" when contact and rolling held at that row; "see log" without them; for a hybrid ball
-    (``hybrid``: contact = 2, whose validity survives slip and flight) "inconsistent inputs, a Zeno
+    (``hybrid``: contact_model = 2, whose validity survives slip and flight) "inconsistent inputs, a Zeno
     sequence or a failed step", what it cannot follow), or None while valid (or without a recorded
     `valid`)."""
     cols = set(res.columns)
@@ -228,9 +228,9 @@ def summarise(res: RunResult, models, bare: RunResult | None = None) -> dict:
         col = lambda v: res.column(f"{ball}.{v}")  # noqa: E731
         validity = {}
         if hybrid:  # slip and flight are the model's modes, not failures: the flags say which mode
-            validity["contact_model"] = ("hybrid (contact = 2): slip, flight and impacts are followed and keep the "
-                                         "model valid; 'contact' and 'rolling' (where recorded) say when the ball "
-                                         "first left the wall and first stopped rolling, not failures")
+            validity["note"] = ("the hybrid ball (contact_model = 2): slip, flight and impacts are followed and keep "
+                                "the model valid; 'contact' and 'rolling' (where recorded) say when the ball first "
+                                "left the wall and first stopped rolling, not failures")
         for flag in ("contact", "rolling"):
             if f"{ball}.{flag}" in cols:
                 bad = np.flatnonzero(col(flag) < 0.5)
@@ -265,7 +265,7 @@ def summarise(res: RunResult, models, bare: RunResult | None = None) -> dict:
 
 
 def is_hybrid(res: RunResult, models, ball: str | None) -> bool:
-    """Whether the ball is the hybrid one (BallInShell with contact = 2: spec.hybrid_balls)."""
+    """Whether the ball is the hybrid one (BallInShell with contact_model = 2: spec.hybrid_balls)."""
     return bool(ball) and ball in _spec.hybrid_balls(res.scenario, models)
 
 
@@ -479,7 +479,7 @@ def impacts_label(n: int, steps: int) -> str:
 
 
 def mark_hybrid(ax, res: RunResult, models) -> bool:
-    """On a time plot of a hybrid ball (contact = 2): its sliding and its flight spans shaded
+    """On a time plot of a hybrid ball (contact_model = 2): its sliding and its flight spans shaded
     (mode_spans) and its impacts as thin ticks at the bottom (impact_rows), each in the legend,
     over the rows up to its latched `valid` (the rest is shaded as not valid). False otherwise."""
     from matplotlib.collections import PolyCollection
