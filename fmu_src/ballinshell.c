@@ -824,6 +824,47 @@ static void publish(double *v, const double o[N_OUT])
     for (int i = 0; i < 9; i++) v[vr_more[i]] = o[O_XPCH + i];
 }
 
+/* v_C of a rolling state at t, fixed axes: v_A + R (Omega x n) + r (n x omega), v_A and Omega
+ * the reconstruction's at t (motion = 1: (vx1O, vy1O, 0), Omega = 0); ballinshell_fmu.py's
+ * _centre_velocity, operation for operation */
+static void centre_velocity(const ball_in_shell *b, const ball_state *s, const fit *f, double t, double vc[3])
+{
+    double n[3], w[3], vA[3] = {0.0, 0.0, 0.0}, Om[3] = {0.0, 0.0, 0.0};
+    if (b->motion == 2) {
+        double cs[BMG_NCS];
+        general_state(f, t, cs);
+        memcpy(n, s->y, sizeof n);
+        memcpy(w, s->y + 3, sizeof w);
+        memcpy(vA, cs + 3, sizeof vA);
+        memcpy(Om, cs + 9, sizeof Om);
+    } else {
+        double m[6];
+        recon_state(f, t, m);
+        to_n(b, s->y, n);
+        memcpy(w, s->y + b->P.ny - 3, sizeof w);
+        vA[0] = m[2];
+        vA[1] = m[3];
+    }
+    double R = b->R, r = b->P.o_r;
+    double c1[3] = {Om[1] * n[2] - Om[2] * n[1], Om[2] * n[0] - Om[0] * n[2], Om[0] * n[1] - Om[1] * n[0]};
+    double c2[3] = {n[1] * w[2] - n[2] * w[1], n[2] * w[0] - n[0] * w[2], n[0] * w[1] - n[1] * w[0]};
+    for (int i = 0; i < 3; i++) vc[i] = (vA[i] + R * c1[i]) + r * c2[i];
+}
+
+/* vxC..vzC and the force averaged over the step of length h that ends at their time,
+ * m (g_vec - (v_C(t) - v_C(t - h)) / h) from the published v_C(t - h) (h <= 0: the start,
+ * where the mean is the instantaneous force just published); ballinshell_fmu.py's _motion_values */
+static void publish_motion(const ball_in_shell *b, double *v, const double vc[3], double h)
+{
+    static const int vr_v[3] = {VR_vxC, VR_vyC, VR_vzC}, vr_f[3] = {VR_Fx_mean, VR_Fy_mean, VR_Fz_mean};
+    static const int vr_F[3] = {VR_Fx, VR_Fy, VR_Fz};
+    double m = b->P.o_m, gv[3] = {0.0, 0.0, -b->P.o_g};
+    for (int i = 0; i < 3; i++) {
+        v[vr_f[i]] = h > 0.0 ? m * (gv[i] - (vc[i] - v[vr_v[i]]) / h) : v[vr_F[i]];
+        v[vr_v[i]] = vc[i];
+    }
+}
+
 /* the inputs the published outputs were computed from: those of the last feedthrough
  * refresh since the last step, else the sample the last step (or the initialisation) took */
 static const sample *published_inputs(const ball_in_shell *b)
@@ -1034,6 +1075,46 @@ static int positive(fmu_instance *fi, const char *name, double x, const char *un
     return 0;
 }
 
+/* the hybrid contact's parameters (interface._BALL_RULES; ballinshell_fmu.py's _check_contact,
+ * the same messages) */
+static int check_contact(fmu_instance *fi, const double *v)
+{
+    char msg[512], a[32], c[32];
+    double mu_k = v[VR_mu_k], mu = v[VR_mu];
+    int contact_model = (int)v[VR_contact_model], formulation = (int)v[VR_formulation];
+    if (!(mu_k == -1.0 || (0.0 <= mu_k && mu_k <= mu))) {
+        snprintf(msg, sizeof msg, "parameter mu_k = %s is outside its accepted range: -1 (equal to mu) or [0, mu = "
+                 "%s] (kinetic friction does not exceed static friction)", fmu_repr(mu_k, a), fmu_repr(mu, c));
+        init_error(fi, msg, "");
+        return 0;
+    }
+    if (!positive(fi, "v_rest", v[VR_v_rest], "m/s", 0)) return 0;
+    if (contact_model != 2) return 1;
+    if (formulation != 1) {
+        snprintf(msg, sizeof msg, "contact_model = 2 needs formulation = 1 (the paper's coordinates end at the "
+                 "chamber's equator; a sliding or flying ball is followed in fixed axes), got formulation = %d",
+                 formulation);
+        init_error(fi, msg, "");
+        return 0;
+    }
+    if (v[VR_delta] != 0.0 || v[VR_c_drag] != 0.0) {
+        snprintf(msg, sizeof msg, "contact_model = 2 models no ground-material losses off rolling: delta = %s m and "
+                 "c_drag = %s N.s/m must be 0", fmu_repr(v[VR_delta], a), fmu_repr(v[VR_c_drag], c));
+        init_error(fi, msg, "");
+        return 0;
+    }
+    if ((int)v[VR_bed] != 0) {
+        snprintf(msg, sizeof msg, "contact_model = 2 has no material bed: bed = %d must be 0 (the hybrid ball "
+                 "models no ground-material losses)", (int)v[VR_bed]);
+        init_error(fi, msg, "");
+        return 0;
+    }
+    /* the hybrid ball itself is not in this flavour yet */
+    init_error(fi, "contact_model = 2 (the hybrid ball) is not available in the native flavour yet; use "
+               "contact_model = 1", "");
+    return 0;
+}
+
 static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
 {
     ball_in_shell *b = data;
@@ -1135,6 +1216,7 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
                  "stiff for the explicit integrators)", fmu_repr(cdrag, a), c_max);
         return init_error(fi, msg, "");
     }
+    if (!check_contact(fi, v)) return fmi2Error;
     P->form = formulation == 2 ? BM_PAPER : BM_VECTOR;
     P->ny = formulation == 2 ? 5 : 6;
     P->pap_d = d;
@@ -1266,6 +1348,9 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
     recon_fit(b, &f); /* one sample: never singular */
     outputs_at(b, &b->state, &f, t, o);
     publish(v, o);
+    double vc[3];
+    centre_velocity(b, &b->state, &f, t, vc);
+    publish_motion(b, v, vc, 0.0);
     for (int i = 0; i < FMU_N_VARS; i++)
         if (FMU_VARIABLES[i].causality == FMU_OUTPUT && !isfinite(v[i])) {
             char e[6][32];
@@ -1329,6 +1414,8 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
         return refuse_step(fi, t, why);
     }
     outputs_at(b, &predicted, &f, t_end, out);
+    double vc[3];
+    centre_velocity(b, &predicted, &f, t_end, vc);
     double coupling_error = v[VR_coupling_error], noise_sum = b->noise_sum;
     if (corrected > 0) {
         /* a-posteriori estimate: predicted vs corrected contact point at t */
@@ -1374,6 +1461,7 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
     b->state = predicted;
     b->has_fed = 0;
     publish(v, out);
+    publish_motion(b, v, vc, t_end - t);
     v[VR_coupling_error] = coupling_error;
     if (coupling_error > v[VR_coupling_warn] && !b->warned) {
         b->warned = 1;

@@ -102,6 +102,7 @@ class BallInShell(Slave):
             raise ValueError(f"parameter c_drag = {self.c_drag!r} N.s/m is outside its accepted range "
                              f"[0, {c_max:.6g}] N.s/m (1e4 m omega0: a viscous time constant m/c_drag below "
                              f"1e-4/omega0 makes the equations too stiff for the explicit integrators)")
+        self._check_contact()
         self._max_step = self.max_step or 0.05 * 2.0 * math.pi / ball.omega_small
         method = self.choice("integrator", METHODS)
         if method == "RK4" and self._max_step / self.h_fixed > MAX_INTERNAL_STEPS:
@@ -118,6 +119,29 @@ class BallInShell(Slave):
         mode = self.choice("input_mode", INPUT_MODES)
         self._inputs = InputReconstruction(mode, a_tol=self.input_tol)
         self._correct = bool(self.corrector) and mode != "hold"
+
+    def _check_contact(self):
+        """The hybrid contact's parameters (interface._BALL_RULES; fmu_src/ballinshell.c's
+        check_contact, the same messages)."""
+        if not (self.mu_k == -1.0 or 0.0 <= self.mu_k <= self.mu):
+            raise ValueError(f"parameter mu_k = {self.mu_k!r} is outside its accepted range: -1 (equal to mu) "
+                             f"or [0, mu = {self.mu!r}] (kinetic friction does not exceed static friction)")
+        if not self.v_rest > 0.0:
+            raise ValueError(f"v_rest must be positive and finite, got v_rest = {self.v_rest!r} m/s")
+        if self.contact_model != 2:
+            return
+        if self.formulation != 1:
+            raise ValueError(f"contact_model = 2 needs formulation = 1 (the paper's coordinates end at the "
+                             f"chamber's equator; a sliding or flying ball is followed in fixed axes), got "
+                             f"formulation = {self.formulation!r}")
+        if self.delta != 0.0 or self.c_drag != 0.0:
+            raise ValueError(f"contact_model = 2 models no ground-material losses off rolling: delta = "
+                             f"{self.delta!r} m and c_drag = {self.c_drag!r} N.s/m must be 0")
+        if self.bed != 0:
+            raise ValueError(f"contact_model = 2 has no material bed: bed = {self.bed!r} must be 0 (the hybrid "
+                             f"ball models no ground-material losses)")
+        raise ValueError("contact_model = 2 (the hybrid ball) is not available in the pythonfmu flavour yet; use "
+                         "contact_model = 1")
 
     def _build_general(self, ball, method):
         """motion = 2: the general model (ballmill.physics.turning) and the chamber's
@@ -161,8 +185,12 @@ class BallInShell(Slave):
         self._t_prev = None
         self._noise_sum, self._a_mid = 0.0, None
         out = self._outputs_at(self._state, self._time)
+        self.mode, self.slip_speed, self.gap, self.n_impacts, self.v_impact_max = 1, 0.0, 0.0, 0, 0.0
+        self.E_friction, self.E_impact, self.t_first_slip, self.t_first_flight = 0.0, 0.0, NEVER, NEVER
         try:
             self._publish(out)
+            for name, v in self._motion_values(self._state, self._time, None):
+                setattr(self, name, v)
         except ArithmeticError as e:
             raise ValueError(f"the initial state (xC0 = {self.xC0!r} m, yC0 = {self.yC0!r} m, wx0 = "
                              f"{self.wx0!r}, wy0 = {self.wy0!r}, wz0 = {self.wz0!r} rad/s) gives non-finite "
@@ -212,7 +240,7 @@ class BallInShell(Slave):
             confirmed = self._outputs_at(state, t)
             predicted = self._advance(state, t_end, accel)
             out = self._outputs_at(predicted, t_end)
-            values = self._values(out)
+            values = self._values(out) + self._motion_values(predicted, t_end, t_end - t)
         except (ValueError, ArithmeticError) as e:
             # a valid sample recorded before the failure is harmless: a retry at the
             # same time replaces it
@@ -401,6 +429,39 @@ class BallInShell(Slave):
         x, y, _, _, ax, ay = self._inputs.state(t)
         out = self._model.outputs(state, ax, ay, x, y)
         return _Translated(out, x, y, self.R)
+
+    def _centre_velocity(self, state, t):
+        """v_C [m/s] of a rolling state at t, fixed axes: v_A + R (Omega x n) + r (n x omega), with
+        v_A and Omega the reconstruction's at t (motion = 1: (vx1O, vy1O, 0), Omega = 0), n and
+        omega the state's; in this operation order (fmu_src/ballinshell.c's centre_velocity)."""
+        if self._general:
+            y = state.y.tolist()
+            n, w = y[0:3], y[3:6]
+            cs = self._inputs.state(t)
+            vA, Om = cs[3:6], cs[9:12]
+        else:
+            n, w = self._model.nw(state)
+            _, _, vx, vy, _, _ = self._inputs.state(t)
+            vA, Om = (vx, vy, 0.0), (0.0, 0.0, 0.0)
+        R, r = self.R, self.r
+        c1 = (Om[1] * n[2] - Om[2] * n[1], Om[2] * n[0] - Om[0] * n[2], Om[0] * n[1] - Om[1] * n[0])
+        c2 = (n[1] * w[2] - n[2] * w[1], n[2] * w[0] - n[0] * w[2], n[0] * w[1] - n[1] * w[0])
+        return tuple((vA[i] + R * c1[i]) + r * c2[i] for i in range(3))
+
+    def _motion_values(self, state, t, h):
+        """vxC..vzC at t and the force averaged over the step of length h that ends there,
+        m (g_vec - (v_C(t) - v_C(t - h)) / h) with v_C(t - h) the published one (h None: the
+        start, where the mean is the instantaneous force Fx..Fz just published)."""
+        vc = self._centre_velocity(state, t)
+        finite = self.finite
+        values = [(name, finite(name, v)) for name, v in zip(("vxC", "vyC", "vzC"), vc)]
+        if h is None:
+            mean = (self.Fx, self.Fy, self.Fz)
+        else:
+            m, gv, v0 = self.m, (0.0, 0.0, -self.g), (self.vxC, self.vyC, self.vzC)
+            mean = tuple(m * (gv[i] - (vc[i] - v0[i]) / h) for i in range(3))
+        values += [(name, finite(name, v)) for name, v in zip(("Fx_mean", "Fy_mean", "Fz_mean"), mean)]
+        return values
 
     def _values(self, out):
         """The output values to publish (ArithmeticError naming an output that is not finite;

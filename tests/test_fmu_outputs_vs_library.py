@@ -25,7 +25,7 @@ import math
 import numpy as np
 import pytest
 
-from ballmill.fmi.interface import BALL_MOTION_OUTPUTS
+from ballmill.fmi.interface import BALL_HYBRID_OUTPUTS, BALL_MOTION_OUTPUTS
 from ballmill.physics import Ball, BallModel, CrankStartup, InputReconstruction, simulate
 from ballmill.fmi.slave import NEVER
 from ballmill.physics.drives.induction import RPM, CrankDrive, InductionMotor, simulate_runup
@@ -240,10 +240,16 @@ def monolithic(ball, form, H, n):
     return tr
 
 
-def check_ball_outputs(out, ref, rtol, atol, window, what):
+def check_ball_outputs(out, ref, rtol, atol, window, what, H):
     new = {name for name, _, _ in BALL_MOTION_OUTPUTS}
+    new |= set(BALL_HYBRID_OUTPUTS)
     assert set(out) == set(BALL_OUTPUT_FIELDS) | {"coupling_error", "valid", "t_invalid"} | new, \
         set(out) ^ (set(BALL_OUTPUT_FIELDS) | new)
+    # contact_model = 1: the rolling model's mode, no slip, gap, impacts or losses, never a first slip
+    for name, value in (("mode", 1), ("slip_speed", 0.0), ("gap", 0.0), ("n_impacts", 0), ("v_impact_max", 0.0),
+                        ("E_friction", 0.0), ("E_impact", 0.0), ("t_first_slip", NEVER), ("t_first_flight", NEVER)):
+        assert np.all(np.asarray(out[name]) == value), (what, name)
+    check_mean_force(out, H, what)
     # motion = 1: the chamber's axes are the frame's, and the moment about O1 is
     # A x F + M_A: about the vertical through O1 the crank's torque plus MAz
     for a, b in (("xP_ch", "xP"), ("yP_ch", "yP"), ("zP_ch", "zP"), ("Fx_ch", "Fx"), ("Fy_ch", "Fy"),
@@ -260,6 +266,22 @@ def check_ball_outputs(out, ref, rtol, atol, window, what):
             assert np.array_equal(got, want), (what, name)
         else:
             assert_close(f"{what}: {name}", got, want, rtol, atol)
+
+
+def check_mean_force(out, H, what, m=Ball().m, g=Ball().g):
+    """Fx_mean..Fz_mean: the instantaneous force at the start, then the momentum balance
+    m (g_vec - dv_C / h) of the published v_C (h = H up to the FMU's time arithmetic), and close
+    to the step's trapezoidal mean of Fx..Fz (so v_C is right: within 2 % of the force's swing
+    for this smooth rolling ball, an O(h^2) difference)."""
+    for c, gc in (("x", 0.0), ("y", 0.0), ("z", -g)):
+        F, Fm, v = (np.asarray(out[f"F{c}"]), np.asarray(out[f"F{c}_mean"]), np.asarray(out[f"v{c}C"]))
+        assert Fm[0] == F[0], (what, c)
+        assert_close(f"{what}: F{c}_mean", Fm[1:], m * (gc - (v[1:] - v[:-1]) / H), 1e-9)
+        # from the 10th step: with positions alone the first fits (one, two samples) give the
+        # platform's velocity only roughly, and v_C with it
+        trap = 0.5 * (F[10:] + F[9:-1])
+        swing = np.ptp(F)
+        assert np.max(np.abs(Fm[10:] - trap)) < 0.02 * swing, (what, c, np.max(np.abs(Fm[10:] - trap)), swing)
 
 
 NO_CORRECTOR_CASES = {  # id: (input_mode, formulation, integrator, step)
@@ -281,7 +303,7 @@ def test_ballinshell_every_output_against_the_librarys_step(case, fmu_path, open
                        corrector=False, tolerance=1e-8, h_fixed=5e-4, **START)
     out = run(inst, H, n, crank_inputs(mode))
     ref = library_steps(Ball(), FORMULATIONS[form], METHODS[integ], MODES[mode], 1e-8, 5e-4, H, n)
-    check_ball_outputs(out, ref, 1e-12, 1e-14, slice(None), case)
+    check_ball_outputs(out, ref, 1e-12, 1e-14, slice(None), case, H)
     assert np.all(out["coupling_error"] == 0.0)  # no corrector, no estimate
     assert np.ptp(out["zP"]) > 0.01  # the ball moved
 
@@ -310,7 +332,7 @@ def test_ballinshell_every_output_against_the_monolithic_solution(case, fmu_path
     ball = Ball(rolling_resistance=2e-4, drag=0.8) if losses else Ball()
     tr = monolithic(ball, FORMULATIONS[form], H, n)
     late = tr.t >= 0.1 - 1e-12
-    check_ball_outputs(out, tr.out, rtol, 1e-12, late, case)
+    check_ball_outputs(out, tr.out, rtol, 1e-12, late, case, H)
     if losses:
         assert np.min(out["P_diss"][late]) > 0.0
     else:

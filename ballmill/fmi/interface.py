@@ -595,6 +595,18 @@ _BALL_RULES = (
          f"-{PAPER_MARGIN:g} with formulation = 2 (the paper's coordinates end near the chamber's equator)",
          lambda p: p["formulation"] != 2 or -math.sqrt(max(0.0, 1.0 - (p["xC0"] ** 2 + p["yC0"] ** 2)
                                                              / (p["R"] - p["r"]) ** 2)) <= -PAPER_MARGIN),
+    # the hybrid contact (contact_model = 2: rolling, sliding, flight, impacts; docs/design.md 14, 15)
+    Rule(("mu_k", "mu"), "mu_k = -1 (equal to mu) or 0 <= mu_k <= mu (kinetic friction does not exceed "
+         "static friction)", lambda p: p["mu_k"] == -1.0 or 0.0 <= p["mu_k"] <= p["mu"]),
+    *_positive("v_rest"),
+    Rule(("contact_model", "formulation"), "formulation = 1 with contact_model = 2 (the paper's coordinates "
+         "end at the chamber's equator, and a sliding or flying ball is followed in fixed axes)",
+         lambda p: p["contact_model"] != 2 or p["formulation"] == 1),
+    Rule(("contact_model", "delta", "c_drag"), "delta = c_drag = 0 with contact_model = 2 (the hybrid ball "
+         "models no ground-material losses off rolling)",
+         lambda p: p["contact_model"] != 2 or p["delta"] == p["c_drag"] == 0.0),
+    Rule(("contact_model", "bed"), "bed = 0 with contact_model = 2 (the hybrid ball models no ground-material "
+         "losses, so no material bed)", lambda p: p["contact_model"] != 2 or p["bed"] == 0),
 )
 NEVER = 1e300  # t_invalid while the model is valid
 _out = dict(depends=BALL_ALL_INPUTS)
@@ -607,6 +619,51 @@ BALL_FEEDTHROUGH = ("N", "Fx", "Fy", "Fz", "M_reaction", "MAx", "MAy", "MAz", "F
                     "contact", "rolling", "P_diss", "P_grind", "Fx_ch", "Fy_ch", "Fz_ch", "MO1x", "MO1y", "MO1z")
 BALL_FEEDTHROUGH_INPUTS = tuple(n for n in BALL_ALL_INPUTS if n not in ("vx1O", "vy1O", "vz1O"))
 _feed = dict(depends=BALL_ALL_INPUTS, feedthrough=BALL_FEEDTHROUGH_INPUTS)
+# the hybrid ball (contact_model = 2; declared after every other variable: earlier value references
+# stay). With contact_model = 1 the outputs say what the rolling model knows: mode 1, no slip, no
+# gap, no impacts, no losses, t_first_slip and t_first_flight never (t_invalid dates the latch).
+BALL_HYBRID_OUTPUTS = ("mode", "slip_speed", "gap", "n_impacts", "v_impact_max", "E_friction", "E_impact",
+                       "t_first_slip", "t_first_flight", "vxC", "vyC", "vzC", "Fx_mean", "Fy_mean", "Fz_mean")
+BALL_HYBRID_ROWS = (
+    ("contact_model", "parameter", 1, "Contact: 1 = rolling only (the ball rolls without slip on the wall; "
+     "valid latches false at the first slip or loss of contact), 2 = hybrid (rolling, sliding, flight and "
+     "impacts, each switch located inside the communication step; formulation = 1, no ground-material "
+     "losses; co-simulation only)", dict(min=1, max=2)),
+    ("mu_k", "parameter", -1.0, "Kinetic friction coefficient of a sliding ball and of an impact that "
+     "slips (contact_model = 2): -1 = equal to mu, else 0 <= mu_k <= mu", dict(unit="1", min=-1.0, max=100.0)),
+    ("e_n", "parameter", 0.5, "Normal coefficient of restitution of an impact on the wall (contact_model = 2)",
+     dict(unit="1", min=0.0, max=1.0)),
+    ("v_rest", "parameter", 0.01, "Rest speed (contact_model = 2): a rebound slower than this (e_n v_n < "
+     "v_rest) ends a bounce sequence, the ball stays on the wall (no Zeno chattering)",
+     dict(unit="m/s", min=0.0, max=1e3)),
+    ("mode", "output", 1, "Contact mode: 0 = flight, 1 = rolling, 2 = sliding (contact_model = 1: always 1)",
+     _out),
+    ("slip_speed", "output", 0.0, "Slip speed |u| of the ball's point at P on the wall (0 while rolling and in "
+     "flight; contact_model = 1: 0)", dict(unit="m/s", min=0.0, **_out)),
+    ("gap", "output", 0.0, "Gap between ball and wall, R - r - |C - A| (0 on the wall)",
+     dict(unit="m", min=0.0, **_out)),
+    ("n_impacts", "output", 0, "Number of impacts on the wall so far", dict(min=0, **_out)),
+    ("v_impact_max", "output", 0.0, "Largest normal approach speed of an impact so far (0: none)",
+     dict(unit="m/s", min=0.0, **_out)),
+    ("E_friction", "output", 0.0, "Energy taken by friction while sliding (and by the impulses that end a "
+     "slip) so far", dict(unit="J", min=0.0, **_out)),
+    ("E_impact", "output", 0.0, "Energy taken by the impacts so far (the kinetic energy lost in the frame of "
+     "the wall's material point at P)", dict(unit="J", min=0.0, **_out)),
+    ("t_first_slip", "output", NEVER, "Time the ball first slid (1e300: not yet; contact_model = 1: always "
+     "1e300, t_invalid dates the latch)", dict(unit="s", **_out)),
+    ("t_first_flight", "output", NEVER, "Time the ball first left the wall (1e300: not yet; contact_model = "
+     "1: always 1e300, t_invalid dates the latch)", dict(unit="s", **_out)),
+    ("vxC", "output", 0.0, "Velocity of the ball centre C, x in the fixed axes (absolute)",
+     dict(unit="m/s", **_out)),
+    ("vyC", "output", 0.0, "Velocity of the ball centre C, y in the fixed axes (absolute)",
+     dict(unit="m/s", **_out)),
+    ("vzC", "output", 0.0, "Velocity of the ball centre C, z in the fixed axes (absolute)",
+     dict(unit="m/s", **_out)),
+    *[(f"F{c}_mean", "output", 0.0, f"Force of the ball on the chamber, {c} in the fixed axes, averaged over "
+       f"the last communication step with the impulses of its impacts: m (g_vec - (v_C(t) - v_C(t - h)) / "
+       f"h)_{c}, from the published v{c}C (the momentum the chamber received over the step, divided by h; "
+       f"at the start time: F{c})", dict(unit="N", **_out)) for c in "xyz"],
+)
 BALL_IN_SHELL = _interface(
     "BallInShell",
     "Ball rolling without slip inside a spherical chamber that translates (motion = 1, Gibbs-Appell "
@@ -657,7 +714,8 @@ BALL_IN_SHELL = _interface(
           for name in BALL_INPUTS],
         *[(name, "output", 0.0, desc, dict(unit=unit, **(_feed if name in BALL_FEEDTHROUGH else _out)))
           for name, unit, desc in BALL_OUTPUTS],
-        ("contact", "output", True, "The ball touches the wall (N > 0); the model is invalid otherwise",
+        ("contact", "output", True, "The ball touches the wall (N > 0); with contact_model = 1 the model is "
+         "invalid otherwise",
          _feed),
         ("rolling", "output", True, "Contact and |F_t| <= mu N: the ball rolls without slip", _feed),
         # losses to the ground material (declared after the outputs: earlier value references stay)
@@ -681,8 +739,9 @@ BALL_IN_SHELL = _interface(
          "consecutive communication points disagreeing by more than this acceleration are flagged "
          "(valid = false, warning) and the reconstruction restarts at the newer point",
          dict(unit="m/s2", min=1e-9, max=1e3)),
-        ("valid", "output", True, "False from the first loss of contact, onset of slip or "
-         "flagged input inconsistency until reset (latched): outputs after t_invalid are "
+        ("valid", "output", True, "False from the first loss of contact, onset of slip (contact_model = 1) or "
+         "flagged input inconsistency (or, contact_model = 2, a step the hybrid ball cannot follow: a "
+         "Zeno sequence, a failed integration) until reset (latched): outputs after t_invalid are "
          "not those of the model's physics", _out),
         ("t_invalid", "output", NEVER, "Time at which valid became false (1e300 while valid)",
          dict(unit="s", **_out)),
@@ -711,6 +770,7 @@ BALL_IN_SHELL = _interface(
         ("s_bed", "output", 1.0, "Share of the material's resistance acting at the contact point: 1 in the "
          "bed (deeper than w_bed below its surface; always with bed = 0), 0 above its surface",
          dict(unit="1", **_out)),
+        *BALL_HYBRID_ROWS,
     ], rules=_BALL_RULES,
     model_exchange=ModelExchange(
         states=(("n_x", "1", "Contact direction n (unit vector from the chamber centre to the contact "
@@ -732,6 +792,8 @@ BALL_IN_SHELL = _interface(
               "co-simulation rules and are refused, as are formulation = 2 and motion = 2 (a chamber "
               "that moves in 3-D and turns: its equations take the chamber's motion from co-simulation's "
               "reconstruction; the refusal names each parameter, its value and what is supported); "
+              "contact_model = 2 is refused too (the hybrid ball's states change with its mode, rolling's n, omega "
+              "are only one of them: co-simulation only; mu_k, e_n and v_rest are then not used); "
               "integrator, tolerance, h_fixed, max_step, corrector, input_tol and coupling_warn "
               "belong to co-simulation's internal integration and are not used (coupling_error "
               "stays 0: there is no coupling error). valid and t_invalid latch at the state event "

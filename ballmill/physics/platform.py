@@ -384,6 +384,11 @@ class InputReconstruction(SampleHistory):
         self.prepare()
         return self._accel_fn
 
+    def motion(self) -> "ReconstructedPlatform":
+        """The current fit as a platform motion (``state(t)``, ``accel(t)``) for the hybrid
+        ball (`ReconstructedPlatform`), frozen: a later sample does not change it."""
+        return ReconstructedPlatform(self)
+
     def state(self, t):
         """(x, y, vx, vy, ax, ay) of the reconstructed motion at time t."""
         self.prepare()
@@ -392,6 +397,65 @@ class InputReconstruction(SampleHistory):
         hz = self._horner
         return (hz(self._cx, tau), hz(self._cy, tau), hz(self._dx, tau) / hs, hz(self._dy, tau) / hs,
                 hz(self._ddx, tau) / hs**2, hz(self._ddy, tau) / hs**2)
+
+
+class ReconstructedPlatform:
+    """The chamber's platform motion along one fit of `InputReconstruction`, for the hybrid
+    ball (`hybrid.HybridBall`), whose sliding and flying ball needs the chamber's position
+    A(t) and velocity v_A(t) as well as the acceleration the rolling model integrates.
+
+    The acceleration is the fit's own closure a(t) (``accel``: the same floats the rolling
+    model and the compiled kernel use). Position and velocity are that polynomial integrated
+    exactly from the fit's own position x0 and velocity v0 at its reference time t0 (the
+    newest node), so that v_A' = a and A' = v_A hold to round-off and a sliding ball's
+    normal force, gap and impacts see the motion the rolling ball feels. Exact operation
+    order (fmu_src/ballinshell.c repeats it operation for operation), per axis, with
+    a_0..a_{n-1} the acceleration's coefficients in s = t - t0 (``accel.poly``'s four, or
+    the fit's own list when it is longer), s = t - t0:
+
+    * at construction: (x0, y0, vx0, vy0) = `InputReconstruction.state`(t0)[0:4], and
+      p_j = a_j / D_j with D_j = (j + 1) (j + 2) as a double (2.0, 6.0, 12.0, 20.0, ...),
+      q_j = a_j / (j + 1.0) (a_0 / 1.0, a_1 / 2.0, a_2 / 3.0, a_3 / 4.0, ...);
+    * P(s) = p_0 + s * (p_1 + s * (... + s * p_{n-1})) and Q(s) likewise from q (Horner from
+      the highest coefficient: acc = c_{n-1}; acc = c_j + s * acc for j = n-2 .. 0);
+    * x(t) = x0 + s * (vx0 + s * P(s)), vx(t) = vx0 + s * Q(s); ax(t) = the closure's a(t);
+      y likewise.
+
+    ``state(t)`` returns (x, y, vx, vy, ax, ay), ``accel(t)`` (ax, ay), as the library's
+    platform motions (drives.crank)."""
+
+    __slots__ = ("t0", "x0", "y0", "vx0", "vy0", "px", "py", "qx", "qy", "accel")
+
+    def __init__(self, rec: InputReconstruction):
+        accel = rec.accel_function()
+        poly = getattr(accel, "poly", None)
+        if poly is not None:
+            t0, ax, ay = poly[0], list(poly[1]), list(poly[2])
+        else:  # the Horner fallback of _compile_accel: its coefficients, as it computes them
+            hs, t0 = rec._hs, rec._t0
+            ax = [c / hs ** (j + 2) for j, c in enumerate(rec._ddx)]
+            ay = [c / hs ** (j + 2) for j, c in enumerate(rec._ddy)]
+        self.t0 = float(t0)
+        self.x0, self.y0, self.vx0, self.vy0 = rec.state(self.t0)[0:4]
+        self.px = tuple(a / float((j + 1) * (j + 2)) for j, a in enumerate(ax))
+        self.py = tuple(a / float((j + 1) * (j + 2)) for j, a in enumerate(ay))
+        self.qx = tuple(a / (j + 1.0) for j, a in enumerate(ax))
+        self.qy = tuple(a / (j + 1.0) for j, a in enumerate(ay))
+        self.accel = accel
+
+    @staticmethod
+    def _horner(c, s):
+        acc = c[-1]
+        for j in range(len(c) - 2, -1, -1):
+            acc = c[j] + s * acc
+        return acc
+
+    def state(self, t):
+        s = t - self.t0
+        hz = self._horner
+        ax, ay = self.accel(t)
+        return (self.x0 + s * (self.vx0 + s * hz(self.px, s)), self.y0 + s * (self.vy0 + s * hz(self.py, s)),
+                self.vx0 + s * hz(self.qx, s), self.vy0 + s * hz(self.qy, s), ax, ay)
 
 
 def _dot(row, b):

@@ -45,6 +45,7 @@ import math
 
 from ..errors import InputError
 from ..platform import A_REL, SampleHistory, worst_residual
+from .motions import ChamberMotion
 
 MODES = ("derivatives", "hold")
 POINTS = {"derivatives": 2, "hold": 1}
@@ -283,23 +284,52 @@ class ChamberReconstruction(SampleHistory):
         self.prepare()
         return self._kin
 
+    def motion(self) -> "ReconstructedChamber":
+        """The current fit as a `motions.ChamberMotion` for the hybrid ball
+        (`ReconstructedChamber`), frozen: a later sample does not change it."""
+        self.prepare()
+        return ReconstructedChamber(self._t0, self._pos, self._om, self._Q, self._kin)
+
     def state(self, t):
         """The chamber's state at t as motions.ChamberState's 38 floats (A, v_A, a_A, Omega,
         Omega', Q; the drive fields 0)."""
         self.prepare()
-        s = t - self._t0
-        A, vA, aA, Om, Omd, th = [], [], [], [], [], []
-        for p, o in zip(self._pos, self._om):
-            p0, p1, p2, p3, p4, p5 = p
-            o0, o1, o2, o3 = o
-            A.append(p0 + s * (p1 + s * (p2 + s * (p3 + s * (p4 + s * p5)))))
-            vA.append(p1 + s * (2.0 * p2 + s * (3.0 * p3 + s * (4.0 * p4 + s * (5.0 * p5)))))
-            aA.append(2.0 * p2 + s * (6.0 * p3 + s * (12.0 * p4 + s * (20.0 * p5))))
-            Om.append(o0 + s * (o1 + s * (o2 + s * o3)))
-            Omd.append(o1 + s * (2.0 * o2 + s * (3.0 * o3)))
-            th.append(s * (o0 + s * (0.5 * o1 + s * (o2 / 3.0 + s * (0.25 * o3)))))
-        return tuple(A) + tuple(vA) + tuple(aA) + tuple(Om) + tuple(Omd) + rotate(th, self._Q) + (0.0,) * 14
+        return chamber_state(self._t0, self._pos, self._om, self._Q, t)
 
 
-__all__ = ["ChamberReconstruction", "MODES", "NAMES", "NPOLY", "Q_TOL", "centre", "inputs_of", "rotate",
-           "rotation_problem"]
+class ReconstructedChamber(ChamberMotion):
+    """The chamber's motion along one fit of `ChamberReconstruction`, for the hybrid ball:
+    ``state(t)`` is `ChamberReconstruction.state` (A(s) the fit's quintic, v_A and a_A its
+    derivatives, Omega and Omega' the fit's, Q by Rodrigues from the newest sample's),
+    ``accel(t)`` the fit's kin(t) (the floats the rolling model integrates). The quintic is
+    the exact integral of a_A's cubic from (A, v_A) at the fit's reference time, written
+    with the quintic's own coefficients (a_A(s) = 2 p2 + s (6 p3 + s (12 p4 + s 20 p5))), so
+    the sliding and flying ball needs no further integration: fmu_src/ballinshell.c's
+    general_state is the same arithmetic."""
+
+    def __init__(self, t0, pos, om, Q, kin):
+        self._args = (t0, pos, om, Q)
+        self.accel = kin
+
+    def state(self, t):
+        return chamber_state(*self._args, t)
+
+
+def chamber_state(t0, pos, om, Q, t):
+    """`ChamberReconstruction.state` of the fit (t0, pos, om, Q) at t."""
+    s = t - t0
+    A, vA, aA, Om, Omd, th = [], [], [], [], [], []
+    for p, o in zip(pos, om):
+        p0, p1, p2, p3, p4, p5 = p
+        o0, o1, o2, o3 = o
+        A.append(p0 + s * (p1 + s * (p2 + s * (p3 + s * (p4 + s * p5)))))
+        vA.append(p1 + s * (2.0 * p2 + s * (3.0 * p3 + s * (4.0 * p4 + s * (5.0 * p5)))))
+        aA.append(2.0 * p2 + s * (6.0 * p3 + s * (12.0 * p4 + s * (20.0 * p5))))
+        Om.append(o0 + s * (o1 + s * (o2 + s * o3)))
+        Omd.append(o1 + s * (2.0 * o2 + s * (3.0 * o3)))
+        th.append(s * (o0 + s * (0.5 * o1 + s * (o2 / 3.0 + s * (0.25 * o3)))))
+    return tuple(A) + tuple(vA) + tuple(aA) + tuple(Om) + tuple(Omd) + rotate(th, Q) + (0.0,) * 14
+
+
+__all__ = ["ChamberReconstruction", "ReconstructedChamber", "chamber_state", "MODES", "NAMES", "NPOLY", "Q_TOL",
+           "centre", "inputs_of", "rotate", "rotation_problem"]
