@@ -199,3 +199,68 @@ def test_a_ball_with_contact_1_gets_no_marks_and_no_hybrid_summary(tmp_path, tra
         assert not shaded(ax, SLIDES) and not shaded(ax, FLIES) and ticks(ax)[1] is None
     labels = legend(subplots_made[3].axes[0])
     assert not any("flight" in text or "impacts" in text for text in labels)
+
+
+# -- the shipped hybrid scenarios through `ballmill run` ---------------------------------------
+# Flavour-neutral: each runs on the native FMU when its BallInShell has the hybrid ball, else on
+# the pythonfmu one; skipped (saying why) when neither has the parameter contact_model.
+
+SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
+
+
+@pytest.fixture(scope="module")
+def hybrid_fmus(fmu_build_dir):
+    """(build folder, flavour) of a BallInShell FMU with the parameter contact_model."""
+    from ballmill.fmi.build import fmu_path
+    from ballmill.scenario import fmucache
+
+    for flavour in ("native", "pythonfmu"):
+        md = fmucache.model_description(fmu_path("BallInShell", fmu_build_dir, flavour))
+        if any(v.name == CONTACT for v in md.modelVariables):
+            return fmu_build_dir, flavour
+    pytest.skip(f"the BallInShell FMU (either flavour) has no parameter {CONTACT}: the hybrid ball is not in it")
+
+
+def run_copy(hybrid_fmus, tmp_path, name, stop, *sets):
+    """`ballmill run` of scenarios/NAME.toml cut at ``stop`` [s]: (exit status, out folder, summary)."""
+    import json
+    import re
+
+    from ballmill import cli
+
+    text, n = re.subn(r"(?m)^stop\s*=\s*[^#\n]+", f"stop = {stop!r} ", (SCENARIOS / f"{name}.toml").read_text())
+    assert n == 1
+    path = tmp_path / f"{name}.toml"
+    path.write_text(text)
+    build, flavour = hybrid_fmus
+    out = tmp_path / "out"
+    args = ["run", str(path), "--out", str(out), "--build-dir", str(build), "--flavour", flavour, "--quiet"]
+    for s in sets:
+        args += ["--set", s]
+    status = cli.main(args)
+    summary = json.loads((out / "summary.json").read_text()) if (out / "summary.json").is_file() else None
+    return status, out, summary
+
+
+def hybrid_values(summary):
+    return {k: v["value"] for k, v in summary["hybrid"].items()}
+
+
+def test_a_hybrid_ball_must_record_what_its_marks_and_summary_need(tmp_path, fmu_build_dir, capsys):
+    """induction_start records a list of the ball's outputs without mode and the bookkeeping: with
+    --set ball.contact_model=2 the run is refused before it starts (exit 2), naming every missing
+    column; with contact_model = 1 the same file runs."""
+    from ballmill import cli
+    from ballmill.fmi.build import fmu_path
+    from ballmill.scenario import fmucache
+
+    md = fmucache.model_description(fmu_path("BallInShell", fmu_build_dir, "native"))
+    if not any(v.name == CONTACT for v in md.modelVariables):
+        pytest.skip(f"the BallInShell FMU has no parameter {CONTACT}")
+    args = ["run", "induction_start", "--out", str(tmp_path), "--build-dir", str(fmu_build_dir), "--quiet",
+            "--set", "ball.contact_model=2"]
+    assert cli.main(args) == 2
+    err = capsys.readouterr().err
+    assert ("record.variables: ball has contact_model = 2 (the hybrid ball): its plots' marks and the summary need "
+            "ball.mode, ball.n_impacts, ball.v_impact_max, ball.E_friction, ball.E_impact, ball.t_first_slip, "
+            "ball.t_first_flight recorded") in err
