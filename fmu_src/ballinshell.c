@@ -52,6 +52,14 @@
 #define GAIN_POSITIONS 187.0 /* max sum |l_i''| of the 6-node quintic (unit spacing) */
 #define NEVER 1e300         /* t_invalid while the model is valid */
 #define Z_HYSTERESIS 1e-10  /* event indicators' hysteresis, relative to the ball's weight m max(g, 1 m/s2) */
+/* contact_model = 2: the hybrid ball's event driver (events.integrate's defaults, hybrid.Contact's slip_eps) */
+#define HYB_BURST 100       /* Zeno guard: more than HYB_BURST events within HYB_BURST / HYB_MAX_RATE s */
+#define HYB_MAX_RATE 1e4    /* events/s */
+#define HYB_SCAN 3          /* interior points of the guards' Hermite scan */
+#define HYB_XTOL 1e-11      /* s: the event's bracket */
+#define HYB_SLIP_EPS 1e-6   /* m/s: sliding ends below this slip speed */
+#define HYB_HOP_MIN_ULPS 1e4 /* hybrid.HOP_MIN_ULPS: a rebound whose hop the gap cannot resolve is rest */
+#define HYB_MAX_STEPS 1000000 /* internal steps of one interval, at most (integrators.Integrator's default) */
 
 /* one sample of the inputs (in the order of turning/reconstruction.py's NAMES after t); the
  * fields after ay are used with motion = 2 only (0 with motion = 1) */
@@ -63,8 +71,11 @@ typedef struct {
 
 typedef struct {
     double t;
-    double y[BM_NY];
+    double y[BMH_NZ]; /* the formulation's state (n, omega or xC, yC, omega); contact_model = 2 the
+                         mode's: rolling (n, omega), sliding and flight (C, v_C, omega, W, E_friction) */
     double h; /* next internal step of the adaptive methods; NAN: choose one */
+    int mode; /* contact_model = 2: BMH_FLIGHT, BMH_ROLLING, BMH_SLIDING (contact_model = 1: BMH_ROLLING) */
+    double book[BMH_NBOOK]; /* contact_model = 2: the hybrid run's bookkeeping (bmh_interval's) */
 } ball_state;
 
 /* the reconstructed platform motion over the coming step (InputReconstruction's fit) */
@@ -87,6 +98,8 @@ typedef struct {
     int motion;      /* 1 translation (the kernel's bm_* functions), 2 general (bmg_*) */
     bmg_problem G;   /* motion = 2: the integrator settings (G.base) and the general model's constants */
     int mode, points, correct;
+    int contact; /* contact_model: 1 rolling only, 2 hybrid (rolling, sliding, flight, impacts) */
+    bmh_problem H; /* contact_model = 2: the hybrid ball, its chamber set to each step's fit (hybrid_chamber) */
     double max_step, R, d, mu, omega_small, a_tol;
     double z_eps; /* N: the event indicators' hysteresis (Model Exchange: me_eval) */
     /* caches, not state (a calloc'ed instance starts them empty): the last fit's system, by
@@ -554,40 +567,11 @@ static void general_fit(const ball_in_shell *b, const int *idx, int nn, fit *f)
     }
 }
 
-/* reconstruction.rotate: the rotation by theta (Rodrigues) times q, row-major */
-static void rotate(const double th3[3], const double *q, double *out)
-{
-    double tx = th3[0], ty = th3[1], tz = th3[2];
-    double th = sqrt(tx * tx + ty * ty + tz * tz);
-    if (th == 0.0) {
-        memcpy(out, q, 9 * sizeof(double));
-        return;
-    }
-    double ex = tx / th, ey = ty / th, ez = tz / th;
-    double c = cos(th), s = sin(th);
-    double u = 1.0 - c;
-    double m[9] = {c + u * ex * ex, u * ex * ey - s * ez, u * ex * ez + s * ey,
-                   u * ey * ex + s * ez, c + u * ey * ey, u * ey * ez - s * ex,
-                   u * ez * ex - s * ey, u * ez * ey + s * ex, c + u * ez * ez};
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++) out[3 * i + j] = (m[3 * i] * q[j] + m[3 * i + 1] * q[3 + j]) + m[3 * i + 2] * q[6 + j];
-}
-
-/* ChamberReconstruction.state: the 38 fields of a ChamberState at t (drive fields 0) */
+/* ChamberReconstruction.state: the 38 fields of a ChamberState at t (drive fields 0): the kernel's
+ * bmg_poly_state of the fit */
 static void general_state(const fit *f, double t, double cs[BMG_NCS])
 {
-    double s = t - f->t0, th[3];
-    memset(cs, 0, BMG_NCS * sizeof(double));
-    for (int k = 0; k < 3; k++) {
-        const double *p = f->pos[k], *o = f->om[k];
-        cs[k] = p[0] + s * (p[1] + s * (p[2] + s * (p[3] + s * (p[4] + s * p[5]))));
-        cs[3 + k] = p[1] + s * (2.0 * p[2] + s * (3.0 * p[3] + s * (4.0 * p[4] + s * (5.0 * p[5]))));
-        cs[6 + k] = 2.0 * p[2] + s * (6.0 * p[3] + s * (12.0 * p[4] + s * (20.0 * p[5])));
-        cs[9 + k] = o[0] + s * (o[1] + s * (o[2] + s * o[3]));
-        cs[12 + k] = o[1] + s * (2.0 * o[2] + s * (3.0 * o[3]));
-        th[k] = s * (o[0] + s * (0.5 * o[1] + s * (o[2] / 3.0 + s * (0.25 * o[3]))));
-    }
-    rotate(th, f->Q, cs + 15);
+    bmg_poly_state(f->t0, f->pos, f->om, f->Q, t, cs);
 }
 
 static int recon_fit(ball_in_shell *b, fit *f)
@@ -719,10 +703,104 @@ static void to_n(const ball_in_shell *b, const double *y, double n[3])
     }
 }
 
-/* BallModel.advance along the fit's a(t): 1 and *out, or 0 when the integrator fails */
-/* (motion = 2: ChamberModel.advance along the fit's kin(t), the kernel's bmg_poly_rhs) */
-static int advance(ball_in_shell *b, const ball_state *in, double t_end, const fit *f, ball_state *out)
+/* why the hybrid ball's driver stopped (contact_model = 2): bmh_interval's status (1 a step failed,
+ * 2 a Zeno sequence) and, for a Zeno sequence, the last event's time and kind and the time of the
+ * event HYB_BURST before it */
+typedef struct {
+    int status;
+    double t_from, t_to; /* the interval it could not do */
+    int mode;            /* the mode it started in */
+    double t_last, t_first;
+    int kind;
+} hyb_stop;
+
+/* the hybrid ball's chamber along the fit (translation: the kernel's BM_POLY with its position and
+ * velocity terms; motion = 2: BMG_POLY, the fit's kin(t) and state(t)) */
+static void hybrid_chamber(ball_in_shell *b, const fit *f)
 {
+    bmh_problem *H = &b->H;
+    if (b->motion == 2) {
+        bmg_problem *G = &H->gen;
+        memcpy(G->poly, f->poly, sizeof G->poly);
+        G->t0 = f->t0;
+        memcpy(G->pos, f->pos, sizeof G->pos);
+        memcpy(G->om, f->om, sizeof G->om);
+        memcpy(G->Q, f->Q, sizeof G->Q);
+    } else {
+        double o[6], *q = H->roll.mp_kin;
+        memcpy(H->roll.mp, f->mp, sizeof H->roll.mp);
+        recon_state(f, f->mp[0], o); /* the fit's x, v at t0: a(t) is integrated from there */
+        q[0] = o[0]; q[1] = o[2]; q[2] = o[1]; q[3] = o[3];
+        for (int j = 0; j < 4; j++) { /* ReconstructedPlatform's p_j = a_j / ((j + 1) (j + 2)), q_j = a_j / (j + 1) */
+            q[4 + j] = f->mp[1 + j] / (double)((j + 1) * (j + 2));
+            q[8 + j] = f->mp[5 + j] / (double)((j + 1) * (j + 2));
+            q[12 + j] = f->mp[1 + j] / (j + 1.0);
+            q[16 + j] = f->mp[5 + j] / (j + 1.0);
+        }
+    }
+}
+
+/* contact_model = 2: the hybrid ball from *in to t_end along the fit (bmh_interval: events inside
+ * the interval located and applied, the bookkeeping carried); 1 and *out, or 0 and *stop */
+static int hybrid_advance(ball_in_shell *b, const ball_state *in, double t_end, const fit *f, ball_state *out,
+                          hyb_stop *stop)
+{
+    double ring[HYB_BURST * BMH_NEV], row[BMH_NCOL];
+    long long n_ev = 0;
+    bm_stats st = {0, 0, 0};
+    hybrid_chamber(b, f);
+    *out = *in;
+    out->t = t_end;
+    if (!(t_end - in->t > 0.0)) return 1;
+    double A[3], vA[3], aA[3], Om[3]; /* HybridBall.set_motion: the gap's resolution at the run's start */
+    bmh_chamber(&b->H, in->t, A, vA, aA, Om, NULL);
+    b->H.gap_res = HYB_HOP_MIN_ULPS * 2.2e-16 * (b->H.R + sqrt(bmh_dot(A, A)));
+    int status = bmh_interval(&b->H, in->t, t_end, &out->mode, out->y, &out->h, out->book, ring, HYB_BURST, &n_ev,
+                              row, &st);
+    if (!status) return 1;
+    stop->status = status;
+    stop->t_from = in->t;
+    stop->t_to = t_end;
+    stop->mode = in->mode;
+    if (status == 2) {
+        const double *last = ring + BMH_NEV * ((n_ev - 1) % HYB_BURST);
+        stop->t_last = last[0];
+        stop->kind = (int)last[1];
+        stop->t_first = ring[BMH_NEV * ((n_ev - HYB_BURST) % HYB_BURST)];
+    }
+    return 0;
+}
+
+/* HybridBall.start_rolling: the hybrid state at s->t of the rolling model's start s (n, omega):
+ * rolling if rolling holds there, else what the wall decides (on_wall: sliding, or flight) */
+static void hybrid_start(ball_in_shell *b, ball_state *s, const fit *f)
+{
+    const bmh_problem *H = &b->H;
+    bmh_run run = {H, 0.0, 0.0, 0.0, NAN, NAN, {0.0, 0.0}, {0.0, 0.0, 0.0}, 0, 0};
+    double N, Ft, y[BMH_NZ], z[BMH_NZ], rec[BMH_NEV];
+    int ny;
+    hybrid_chamber(b, f);
+    memcpy(y, s->y, 6 * sizeof(double));
+    bmh_roll_out(H, s->t, y, &N, &Ft);
+    s->mode = BMH_ROLLING;
+    bmh_rolling_state(&run, y, y + 3, 0.0, 0.0, s->y);
+    if (!(N > 0.0 && Ft <= H->mu * N)) {
+        bmh_free_state(&run, BMH_ROLLING, s->t, s->y, z);
+        s->mode = bmh_on_wall(&run, s->t, z, s->y, &ny, rec);
+    }
+    if (s->mode == BMH_FLIGHT && isnan(run.t_first_flight)) run.t_first_flight = s->t;
+    double book[BMH_NBOOK] = {run.E_impact, run.n_impacts, run.v_impact_max, run.t_first_slip, run.t_first_flight,
+                              run.Q[0], run.Q[1], run.seed[0], run.seed[1], run.seed[2], run.rebound, run.w_lost};
+    memcpy(s->book, book, sizeof book);
+}
+
+/* BallModel.advance along the fit's a(t): 1 and *out, or 0 when the integrator fails */
+/* (motion = 2: ChamberModel.advance along the fit's kin(t), the kernel's bmg_poly_rhs; contact_model
+ * = 2: hybrid_advance, the reason it stopped in *stop) */
+static int advance(ball_in_shell *b, const ball_state *in, double t_end, const fit *f, ball_state *out,
+                   hyb_stop *stop)
+{
+    if (b->contact == 2) return hybrid_advance(b, in, t_end, f, out, stop);
     const bm_problem *P = &b->P;
     bm_rhs_fn rhs = bm_ball_rhs;
     bmg_poly_ctx gctx = {b->G.c, f->poly};
@@ -755,7 +833,9 @@ static int advance(ball_in_shell *b, const ball_state *in, double t_end, const f
  * force in the chamber's axes and the moment about O1 */
 enum { O_XP, O_YP, O_ZP, O_XC, O_YC, O_ZC, O_WX, O_WY, O_WZ, O_N, O_FX, O_FY, O_FZ, O_MR, O_MAX, O_MAY,
        O_MAZ, O_FT, O_RATIO, O_CONTACT, O_ROLLING, O_PDISS, O_PGRIND, O_SBED, O_XPCH, O_YPCH, O_ZPCH, O_FXCH, O_FYCH, O_FZCH,
-       O_MO1X, O_MO1Y, O_MO1Z, N_OUT };
+       O_MO1X, O_MO1Y, O_MO1Z,
+       /* the hybrid ball's (contact_model = 1: mode 1, no slip, gap, impacts or losses, first times never) */
+       O_MODE, O_SLIP, O_GAP, O_NIMP, O_VIMP, O_EFRIC, O_EIMP, O_TSLIP, O_TFLIGHT, O_VXC, O_VYC, O_VZC, N_OUT };
 
 /* motion = 2 (ballinshell_fmu._general_outputs): from ChamberOutputs go at the chamber state cs */
 static void general_outputs(const ball_in_shell *b, const double *y, const double *cs, const double *go, double *o)
@@ -790,23 +870,143 @@ static void translation_extras(double R, double xo, double yo, double o[N_OUT])
     o[O_MO1Z] = o[O_MR] + o[O_MAZ];
 }
 
+/* v_C [m/s] of a rolling state at t, fixed axes: v_A + R (Omega x n) + r (n x omega), v_A and Omega
+ * the reconstruction's at t (motion = 1: (vx1O, vy1O, 0), Omega = 0), in this operation order
+ * (ballinshell_fmu.BallInShell._centre_velocity) */
+static void centre_velocity(const ball_in_shell *b, const double *y, const fit *f, double t, double vc[3])
+{
+    double n[3], w[3], vA[3], Om[3];
+    if (b->motion == 2) {
+        double cs[BMG_NCS];
+        general_state(f, t, cs);
+        memcpy(n, y, sizeof n);
+        memcpy(w, y + 3, sizeof w);
+        memcpy(vA, cs + 3, sizeof vA);
+        memcpy(Om, cs + 9, sizeof Om);
+    } else {
+        double m[6];
+        to_n(b, y, n);
+        memcpy(w, y + b->P.ny - 3, sizeof w);
+        recon_state(f, t, m);
+        vA[0] = m[2]; vA[1] = m[3]; vA[2] = 0.0;
+        Om[0] = 0.0; Om[1] = 0.0; Om[2] = 0.0;
+    }
+    double R = b->H.R, r = b->H.r;
+    double c1[3] = {Om[1] * n[2] - Om[2] * n[1], Om[2] * n[0] - Om[0] * n[2], Om[0] * n[1] - Om[1] * n[0]};
+    double c2[3] = {n[1] * w[2] - n[2] * w[1], n[2] * w[0] - n[0] * w[2], n[0] * w[1] - n[1] * w[0]};
+    for (int i = 0; i < 3; i++) vc[i] = (vA[i] + R * c1[i]) + r * c2[i];
+}
+
+/* contact_model = 2, a sliding or flying ball (free state z = s->y: C, v_C, omega, W, E_friction)
+ * at the chamber state cs (BMG_NCS: A, v_A, a_A, Omega, Omega', Q): n = (C - A)/|C - A|; the
+ * contact point P = A + R n (in flight the wall's point nearest the ball); N and the friction
+ * force Ft of the sliding ball (hybrid.HybridBall._slide_forces), 0 in flight; the ball's force on
+ * the chamber F = N n - Ft at P; the moments about A (R n x F) and O1 (A x F + M_A); the rest as
+ * the rolling ball's outputs mean them (ballinshell_fmu.BallInShell._free_outputs, operation for
+ * operation: motion = 1 with Q = identity, O = A - (0, 0, R)) */
+static void free_outputs(const ball_in_shell *b, const ball_state *s, const double *cs, double o[N_OUT])
+{
+    const bmh_problem *H = &b->H;
+    const double *z = s->y, *A = cs, *vA = cs + 3, *aA = cs + 6, *Om = cs + 9, *Q = cs + 15;
+    double R = H->R, rho[3], n[3], Ftv[3] = {0.0, 0.0, 0.0}, N = 0.0, slip = 0.0;
+    for (int i = 0; i < 3; i++) rho[i] = z[i] - A[i];
+    double dist = sqrt(bmh_dot(rho, rho));
+    for (int i = 0; i < 3; i++) n[i] = rho[i] / dist;
+    if (s->mode == BMH_SLIDING) {
+        double nn[3], vW[3];
+        N = bmh_slide_forces_at(H, A, vA, aA, Om, z, s->book + 7, Ftv, &slip, nn, vW);
+    }
+    double Ft = sqrt(bmh_dot(Ftv, Ftv));
+    double sx = N * n[0] - Ftv[0], sy = N * n[1] - Ftv[1], sz = N * n[2] - Ftv[2];
+    double e[3] = {R * Q[2], R * Q[5], R * Q[8]}; /* A - O */
+    double O[3] = {A[0] - e[0], A[1] - e[1], A[2] - e[2]};
+    double rn[3] = {R * n[0], R * n[1], R * n[2]};
+    double MA[3] = {rn[1] * sz - rn[2] * sy, rn[2] * sx - rn[0] * sz, rn[0] * sy - rn[1] * sx};
+    double MO[3] = {(A[1] * sz - A[2] * sy) + MA[0], (A[2] * sx - A[0] * sz) + MA[1], (A[0] * sy - A[1] * sx) + MA[2]};
+    int contact = N > 0.0;
+    o[O_XP] = rn[0] + e[0]; o[O_YP] = rn[1] + e[1]; o[O_ZP] = rn[2] + e[2];
+    o[O_N] = N; o[O_FX] = sx; o[O_FY] = sy; o[O_FZ] = sz;
+    o[O_MR] = b->motion == 2 ? MO[2] : O[0] * sy - O[1] * sx;
+    o[O_MAX] = MA[0]; o[O_MAY] = MA[1]; o[O_MAZ] = MA[2];
+    o[O_XC] = rho[0] + e[0]; o[O_YC] = rho[1] + e[1]; o[O_ZC] = rho[2] + e[2];
+    o[O_WX] = z[6]; o[O_WY] = z[7]; o[O_WZ] = z[8];
+    o[O_FT] = Ft; o[O_RATIO] = contact ? Ft / N : INFINITY;
+    o[O_CONTACT] = contact ? 1.0 : 0.0; o[O_ROLLING] = 0.0;
+    o[O_PDISS] = 0.0; o[O_PGRIND] = 0.0; o[O_SBED] = 1.0; /* lossless, no bed */
+    for (int i = 0; i < 3; i++) {
+        o[O_XPCH + i] = Q[i] * rn[0] + Q[3 + i] * rn[1] + Q[6 + i] * rn[2];
+        o[O_FXCH + i] = Q[i] * sx + Q[3 + i] * sy + Q[6 + i] * sz;
+        o[O_MO1X + i] = MO[i];
+    }
+    o[O_ZPCH] = o[O_ZPCH] + R;
+    o[O_SLIP] = s->mode == BMH_SLIDING ? slip : 0.0;
+    o[O_GAP] = s->mode == BMH_FLIGHT ? bm_pymax(H->d - dist, 0.0) : 0.0;
+    o[O_VXC] = z[3]; o[O_VYC] = z[4]; o[O_VZC] = z[5];
+    o[O_EFRIC] = z[10];
+}
+
 /* outputs.evaluate of a state at t, with the platform motion reconstructed at t (motion = 2:
- * turning.model.evaluate_c at the reconstructed chamber state) */
+ * turning.model.evaluate_c at the reconstructed chamber state); contact_model = 2 off rolling:
+ * free_outputs at the fit's chamber state. Then the hybrid ball's outputs and v_C. */
 static void outputs_at(ball_in_shell *b, const ball_state *s, const fit *f, double t, double o[N_OUT])
 {
-    if (b->motion == 2) {
+    if (b->contact == 2 && s->mode != BMH_ROLLING) {
+        double cs[BMG_NCS], Om[3], Omd[3];
+        if (b->motion == 2) {
+            general_state(f, t, cs);
+        } else {
+            hybrid_chamber(b, f);
+            memset(cs, 0, sizeof cs);
+            bmh_chamber(&b->H, t, cs, cs + 3, cs + 6, Om, Omd);
+            cs[15] = 1.0; cs[19] = 1.0; cs[23] = 1.0;
+        }
+        free_outputs(b, s, cs, o);
+    } else if (b->motion == 2) {
         double cs[BMG_NCS], go[BMG_NOUT];
         general_state(f, t, cs);
         bmg_outputs(b->G.oc, s->y, cs, go);
         general_outputs(b, s->y, cs, go, o);
-        return;
+    } else {
+        double m[6], nw[BM_NY];
+        recon_state(f, t, m);
+        to_n(b, s->y, nw);
+        memcpy(nw + 3, s->y + b->P.ny - 3, 3 * sizeof(double));
+        bm_outputs(&b->P, nw, m[4], m[5], m[0], m[1], o);
+        translation_extras(b->R, m[0], m[1], o);
     }
-    double m[6], nw[BM_NY];
-    recon_state(f, t, m);
-    to_n(b, s->y, nw);
-    memcpy(nw + 3, s->y + b->P.ny - 3, 3 * sizeof(double));
-    bm_outputs(&b->P, nw, m[4], m[5], m[0], m[1], o);
-    translation_extras(b->R, m[0], m[1], o);
+    if (s->mode == BMH_ROLLING) {
+        centre_velocity(b, s->y, f, t, o + O_VXC);
+        o[O_SLIP] = 0.0;
+        o[O_GAP] = 0.0;
+        o[O_EFRIC] = b->contact == 2 ? s->book[6] : 0.0;
+    }
+    o[O_MODE] = s->mode;
+    if (b->contact == 2) {
+        o[O_NIMP] = s->book[1]; o[O_VIMP] = s->book[2]; o[O_EIMP] = s->book[0];
+        o[O_TSLIP] = isnan(s->book[3]) ? NEVER : s->book[3];
+        o[O_TFLIGHT] = isnan(s->book[4]) ? NEVER : s->book[4];
+    } else {
+        o[O_NIMP] = 0.0; o[O_VIMP] = 0.0; o[O_EIMP] = 0.0; o[O_TSLIP] = NEVER; o[O_TFLIGHT] = NEVER;
+    }
+}
+
+/* the ball centre's velocity vxC..vzC published with the state at t, and the force on the chamber
+ * averaged over the step of length h that ends there, m (g_vec - (v_C(t) - v_C(t - h)) / h) with
+ * v_C(t - h) the one published before (h = 0: the start, where the mean is the instantaneous force
+ * Fx..Fz just published) */
+static void publish_motion(const ball_in_shell *b, double *v, const double o[N_OUT], double h)
+{
+    static const int vr_v[3] = {VR_vxC, VR_vyC, VR_vzC}, vr_f[3] = {VR_Fx, VR_Fy, VR_Fz};
+    static const int vr_mean[3] = {VR_Fx_mean, VR_Fy_mean, VR_Fz_mean};
+    static const int vr_h[9] = {VR_mode, VR_slip_speed, VR_gap, VR_n_impacts, VR_v_impact_max, VR_E_friction,
+                                VR_E_impact, VR_t_first_slip, VR_t_first_flight};
+    double m = b->H.m, gv[3] = {0.0, 0.0, -b->H.g};
+    const double *vc = o + O_VXC;
+    for (int i = 0; i < 9; i++) v[vr_h[i]] = o[O_MODE + i];
+    for (int i = 0; i < 3; i++) {
+        v[vr_mean[i]] = h == 0.0 ? v[vr_f[i]] : m * (gv[i] - (vc[i] - v[vr_v[i]]) / h);
+        v[vr_v[i]] = vc[i];
+    }
 }
 
 static void publish(double *v, const double o[N_OUT])
@@ -822,47 +1022,6 @@ static void publish(double *v, const double o[N_OUT])
     v[VR_P_grind] = o[O_PGRIND];
     v[VR_s_bed] = o[O_SBED];
     for (int i = 0; i < 9; i++) v[vr_more[i]] = o[O_XPCH + i];
-}
-
-/* v_C of a rolling state at t, fixed axes: v_A + R (Omega x n) + r (n x omega), v_A and Omega
- * the reconstruction's at t (motion = 1: (vx1O, vy1O, 0), Omega = 0); ballinshell_fmu.py's
- * _centre_velocity, operation for operation */
-static void centre_velocity(const ball_in_shell *b, const ball_state *s, const fit *f, double t, double vc[3])
-{
-    double n[3], w[3], vA[3] = {0.0, 0.0, 0.0}, Om[3] = {0.0, 0.0, 0.0};
-    if (b->motion == 2) {
-        double cs[BMG_NCS];
-        general_state(f, t, cs);
-        memcpy(n, s->y, sizeof n);
-        memcpy(w, s->y + 3, sizeof w);
-        memcpy(vA, cs + 3, sizeof vA);
-        memcpy(Om, cs + 9, sizeof Om);
-    } else {
-        double m[6];
-        recon_state(f, t, m);
-        to_n(b, s->y, n);
-        memcpy(w, s->y + b->P.ny - 3, sizeof w);
-        vA[0] = m[2];
-        vA[1] = m[3];
-    }
-    double R = b->R, r = b->P.o_r;
-    double c1[3] = {Om[1] * n[2] - Om[2] * n[1], Om[2] * n[0] - Om[0] * n[2], Om[0] * n[1] - Om[1] * n[0]};
-    double c2[3] = {n[1] * w[2] - n[2] * w[1], n[2] * w[0] - n[0] * w[2], n[0] * w[1] - n[1] * w[0]};
-    for (int i = 0; i < 3; i++) vc[i] = (vA[i] + R * c1[i]) + r * c2[i];
-}
-
-/* vxC..vzC and the force averaged over the step of length h that ends at their time,
- * m (g_vec - (v_C(t) - v_C(t - h)) / h) from the published v_C(t - h) (h <= 0: the start,
- * where the mean is the instantaneous force just published); ballinshell_fmu.py's _motion_values */
-static void publish_motion(const ball_in_shell *b, double *v, const double vc[3], double h)
-{
-    static const int vr_v[3] = {VR_vxC, VR_vyC, VR_vzC}, vr_f[3] = {VR_Fx_mean, VR_Fy_mean, VR_Fz_mean};
-    static const int vr_F[3] = {VR_Fx, VR_Fy, VR_Fz};
-    double m = b->P.o_m, gv[3] = {0.0, 0.0, -b->P.o_g};
-    for (int i = 0; i < 3; i++) {
-        v[vr_f[i]] = h > 0.0 ? m * (gv[i] - (vc[i] - v[vr_v[i]]) / h) : v[vr_F[i]];
-        v[vr_v[i]] = vc[i];
-    }
 }
 
 /* the inputs the published outputs were computed from: those of the last feedthrough
@@ -883,10 +1042,19 @@ static int translation_feedthrough(const ball_in_shell *b, const double *v, doub
     double x = v[VR_x1O], y = v[VR_y1O], ax = v[VR_ax1O], ay = v[VR_ay1O];
     if (!(isfinite(x) && isfinite(y) && isfinite(ax) && isfinite(ay))) return 0;
     const sample *s = published_inputs(b);
-    if (s && s->x == x && s->y == y && s->ax == ax && s->ay == ay) return 0;
+    int free_ball = b->contact == 2 && b->state.mode != BMH_ROLLING; /* N depends on v_A too */
+    if (s && s->x == x && s->y == y && s->ax == ax && s->ay == ay &&
+        (!free_ball || (s->vx == v[VR_vx1O] && s->vy == v[VR_vy1O])))
+        return 0;
     const sample in = {t, x, y, v[VR_vx1O], v[VR_vy1O], ax, ay,
                        0.0, 0.0, 0.0, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0}};
     *now = in;
+    if (free_ball) { /* the chamber of these inputs, as hybrid_chamber's */
+        double cs[BMG_NCS] = {x, y, b->R, in.vx, in.vy, 0.0, ax, ay, 0.0};
+        cs[15] = 1.0; cs[19] = 1.0; cs[23] = 1.0;
+        free_outputs(b, &b->state, cs, o);
+        return 1;
+    }
     double nw[BM_NY];
     to_n(b, b->state.y, nw);
     memcpy(nw + 3, b->state.y + b->P.ny - 3, 3 * sizeof(double));
@@ -917,6 +1085,10 @@ static int general_feedthrough(const ball_in_shell *b, const double *v, double t
     memcpy(cs + 9, s.om, sizeof s.om);
     memcpy(cs + 12, s.omd, sizeof s.omd);
     memcpy(cs + 15, s.q, sizeof s.q);
+    if (b->contact == 2 && b->state.mode != BMH_ROLLING) {
+        free_outputs(b, &b->state, cs, o);
+        return 1;
+    }
     bmg_outputs(b->G.oc, b->state.y, cs, go);
     general_outputs(b, b->state.y, cs, go, o);
     return 1;
@@ -1007,7 +1179,7 @@ static int has_sample_at(const ball_in_shell *b, double t)
     return 0;
 }
 
-static int corrected_history(ball_in_shell *b, const fit *f, double t_now, ball_state *out, int *n)
+static int corrected_history(ball_in_shell *b, const fit *f, double t_now, ball_state *out, int *n, hyb_stop *stop)
 {
     int idx[MAX_POINTS];
     recon_nodes(b, idx);
@@ -1021,7 +1193,7 @@ static int corrected_history(ball_in_shell *b, const fit *f, double t_now, ball_
     if (corrected) {
         window[0] = *first;
         for (int i = 1; i < n_window; i++)
-            if (!advance(b, &window[i - 1], b->samples[first_sample + i].t, f, &window[i])) return -1;
+            if (!advance(b, &window[i - 1], b->samples[first_sample + i].t, f, &window[i], stop)) return -1;
         if (fabs(window[n_window - 1].t - t_now) > 1e-9 * fmax(1.0, fabs(t_now))) corrected = 0;
     }
     *n = 0;
@@ -1075,6 +1247,47 @@ static int positive(fmu_instance *fi, const char *name, double x, const char *un
     return 0;
 }
 
+/* the hybrid ball's problem (fast._hybrid_problem of the HybridBall that ballinshell_fmu.py builds):
+ * rolling on the FMU's own integrator problem (P, or G's for motion = 2) without the work
+ * quadrature (energy 0: the rolling numbers of contact_model = 1), sliding and flight on the same
+ * method with the free state's scales; the ball's constants (also read with contact_model = 1) */
+static void hybrid_setup(ball_in_shell *b, const double *v, double inertia)
+{
+    bmh_problem *H = &b->H;
+    double r = v[VR_r], R = v[VR_R], m = v[VR_m], g = v[VR_g], mu = v[VR_mu], mu_k = v[VR_mu_k];
+    memset(H, 0, sizeof *H);
+    H->R = R; H->r = r; H->d = R - r; H->m = m; H->g = g; H->Ib = inertia * m * bm_sq(r); H->lam = r / (R - r);
+    H->mu = mu; H->mu_k = mu_k == -1.0 ? mu : mu_k; H->e_n = v[VR_e_n]; H->v_rest = v[VR_v_rest];
+    H->slip_eps = HYB_SLIP_EPS;
+    H->kt = 1.0 + 1.0 / inertia;
+    H->energy = 0;
+    H->scan = HYB_SCAN; H->xtol = HYB_XTOL; H->burst = HYB_BURST; H->max_rate = HYB_MAX_RATE;
+    H->turning = b->motion == 2;
+    if (H->turning) {
+        H->gen = b->G;
+        H->gen.kind = BMG_POLY;
+        H->roll = b->G.base;
+    } else {
+        H->roll = b->P;
+        H->roll.motion = BM_POLY_KIN;
+    }
+    /* the work bound of every mode: Integrator's default, not MAX_INTERNAL_STEPS: a slip at the
+     * rolling limit starts a sliding phase whose friction direction the integrator resolves in
+     * tiny steps (the fast start, t0 = 0.5 s: 20406 steps between 0.268 s and 0.270 s, the library's
+     * run as much as the FMU's) */
+    H->roll.max_steps = HYB_MAX_STEPS;
+    /* HybridBall's free integrator: the scales r, sqrt(g r), sqrt(g r) / r, m g r, no projection */
+    bm_problem *F = &H->free;
+    *F = H->roll;
+    F->form = BM_GENERIC;
+    F->ny = BMH_NZ;
+    double v_ref = sqrt(g * r), e_ref = m * g * r;
+    for (int i = 0; i < BMH_NZ; i++) {
+        F->scale[i] = i < 3 ? r : i < 6 ? v_ref : i < 9 ? v_ref / r : e_ref;
+        F->tols[i] = F->tol * F->scale[i];
+    }
+}
+
 /* the hybrid contact's parameters (interface._BALL_RULES; ballinshell_fmu.py's _check_contact,
  * the same messages) */
 static int check_contact(fmu_instance *fi, const double *v)
@@ -1109,10 +1322,7 @@ static int check_contact(fmu_instance *fi, const double *v)
         init_error(fi, msg, "");
         return 0;
     }
-    /* the hybrid ball itself is not in this flavour yet */
-    init_error(fi, "contact_model = 2 (the hybrid ball) is not available in the native flavour yet; use "
-               "contact_model = 1", "");
-    return 0;
+    return 1;
 }
 
 static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
@@ -1286,6 +1496,8 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
         memcpy(G->c, cg, sizeof cg);
         memcpy(G->oc, og, sizeof og);
     }
+    b->contact = (int)v[VR_contact_model];
+    hybrid_setup(b, v, inertia);
     b->max_step = max_step != 0.0 ? max_step : 0.05 * 2.0 * M_PI / omega_small;
     if (integrator == 3 && b->max_step / h_fixed > MAX_INTERNAL_STEPS) {
         snprintf(msg, sizeof msg, "parameter h_fixed = %s s is outside its accepted range [%.6g, inf) s "
@@ -1305,6 +1517,7 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
     double n[3] = {x0 / d, y0 / d, -sqrt(fmax(0.0, 1.0 - rho2 / (d * d)))};
     memset(&b->state, 0, sizeof b->state);
     b->state.t = t;
+    b->state.mode = BMH_ROLLING;
     if (formulation == 2) { /* PaperFormulation.from_nw */
         if (n[2] > -P->pap_margin) {
             snprintf(msg, sizeof msg, "paper formulation: the ball starts at n_z = %.6g, within the margin %g of the "
@@ -1333,6 +1546,9 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
             b->state.y[3 + i] = om[i] + (Q[3 * i] * w0[0] + Q[3 * i + 1] * w0[1] + Q[3 * i + 2] * w0[2]);
         }
     }
+    fit f;
+    recon_fit(b, &f); /* one sample: never singular */
+    if (b->contact == 2) hybrid_start(b, &b->state, &f);
     b->n_hist = 1;
     b->hist[0] = b->state;
     b->has_t_prev = 0;
@@ -1343,14 +1559,10 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
     v[VR_coupling_error] = 0.0;
     v[VR_valid] = 1.0;
     v[VR_t_invalid] = NEVER;
-    fit f;
     double o[N_OUT];
-    recon_fit(b, &f); /* one sample: never singular */
     outputs_at(b, &b->state, &f, t, o);
     publish(v, o);
-    double vc[3];
-    centre_velocity(b, &b->state, &f, t, vc);
-    publish_motion(b, v, vc, 0.0);
+    publish_motion(b, v, o, 0.0);
     for (int i = 0; i < FMU_N_VARS; i++)
         if (FMU_VARIABLES[i].causality == FMU_OUTPUT && !isfinite(v[i])) {
             char e[6][32];
@@ -1362,7 +1574,7 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
         }
     if (fmu_setup_kind(fi) == FMU_SETUP_START) { /* the start's messages, once, at the exit of initialisation */
         note_ignored(fi, b, v, t);
-        report(fi, b, v, t, o);
+        if (b->contact == 1) report(fi, b, v, t, o);
     }
     return fmi2OK;
 }
@@ -1373,6 +1585,47 @@ static fmi2Status refuse_step(fmu_instance *fi, double t, const char *why)
     fmu_log(fi, fmi2Discard, "BallInShell '%s': step from t = %.9g s refused, last good state kept: %s",
             fmu_instance_name(fi), t, why);
     return fmi2Discard;
+}
+
+/* events.zeno's message for the Zeno guard's stop */
+/* why the hybrid ball's driver stopped (ballinshell_fmu.py's message; a Zeno sequence as events.zeno says it) */
+static const char *hybrid_stop_text(const hyb_stop *s, char *why, size_t size)
+{
+    static const char *const kinds[4] = {"slip", "leave", "stick", "impact"};
+    static const char *const modes[3] = {"flight", "rolling", "sliding"};
+    int n = snprintf(why, size, "the hybrid ball could not be followed from t = %.9g s in mode %s: stopped at t = %.9g "
+                     "s: ", s->t_from, modes[s->mode >= 0 && s->mode < 3 ? s->mode : 1], s->t_from);
+    if (n < 0 || (size_t)n >= size) return why;
+    if (s->status == 2)
+        snprintf(why + n, size - (size_t)n, "Zeno sequence: %d events within %.3g s before t = %.9g s (the last: "
+                 "'%s'), more than the allowed rate %g events/s", HYB_BURST, s->t_last - s->t_first, s->t_last,
+                 kinds[s->kind >= 0 && s->kind < 4 ? s->kind : 0], HYB_MAX_RATE);
+    else
+        snprintf(why + n, size - (size_t)n, "the integrator could not reach t = %.9g s (non-finite values, step "
+                 "size underflow or more than %d internal steps)", s->t_to, HYB_MAX_STEPS);
+    return why;
+}
+
+/* the contact directions of the predicted and the corrected state at t, p and q (coupling_error):
+ * the formulation's n; with contact_model = 2, unless both roll, the ball centres C over R - r
+ * (their difference times R is the contact point's; ballinshell_fmu.BallInShell._n_pair) */
+static void n_pair(ball_in_shell *b, const ball_state *ps, const ball_state *qs, const fit *f, double p[3],
+                   double q[3])
+{
+    if (ps->mode == BMH_ROLLING && qs->mode == BMH_ROLLING) {
+        to_n(b, ps->y, p);
+        to_n(b, qs->y, q);
+        return;
+    }
+    const ball_state *st[2] = {ps, qs};
+    double *out[2] = {p, q};
+    hybrid_chamber(b, f);
+    for (int k = 0; k < 2; k++) {
+        bmh_run run = {&b->H, 0.0, 0.0, 0.0, NAN, NAN, {st[k]->book[5], st[k]->book[6]}, {0.0, 0.0, 0.0}, 0, 0};
+        double z[BMH_NZ];
+        bmh_free_state(&run, st[k]->mode, st[k]->t, st[k]->y, z);
+        for (int i = 0; i < 3; i++) out[k][i] = z[i] / b->H.d;
+    }
 }
 
 static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double t_end)
@@ -1397,13 +1650,19 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
         return refuse_step(fi, t, "the input samples do not determine the reconstruction (two samples at the same time?)");
     ball_state hist[MAX_SAMPLES + 1], predicted;
     int n_hist;
-    int corrected = corrected_history(b, &f, t, hist, &n_hist);
-    if (corrected < 0) return refuse_step(fi, t, "the integrator failed on the corrector's interval");
+    hyb_stop stop = {0, 0.0, 0.0, 0, 0.0, 0.0, 0};
+    int corrected = corrected_history(b, &f, t, hist, &n_hist, &stop);
+    if (corrected < 0) {
+        if (stop.status) return refuse_step(fi, t, hybrid_stop_text(&stop, why, sizeof why));
+        return refuse_step(fi, t, "the integrator failed on the corrector's interval");
+    }
     const ball_state *now = &hist[n_hist - 1];
     double confirmed[N_OUT], out[N_OUT];
     outputs_at(b, now, &f, t, confirmed);
-    if (!advance(b, now, t_end, &f, &predicted)) {
-        if (b->P.form == BM_PAPER)
+    if (!advance(b, now, t_end, &f, &predicted, &stop)) {
+        if (stop.status)
+            hybrid_stop_text(&stop, why, sizeof why);
+        else if (b->P.form == BM_PAPER)
             snprintf(why, sizeof why, "paper formulation stopped before t = %.9g s: the ball centre came within "
                      "%g (R - r) of the chamber's equator, where its coordinates (xC, yC) become singular (or "
                      "the integrator failed). Use formulation 'vector', which is valid on the whole sphere",
@@ -1414,14 +1673,11 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
         return refuse_step(fi, t, why);
     }
     outputs_at(b, &predicted, &f, t_end, out);
-    double vc[3];
-    centre_velocity(b, &predicted, &f, t_end, vc);
     double coupling_error = v[VR_coupling_error], noise_sum = b->noise_sum;
     if (corrected > 0) {
         /* a-posteriori estimate: predicted vs corrected contact point at t */
         double p[3], q[3];
-        to_n(b, b->state.y, p);
-        to_n(b, now->y, q);
+        n_pair(b, &b->state, now, &f, p, q);
         double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
         double step_error = b->R * sqrt(py_square(dx) + py_square(dy) + py_square(dz));
         /* what the corrector cannot repair (input noise, modes 2 and 4): each step's change
@@ -1461,7 +1717,7 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
     b->state = predicted;
     b->has_fed = 0;
     publish(v, out);
-    publish_motion(b, v, vc, t_end - t);
+    publish_motion(b, v, out, t_end - t);
     v[VR_coupling_error] = coupling_error;
     if (coupling_error > v[VR_coupling_warn] && !b->warned) {
         b->warned = 1;
@@ -1486,6 +1742,11 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
                 "reconstruction uses the velocity and acceleration inputs there (warned once)",
                 fmu_instance_name(fi), t, f.X, f.X * ldexp(1.0, -52), f.w);
     }
+    if (b->contact == 2) { /* slip, flight and impacts are the model's: valid stays */
+        b->t_prev = t;
+        b->has_t_prev = 1;
+        return fmi2OK;
+    }
     report(fi, b, v, t, confirmed);
     if (out[O_CONTACT] == 0.0) {
         snprintf(why, sizeof why, "contact lost (N = %.6g N) at the end of the step", out[O_N]);
@@ -1500,6 +1761,34 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
 }
 
 /* ===================================================================== restored states */
+/* why a ball state (of the instance's configuration) is not one it can continue from, or NULL:
+ * its time and state finite (its mode's size), contact_model = 1 rolling, = 2 a mode with its
+ * bookkeeping (finite energies and counts, first times NaN or finite, a unit seed or 0, flags) */
+static const char *state_problem(const ball_in_shell *b, const ball_state *s)
+{
+    if (b->contact != 2) {
+        if (s->mode != BMH_ROLLING) return "its contact mode is not rolling (contact_model = 1)";
+    } else if (!(s->mode == BMH_FLIGHT || s->mode == BMH_ROLLING || s->mode == BMH_SLIDING)) {
+        return "its contact mode is not 0 (flight), 1 (rolling) or 2 (sliding)";
+    }
+    int ny = s->mode == BMH_ROLLING ? b->P.ny : BMH_NZ;
+    if (!(isfinite(s->t) && bm_all_finite(s->y, ny))) return "its ball state is not finite";
+    if (b->contact == 2) {
+        const double *k = s->book;
+        if (!(bm_all_finite(k, 3) && k[0] >= 0.0 && k[1] >= 0.0 && k[1] == floor(k[1]) && k[2] >= 0.0 &&
+              !isinf(k[3]) && !isinf(k[4]) && bm_all_finite(k + 5, 5) && (k[10] == 0.0 || k[10] == 1.0) &&
+              (k[11] == 0.0 || k[11] == 1.0)))
+            return "its hybrid bookkeeping (impacts, losses, first times, seed, flags) is not valid";
+    }
+    if (s->mode == BMH_ROLLING && b->P.form == BM_VECTOR) {
+        double n2 = s->y[0] * s->y[0] + s->y[1] * s->y[1] + s->y[2] * s->y[2];
+        if (!(fabs(n2 - 1.0) < 1e-9)) return "its contact direction n is not a unit vector";
+    }
+    if (s->mode == BMH_ROLLING && b->P.form == BM_PAPER && !(b->d * b->d - s->y[0] * s->y[0] - s->y[1] * s->y[1] > 0.0))
+        return "its ball centre lies at or beyond the chamber's equator";
+    return NULL;
+}
+
 static fmi2Status check(fmu_instance *fi, const void *data, const double *v)
 {
     const ball_in_shell *b = data;
@@ -1514,7 +1803,7 @@ static fmi2Status check(fmu_instance *fi, const void *data, const double *v)
         why = "its feedthrough inputs are not finite";
     else if (!(v[VR_valid] == 0.0 || v[VR_valid] == 1.0) || !isfinite(v[VR_t_invalid]))
         why = "its validity latch is not a Boolean and a finite time";
-    else if (!(isfinite(b->state.t) && bm_all_finite(b->state.y, b->P.ny))) why = "its ball state is not finite";
+    else why = state_problem(b, &b->state);
     for (int i = 0; !why && i < b->n_samples; i++) {
         const double *s = &b->samples[i].t;
         for (int j = 0; j < SAMPLE_VALUES; j++)
@@ -1522,14 +1811,7 @@ static fmi2Status check(fmu_instance *fi, const void *data, const double *v)
         if (i && !(b->samples[i].t > b->samples[i - 1].t)) why = "its input samples are not in time order";
     }
     for (int i = 0; !why && i < b->n_hist; i++)
-        if (!(isfinite(b->hist[i].t) && bm_all_finite(b->hist[i].y, b->P.ny))) why = "a corrected state is not finite";
-    if (!why && b->P.form == BM_VECTOR) {
-        double n2 = b->state.y[0] * b->state.y[0] + b->state.y[1] * b->state.y[1] + b->state.y[2] * b->state.y[2];
-        if (!(fabs(n2 - 1.0) < 1e-9)) why = "its contact direction n is not a unit vector";
-    }
-    if (!why && b->P.form == BM_PAPER &&
-        !(b->d * b->d - b->state.y[0] * b->state.y[0] - b->state.y[1] * b->state.y[1] > 0.0))
-        why = "its ball centre lies at or beyond the chamber's equator";
+        if (state_problem(b, &b->hist[i])) why = "a corrected state is not one it can continue from";
     if (!why) return fmi2OK;
     fmu_log(fi, fmi2Error, "BallInShell '%s': FMU state refused: %s", fmu_instance_name(fi), why);
     return fmi2Error;
@@ -1555,9 +1837,9 @@ static const int ME_STATES[6] = {VR_n_x, VR_n_y, VR_n_z, VR_w_x, VR_w_y, VR_w_z}
 static fmi2Status me_start(fmu_instance *fi, void *data, double *v, double t)
 {
     ball_in_shell *b = data;
-    char msg[768];
+    char msg[1024];
     (void)t;
-    if (b->P.form != BM_VECTOR || b->motion != 1 || (b->mode != 1 && b->mode != 4)) {
+    if (b->P.form != BM_VECTOR || b->motion != 1 || (b->mode != 1 && b->mode != 4) || b->contact != 1) {
         /* each unsupported parameter with its value and what is supported */
         size_t n = 0;
         if (b->P.form != BM_VECTOR)
@@ -1566,6 +1848,10 @@ static fmi2Status me_start(fmu_instance *fi, void *data, double *v, double t)
         if (b->motion != 1)
             n += (size_t)snprintf(msg + n, sizeof msg - n, "motion = %d (supported: motion = 1, a translating "
                                   "chamber; a chamber that moves in 3-D and turns is co-simulation only); ", b->motion);
+        if (b->contact != 1 && n < sizeof msg)
+            n += (size_t)snprintf(msg + n, sizeof msg - n, "contact_model = %d (supported: contact_model = 1, "
+                                  "rolling only: Model Exchange's states are the rolling ball's n, omega; the hybrid "
+                                  "ball's switches are located inside co-simulation steps); ", b->contact);
         if (b->mode != 1 && b->mode != 4 && n < sizeof msg)
             n += (size_t)snprintf(msg + n, sizeof msg - n, "input_mode = %d (supported: input_mode = 1 or 4, the "
                                   "accelerations as set; %s); ", b->mode,

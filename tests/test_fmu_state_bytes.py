@@ -58,7 +58,7 @@ def _native_reason(blob: bytes, bad: bytes, i: int) -> str:
         shown = "".join(chr(c) if 0x20 <= c < 0x7F else "?" for c in bad[:8])
         return f"magic '{shown}', expected 'ballmill': not a ballmill FMU state"
     if i < 12:
-        return f"format version {int.from_bytes(bad[8:12], 'little')}, expected 2"
+        return f"format version {int.from_bytes(bad[8:12], 'little')}, expected 3"
     if i < 16:
         return f"written by the FMI {int.from_bytes(bad[12:16], 'little')} plumbing, expected FMI 2"
     if 32 <= i < 40:

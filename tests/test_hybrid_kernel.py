@@ -146,3 +146,47 @@ def test_random_scenes_bit_for_bit():
         _identical(a, b)
         kinds |= {e.kind for e in a.events}
     assert kinds == {"slip", "stick", "leave", "impact"}
+
+
+def _chained(ball, motion, t_end, dt, contact, initial, **kw):
+    """The kernel's one-interval entry (bmh_interval, the native BallInShell FMU's step with
+    contact = 2) called once per grid interval, mode, state, step and bookkeeping carried from
+    each call to the next: (the library's run, the chained rows)."""
+    from ballmill.physics.hybrid import HybridBall
+
+    ref = simulate_hybrid(ball, motion, t_end, dt, contact, initial=initial, kernel="python", **kw)
+    system = HybridBall(ball, motion, contact, kw.get("method", "DOP853"), 1e-9, None, kw.get("energy", True),
+                        kw.get("h_fixed", 1e-3))
+    mode, y = system.start(0.0, *initial)
+    step = fast.HybridInterval(system)
+    rows, h = [system.sample(mode, 0.0, y)], None
+    for t0, t1 in zip(ref.t[:-1], ref.t[1:]):
+        status, mode, y, h, row = step.run(mode, t0, t1, y, h)
+        assert status == 0, (t0, status)
+        rows.append(row)
+    return ref, np.array(rows, dtype=float)
+
+
+@pytest.mark.parametrize("name, args, kw", [
+    # slips at once (the initial step of the sliding mode's 11 states), sticks, rolls without
+    # the quadratures
+    ("crank", (B, CrankStartup(t0=0.5), 0.3, 0.01, Contact(e_n=0.5)), dict(energy=False)),
+    # impacts, rebounds across grid points (the rebound flag carried), rest
+    ("drop", (B, Fixed(), 0.4, 0.01, Contact(e_n=0.5)), {}),
+    # a turning chamber: slip, leave, impacts
+    ("horizontal-spin", (Ball(mu=0.05), Spin(Omega=(12.0, 0, 0), A=(0, 0, 0.25)), 0.6, 0.01,
+                         Contact(e_n=0.5, mu_k=0.04)), {}),
+])
+def test_the_interval_entry_chained_over_the_grid_gives_the_run_bit_for_bit(name, args, kw):
+    ball, motion = args[0], args[1]
+    if name == "drop":
+        initial = DROP
+    elif name == "crank":  # at rest at the bottom of the chamber at O = (l, 0)
+        initial = ((motion.state(0.0)[0], 0.0, ball.R - ball.d), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    else:  # co-rotating at the bottom of the spinning chamber
+        initial = ((0.0, 0.0, 0.25 - ball.d), (0.0, 12.0 * ball.d, 0.0), (12.0, 0.0, 0.0))
+    ref, rows = _chained(*args, initial=initial, **kw)
+    assert ref.success and len(ref.events) >= 2
+    from ballmill.physics.hybrid import HybridBall
+    for j, col in enumerate(HybridBall.COLUMNS):
+        assert np.array_equal(rows[:, j], ref.out[col], equal_nan=True), col

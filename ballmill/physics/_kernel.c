@@ -76,7 +76,7 @@
 #define BM_NOUT 24   /* fields of outputs.Outputs */
 #define BM_NS_MAX 12 /* stages of the largest tableau (DOP853) */
 
-enum { BM_FIXED = 0, BM_CRANK = 1, BM_HARMONIC = 2, BM_CIRCLE = 3, BM_POLY = 4 };
+enum { BM_FIXED = 0, BM_CRANK = 1, BM_HARMONIC = 2, BM_CIRCLE = 3, BM_POLY = 4, BM_POLY_KIN = 5 };
 /* start-up laws of BM_CRANK, in the order of drives.LAWS */
 enum { BM_LAW_QUADRATIC = 0, BM_LAW_LINEAR = 1, BM_LAW_SCURVE = 2, BM_LAW_QUINTIC = 3 };
 enum { BM_VECTOR = 0, BM_PAPER = 1, BM_GENERIC = 2, BM_ABSORBER = 3 }; /* formulations */
@@ -85,11 +85,12 @@ enum { BM_VECTOR = 0, BM_PAPER = 1, BM_GENERIC = 2, BM_ABSORBER = 3 }; /* formul
 /* Everything a run needs; filled by fast.py (ctypes mirror: fast._Problem). */
 typedef struct {
     /* platform motion */
-    int motion;       /* BM_FIXED, BM_CRANK, BM_HARMONIC, BM_CIRCLE, BM_POLY */
+    int motion;       /* BM_FIXED, BM_CRANK, BM_HARMONIC, BM_CIRCLE, BM_POLY, BM_POLY_KIN */
     double mp[BM_NMP]; /* crank: l, w0, t0, law; circle: l, w;
                           harmonic: x_amp, x_omega, y_amp, y_omega, x_phase, y_phase,
                           x_omega**2, y_omega**2 (powers taken in Python);
-                          poly: t0, x0, x1, x2, x3, y0, y1, y2, y3 (a(t) only) */
+                          poly: t0, x0, x1, x2, x3, y0, y1, y2, y3 (a(t) only; BM_POLY_KIN:
+                          the same a(t) with the position and velocity, mp_kin) */
     /* right-hand side (the formulation's ball) */
     int rhs_lossy;
     double rhs_lam, rhs_r, rhs_g, rhs_k;
@@ -123,6 +124,10 @@ typedef struct {
      * side bma_rhs; the projection puts the ball's n, y[ny - 9 .. ny - 7], on the unit sphere) */
     int form, ny;
     double pap_d, pap_margin;
+    /* BM_POLY_KIN (the hybrid ball's chamber in the native BallInShell FMU: BM_POLY's a(t) integrated
+     * exactly from O's position and velocity at t0 = mp[0], platform.ReconstructedPlatform): x0, vx0,
+     * y0, vy0, then a_j / ((j + 1) (j + 2)) of x and of y, then a_j / (j + 1) of x and of y (j = 0..3) */
+    double mp_kin[20];
 } bm_problem;
 
 typedef struct {
@@ -207,6 +212,17 @@ static void bm_motion_state(const bm_problem *P, double t, double o[6])
     case BM_POLY: { /* platform.InputReconstruction._compile_accel's closure: a(t) only */
         double s = t - p[0];
         o[0] = NAN; o[1] = NAN; o[2] = NAN; o[3] = NAN; /* not known (and not needed by bm_rhs) */
+        o[4] = p[1] + s * (p[2] + s * (p[3] + s * p[4]));
+        o[5] = p[5] + s * (p[6] + s * (p[7] + s * p[8]));
+        return;
+    }
+    case BM_POLY_KIN: { /* platform.ReconstructedPlatform.state: BM_POLY's a(t), x and v its exact integrals */
+        double s = t - p[0];
+        const double *q = P->mp_kin, *px = q + 4, *py = q + 8, *qx = q + 12, *qy = q + 16;
+        o[0] = q[0] + s * (q[1] + s * (px[0] + s * (px[1] + s * (px[2] + s * px[3]))));
+        o[1] = q[2] + s * (q[3] + s * (py[0] + s * (py[1] + s * (py[2] + s * py[3]))));
+        o[2] = q[1] + s * (qx[0] + s * (qx[1] + s * (qx[2] + s * qx[3])));
+        o[3] = q[3] + s * (qy[0] + s * (qy[1] + s * (qy[2] + s * qy[3])));
         o[4] = p[1] + s * (p[2] + s * (p[3] + s * p[4]));
         o[5] = p[5] + s * (p[6] + s * (p[7] + s * p[8]));
         return;
@@ -1038,9 +1054,21 @@ static long long bm_drive(bm_system *S, const double *times, long long n, long l
     return last;
 }
 
-/* np.mean as numpy sums a short array: the first element, then the sum of the rest */
+/* np.mean as numpy sums a short array: below 8 elements the first element, then the sum of
+ * the rest; from 8 on numpy's pairwise sum (eight partial sums, combined in pairs, then the
+ * elements left over) */
 static inline double bm_np_mean(const double *a, int n)
 {
+    if (n >= 8) {
+        double r[8];
+        int i = 8;
+        memcpy(r, a, sizeof r);
+        for (; i < n - n % 8; i += 8)
+            for (int j = 0; j < 8; j++) r[j] += a[i + j];
+        double res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]));
+        for (; i < n; i++) res += a[i];
+        return res / n;
+    }
     double rest = 0.0;
     for (int i = 1; i < n; i++) rest += a[i];
     return (a[0] + rest) / n;
@@ -1245,25 +1273,30 @@ BM_EXPORT void bm_eval_outputs(const bm_problem *P, const double *y, double ax, 
  *   n'     = (R/d) Omega x n + lambda n x omega
  *   omega' = k n x (a_A - g + R (Omega' x n + Omega x n') + r n' x omega)
  *
- * Motions: BMG_SPIN (motions.Spin) and BMG_FIG1 (motions.Fig1Machine with the
- * angle laws CrankStartup or ConstantSpeed), in turning/motions.py's operation order.
+ * Motions: BMG_SPIN (motions.Spin), BMG_FIG1 (motions.Fig1Machine with the
+ * angle laws CrankStartup or ConstantSpeed) and BMG_POLY (the chamber's motion over a communication
+ * step as the BallInShell FMU reconstructs it, turning/reconstruction.py), in their operation order.
  * ====================================================================== */
-enum { BMG_SPIN = 1, BMG_FIG1 = 2 };
+enum { BMG_SPIN = 1, BMG_FIG1 = 2, BMG_POLY = 3 };
 enum { BMG_LAW_CONST = 0, BMG_LAW_CRANK = 1 };
 #define BMG_NCS 38  /* fields of motions.ChamberState */
 #define BMG_NOUT 28 /* fields of turning.model.ChamberOutputs */
+#define BMG_NPOLY 34 /* coefficients of the reconstruction's kin(t) (bmg_poly_kin) */
 
 /* Everything a general run needs; filled by turning/kernel.py (ctypes mirror: _GProblem). */
 typedef struct {
     bm_problem base; /* integrator settings, and form = BM_VECTOR, ny = BM_NY (bm_error and bm_project
                         read them); its motion and ball fields are not read */
-    int kind;        /* BMG_SPIN, BMG_FIG1 */
+    int kind;        /* BMG_SPIN, BMG_FIG1, BMG_POLY */
     double sp[10];   /* spin: Omega[3], A[3], axis[3], |Omega| */
     int frame_law, crank_law, parallel;
     double frame_p[2], crank_p[2]; /* const: w, angle0; crank: w0, t0 */
     double l, centre[3];
     double c[6];  /* turning.constants: R/d, lambda, R, r, g, k */
     double oc[10]; /* turning.out_constants: ... d, m, I, mu */
+    /* BMG_POLY: ChamberReconstruction's fit: kin(t)'s coefficients (bmg_poly_kin), and state(t)'s
+     * (bmg_poly_state): t0, the centre's quintics and Omega's cubics in s = t - t0, the newest Q */
+    double poly[BMG_NPOLY], t0, pos[3][6], om[3][4], Q[9];
 } bmg_problem;
 
 /* drives.CrankStartup.angle / chamber.ConstantSpeed.angle */
@@ -1320,9 +1353,67 @@ static void bmg_fig1_acc(const double k[6], const double A[3], const double T[3]
     aA[2] = phdd * A[1] - phd * phd * A[2] + 2.0 * phd * psd * T[1] + psd * psd * U[2] + psdd * T[2];
 }
 
+/* ---------------------------------------------------- turning/reconstruction.py
+ * The chamber's motion over one communication step as the BallInShell FMU (motion = 2)
+ * reconstructs it: ChamberReconstruction's kin(t) closure, its coefficients `poly`
+ * (BMG_NPOLY: t0; a_A cubics x, y, z; Omega cubics; Omega' quadratics, in s = t - t0),
+ * evaluated in the closure's operation order; and its state(t). */
+static void bmg_poly_kin(const double *p, double t, double kin[9])
+{
+    double s = t - p[0];
+    for (int k = 0; k < 3; k++) {
+        const double *a = p + 1 + 4 * k, *o = p + 13 + 4 * k, *d = p + 25 + 3 * k;
+        kin[k] = a[0] + s * (a[1] + s * (a[2] + s * a[3]));
+        kin[3 + k] = o[0] + s * (o[1] + s * (o[2] + s * o[3]));
+        kin[6 + k] = d[0] + s * (d[1] + s * d[2]);
+    }
+}
+
+/* reconstruction.rotate: the rotation by theta (Rodrigues) times q, row-major */
+static void bmg_rotate(const double th3[3], const double *q, double *out)
+{
+    double tx = th3[0], ty = th3[1], tz = th3[2];
+    double th = sqrt(tx * tx + ty * ty + tz * tz);
+    if (th == 0.0) {
+        memcpy(out, q, 9 * sizeof(double));
+        return;
+    }
+    double ex = tx / th, ey = ty / th, ez = tz / th;
+    double c = cos(th), s = sin(th);
+    double u = 1.0 - c;
+    double m[9] = {c + u * ex * ex, u * ex * ey - s * ez, u * ex * ez + s * ey,
+                   u * ey * ex + s * ez, c + u * ey * ey, u * ey * ez - s * ex,
+                   u * ez * ex - s * ey, u * ez * ey + s * ex, c + u * ez * ez};
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) out[3 * i + j] = (m[3 * i] * q[j] + m[3 * i + 1] * q[3 + j]) + m[3 * i + 2] * q[6 + j];
+}
+
+/* ChamberReconstruction.state: the 38 fields of a ChamberState at t (drive fields 0) of the fit
+ * (t0, the centre's quintics pos, Omega's cubics om, the newest Q) */
+static void bmg_poly_state(double t0, const double pos[3][6], const double om[3][4], const double *Q, double t,
+                           double *cs)
+{
+    double s = t - t0, th[3];
+    memset(cs, 0, BMG_NCS * sizeof(double));
+    for (int k = 0; k < 3; k++) {
+        const double *p = pos[k], *o = om[k];
+        cs[k] = p[0] + s * (p[1] + s * (p[2] + s * (p[3] + s * (p[4] + s * p[5]))));
+        cs[3 + k] = p[1] + s * (2.0 * p[2] + s * (3.0 * p[3] + s * (4.0 * p[4] + s * (5.0 * p[5]))));
+        cs[6 + k] = 2.0 * p[2] + s * (6.0 * p[3] + s * (12.0 * p[4] + s * (20.0 * p[5])));
+        cs[9 + k] = o[0] + s * (o[1] + s * (o[2] + s * o[3]));
+        cs[12 + k] = o[1] + s * (2.0 * o[2] + s * (3.0 * o[3]));
+        th[k] = s * (o[0] + s * (0.5 * o[1] + s * (o[2] / 3.0 + s * (0.25 * o[3]))));
+    }
+    bmg_rotate(th, Q, cs + 15);
+}
+
 /* ChamberMotion.accel: a_A, Omega, Omega' */
 static void bmg_accel(const bmg_problem *G, double t, double kin[9])
 {
+    if (G->kind == BMG_POLY) {
+        bmg_poly_kin(G->poly, t, kin);
+        return;
+    }
     if (G->kind == BMG_SPIN) {
         kin[0] = 0.0; kin[1] = 0.0; kin[2] = 0.0;
         kin[3] = G->sp[0]; kin[4] = G->sp[1]; kin[5] = G->sp[2];
@@ -1339,6 +1430,10 @@ static void bmg_accel(const bmg_problem *G, double t, double kin[9])
 /* ChamberMotion.state: the 38 fields of ChamberState */
 static void bmg_state(const bmg_problem *G, double t, double *cs)
 {
+    if (G->kind == BMG_POLY) {
+        bmg_poly_state(G->t0, G->pos, G->om, G->Q, t, cs);
+        return;
+    }
     memset(cs, 0, BMG_NCS * sizeof(double));
     if (G->kind == BMG_SPIN) { /* Spin.state */
         const double *p = G->sp;
@@ -1507,24 +1602,6 @@ BM_EXPORT long long bmg_simulate(const bmg_problem *G, const double *times, long
     bm_tab_make(&G->base, &x.T);
     int mode = 0, status;
     return bm_drive(&x.sys, times, n, start, record_start, &mode, y, h, total, &status);
-}
-
-/* ---------------------------------------------------- turning/reconstruction.py
- * The chamber's motion over one communication step as the BallInShell FMU (motion = 2)
- * reconstructs it: ChamberReconstruction's kin(t) closure, its coefficients `poly`
- * (BMG_NPOLY: t0; a_A cubics x, y, z; Omega cubics; Omega' quadratics, in s = t - t0),
- * evaluated in the closure's operation order. */
-#define BMG_NPOLY 34
-
-static void bmg_poly_kin(const double *p, double t, double kin[9])
-{
-    double s = t - p[0];
-    for (int k = 0; k < 3; k++) {
-        const double *a = p + 1 + 4 * k, *o = p + 13 + 4 * k, *d = p + 25 + 3 * k;
-        kin[k] = a[0] + s * (a[1] + s * (a[2] + s * a[3]));
-        kin[3 + k] = o[0] + s * (o[1] + s * (o[2] + s * o[3]));
-        kin[6 + k] = d[0] + s * (d[1] + s * d[2]);
-    }
 }
 
 /* the general right-hand side along a reconstructed motion: ctx = {constants c[6], poly} */
@@ -1910,13 +1987,13 @@ static void bmh_roll_out(const bmh_problem *H, double t, const double *y, double
     *Ft = o[17];
 }
 
-/* HybridBall._slide_forces: N, the friction force Ft, the slip speed, n, v_W (seed NULL: the run's) */
-static double bmh_slide_forces(const bmh_run *run, double t, const double *y, const double *seed, double *Ft,
-                               double *s_out, double *n, double *vW)
+/* HybridBall._slide_forces at the chamber state A, v_A, a_A, Omega: N, the friction force Ft, the
+ * slip speed, n, v_W (seed: the direction kept while the slip is below 1e-3 slip_eps) */
+static double bmh_slide_forces_at(const bmh_problem *H, const double *A, const double *vA, const double *aA,
+                                  const double *Om, const double *y, const double *seed, double *Ft, double *s_out,
+                                  double *n, double *vW)
 {
-    const bmh_problem *H = run->H;
-    double A[3], vA[3], aA[3], Om[3], rho[3], vrel[3], wr[3], on[3], u[3], ut[3], e[3];
-    bmh_chamber(H, t, A, vA, aA, Om, NULL);
+    double rho[3], vrel[3], wr[3], on[3], u[3], ut[3], e[3];
     for (int i = 0; i < 3; i++) rho[i] = y[i] - A[i];
     double dist = sqrt(bmh_dot(rho, rho));
     for (int i = 0; i < 3; i++) n[i] = rho[i] / dist;
@@ -1931,14 +2008,22 @@ static double bmh_slide_forces(const bmh_run *run, double t, const double *y, co
     if (s > 1e-3 * H->slip_eps) {
         for (int i = 0; i < 3; i++) e[i] = ut[i] / s;
     } else {
-        const double *sd = seed ? seed : run->seed;
-        for (int i = 0; i < 3; i++) e[i] = sd[i];
+        for (int i = 0; i < 3; i++) e[i] = seed[i];
     }
     double f = -H->mu_k * N;
     for (int i = 0; i < 3; i++) Ft[i] = f * e[i];
     for (int i = 0; i < 3; i++) vW[i] = vA[i] + H->R * on[i];
     *s_out = s;
     return N;
+}
+
+/* HybridBall._slide_forces: N, the friction force Ft, the slip speed, n, v_W (seed NULL: the run's) */
+static double bmh_slide_forces(const bmh_run *run, double t, const double *y, const double *seed, double *Ft,
+                               double *s_out, double *n, double *vW)
+{
+    double A[3], vA[3], aA[3], Om[3];
+    bmh_chamber(run->H, t, A, vA, aA, Om, NULL);
+    return bmh_slide_forces_at(run->H, A, vA, aA, Om, y, seed ? seed : run->seed, Ft, s_out, n, vW);
 }
 
 /* the modes' right-hand sides (ctx: the bmh_run) */
@@ -2101,15 +2186,22 @@ static double bmh_impulse(const bmh_problem *H, double t, double *z, const doubl
     return before - (0.5 * H->m * bmh_dot(v, v) + 0.5 * H->Ib * (bm_sq(z[6]) + bm_sq(z[7]) + bm_sq(z[8])));
 }
 
-/* HybridBall._slip: the tangential slip of a free state at the wall point C + r n */
-static void bmh_slip(const bmh_problem *H, double t, const double *z, const double *n, double *ut)
+/* HybridBall._slip with the wall's velocity vW at P: the tangential slip of a free state at C + r n */
+static void bmh_slip_at(const bmh_problem *H, const double *vW, const double *z, const double *n, double *ut)
 {
-    double vW[3], wr[3], u[3];
-    bmh_wall_velocity(H, t, n, vW);
+    double wr[3], u[3];
     bmh_cross(z + 6, n, wr);
     for (int i = 0; i < 3; i++) u[i] = z[3 + i] - vW[i] + H->r * wr[i];
     double un = bmh_dot(u, n);
     for (int i = 0; i < 3; i++) ut[i] = u[i] - un * n[i];
+}
+
+/* HybridBall._slip: the tangential slip of a free state at the wall point C + r n */
+static void bmh_slip(const bmh_problem *H, double t, const double *z, const double *n, double *ut)
+{
+    double vW[3];
+    bmh_wall_velocity(H, t, n, vW);
+    bmh_slip_at(H, vW, z, n, ut);
 }
 
 /* HybridBall._friction_free_slip_accel */
@@ -2340,8 +2432,15 @@ typedef struct {
     bm_tab Tr, Tf;
     double *rows, *events, *y_out, h_out;
     long long cap, ne;
+    int ring; /* events: a ring of the last cap records (cap >= burst: what the Zeno guard reads) */
     int mode_out;
 } bmh_sys;
+
+/* event record k of the run */
+static double *bmh_event(const bmh_sys *x, long long k)
+{
+    return x->events + BMH_NEV * (x->ring ? k % x->cap : k);
+}
 
 /* the mode's integrator problem, tableau, right-hand side and guards (HybridBall.integrator,
  * rhs, guards, armed) */
@@ -2377,11 +2476,11 @@ static int bmh_sys_jump(bm_system *S, int *mode, double *t, double *y, double *h
     bmh_sys *x = (bmh_sys *)S;
     const bmh_problem *H = x->run.H;
     int kind = kinds[*mode][ev->j], ny;
-    if (x->ne >= x->cap) {
+    if (!x->ring && x->ne >= x->cap) {
         *status = 3;
         return 0;
     }
-    double *rec = x->events + BMH_NEV * x->ne;
+    double *rec = bmh_event(x, x->ne);
     for (int q = 0; q < BMH_NEV; q++) rec[q] = NAN;
     int new_mode = bmh_jump(&x->run, *mode, kind, ev->t, ev->y, y, &ny, rec);
     rec[0] = ev->t; rec[1] = kind; rec[2] = *mode; rec[3] = new_mode; rec[4] = ev->width;
@@ -2394,7 +2493,7 @@ static int bmh_sys_jump(bm_system *S, int *mode, double *t, double *y, double *h
         bmh_normal_motion(H, *t, y, &vn, &an);
         if (vn < 0.0 && an > 0.0) *h = bm_pymin(*h, bm_pymax(0.5 * -vn / an, 1e-12));
     }
-    if (x->ne >= H->burst && *t - x->events[BMH_NEV * (x->ne - H->burst)] < H->burst / H->max_rate) {
+    if (x->ne >= H->burst && *t - bmh_event(x, x->ne - H->burst)[0] < H->burst / H->max_rate) {
         *status = 2;
         return 0;
     }
@@ -2411,18 +2510,18 @@ static int bmh_record(bm_system *S, long long i, int mode, double t, const doubl
     return 0;
 }
 
-/* events.integrate for the hybrid ball over times[0..n-1] (times[0] the start time, sampled)
- * from *mode and y (size: *mode's) with step *h (the first one from Python's initial step).
- * book: the bookkeeping (BMH_NBOOK values: E_impact, n_impacts, v_impact_max, t_first_slip,
- * t_first_flight, Q[2], seed[3], rebound, W_lost) in and out. rows: BMH_NCOL per point reached;
- * events: BMH_NEV per event, at most cap. Returns the number of points reached (rows); *mode,
- * y and *h the state and step at the last of them, and sets *status: 0 completed; 1 a step failed (Python
- * redoes the run and reports it); 2 a Zeno sequence (the last event is the one that made
- * it); 3 more than cap events (Python redoes the run with more room). *n_events: the events
- * recorded; *total: the work of the completed intervals. */
-BM_EXPORT long long bmh_simulate(const bmh_problem *H, const double *times, long long n, int *mode_io, double *y,
-                                 double *h, double *book, double *rows, double *events, long long cap,
-                                 long long *n_events, int *status, bm_stats *total)
+/* events.integrate for the hybrid ball over times[0..n-1] from *mode and y (size: *mode's)
+ * at times[0] with step *h, book the bookkeeping (BMH_NBOOK values: E_impact, n_impacts,
+ * v_impact_max, t_first_slip, t_first_flight, Q[2], seed[3], rebound, W_lost) in and out;
+ * point 0 sampled only if record_start. rows: BMH_NCOL per point; events: BMH_NEV per event,
+ * at most cap (ring: the last cap, the run going on; *n_events the events before the run in,
+ * all of them out). first_step: an adaptive run whose *h is not a positive number starts
+ * with the initial step of its mode (Integrator.initial_step over the first interval). Returns
+ * the index of the last point reached; *status as bmh_simulate's. */
+static long long bmh_run_grid(const bmh_problem *H, const double *times, long long n, int record_start,
+                              int first_step, int *mode_io, double *y, double *h, double *book, double *rows,
+                              double *events, long long cap, int ring, long long *n_events, int *status,
+                              bm_stats *total)
 {
     bmh_sys x;
     double yy[BM_NYMAX];
@@ -2438,15 +2537,34 @@ BM_EXPORT long long bmh_simulate(const bmh_problem *H, const double *times, long
     x.rows = rows;
     x.events = events;
     x.cap = cap;
+    x.ring = ring;
+    x.ne = ring ? *n_events : 0;
     x.y_out = y;
     x.mode_out = *mode_io;
     x.h_out = *h;
     *status = 0;
-    long long reached = 0;
+    long long last = -1;
     if (n > 0) {
         int mode = *mode_io;
         memcpy(yy, y, (size_t)(mode == BMH_ROLLING ? H->roll.ny : BMH_NZ) * sizeof(double));
-        reached = bm_drive(&x.sys, times, n, 0, 1, &mode, yy, h, total, status) + 1;
+        if (first_step && n > 1) { /* Integrator.steps' start without a step to try */
+            const bm_problem *P;
+            const bm_tab *T;
+            bm_rhs_fn rhs;
+            const void *ctx;
+            bm_events ev;
+            double f0[BM_NYMAX];
+            memset(&ev, 0, sizeof ev);
+            bmh_setup(&x.sys, mode, times[0], yy, &P, &T, &rhs, &ctx, &ev);
+            if (P->adaptive && !(*h > 0.0 && isfinite(*h))) {
+                rhs(P, ctx, times[0], yy, f0);
+                if (bm_all_finite(f0, P->ny)) {
+                    *h = bm_initial_step_np(P, rhs, ctx, times[0], yy, f0, times[1] - times[0]);
+                    total->nfev += 2;
+                }
+            }
+        }
+        last = bm_drive(&x.sys, times, n, 0, record_start, &mode, yy, h, total, status);
     }
     *mode_io = x.mode_out;
     *h = x.h_out;
@@ -2457,7 +2575,42 @@ BM_EXPORT long long bmh_simulate(const bmh_problem *H, const double *times, long
     memcpy(book + 7, x.run.seed, sizeof x.run.seed);
     book[10] = x.run.rebound;
     book[11] = x.run.w_lost;
-    return reached;
+    return last;
+}
+
+/* events.integrate for the hybrid ball over times[0..n-1] (times[0] the start time, sampled)
+ * from *mode and y (size: *mode's) with step *h (the first one from Python's initial step).
+ * book: the bookkeeping (BMH_NBOOK values: E_impact, n_impacts, v_impact_max, t_first_slip,
+ * t_first_flight, Q[2], seed[3], rebound, W_lost) in and out. rows: BMH_NCOL per point reached;
+ * events: BMH_NEV per event, at most cap. Returns the number of points reached (rows); *mode,
+ * y and *h the state and step at the last of them, and sets *status: 0 completed; 1 a step failed (Python
+ * redoes the run and reports it); 2 a Zeno sequence (the last event is the one that made
+ * it); 3 more than cap events (Python redoes the run with more room). *n_events: the events
+ * recorded; *total: the work of the completed intervals. */
+BM_EXPORT long long bmh_simulate(const bmh_problem *H, const double *times, long long n, int *mode_io, double *y,
+                                 double *h, double *book, double *rows, double *events, long long cap,
+                                 long long *n_events, int *status, bm_stats *total)
+{
+    return bmh_run_grid(H, times, n, 1, 0, mode_io, y, h, book, rows, events, cap, 0, n_events, status, total) + 1;
+}
+
+/* One interval t -> t_end of the hybrid ball (events.integrate over the grid (t, t_end)), the
+ * communication step of the native BallInShell FMU (contact = 2): from *mode, y (its mode's
+ * size), the step *h to try (not a positive number: the mode's initial step, as
+ * Integrator.steps starts) and the bookkeeping book (bmh_simulate's), all updated to t_end on
+ * success; row: HybridBall.sample at t_end (BMH_NCOL). events: a ring of the last cap >= burst
+ * event records, *n_events the events so far (in and out), so that the Zeno guard sees the
+ * events of earlier intervals. Returns 0 (done), 1 (a step failed), 2 (a Zeno sequence): then
+ * *mode, y and *h are as they were (book and events are not: the caller keeps its own copy). */
+BM_EXPORT int bmh_interval(const bmh_problem *H, double t, double t_end, int *mode, double *y, double *h,
+                           double *book, double *events, long long cap, long long *n_events, double *row,
+                           bm_stats *total)
+{
+    double times[2] = {t, t_end}, rows[2 * BMH_NCOL];
+    int status;
+    bmh_run_grid(H, times, 2, 0, 1, mode, y, h, book, rows, events, cap, 1, n_events, &status, total);
+    if (!status) memcpy(row, rows + BMH_NCOL, sizeof rows / 2);
+    return status;
 }
 
 BM_EXPORT size_t bmh_problem_size(void) { return sizeof(bmh_problem); }

@@ -98,7 +98,7 @@ class _Problem(ctypes.Structure):
         ("max_steps", ctypes.c_longlong),
         ("scale", ctypes.c_double * NYMAX), ("tols", ctypes.c_double * NYMAX),
         ("form", ctypes.c_int), ("ny", ctypes.c_int), ("pap_d", ctypes.c_double),
-        ("pap_margin", ctypes.c_double),
+        ("pap_margin", ctypes.c_double), ("mp_kin", ctypes.c_double * 20),
     ]
 
 
@@ -758,6 +758,9 @@ def _hybrid_lib():
                                              ctypes.POINTER(ctypes.c_int), _dp, _dp, _dp, _dp, _dp,
                                              ctypes.c_longlong, ctypes.POINTER(ctypes.c_longlong),
                                              ctypes.POINTER(ctypes.c_int), ctypes.POINTER(_Stats)]),
+        "bmh_interval": (ctypes.c_int, [ctypes.POINTER(HP), ctypes.c_double, ctypes.c_double,
+                                        ctypes.POINTER(ctypes.c_int), _dp, _dp, _dp, _dp, ctypes.c_longlong,
+                                        ctypes.POINTER(ctypes.c_longlong), _dp, ctypes.POINTER(_Stats)]),
     })
     return lib, why
 
@@ -875,3 +878,53 @@ def hybrid_run(system, mode: int, t: float, y, times, *, burst: int = 100, max_r
     ny = system.integrator(c_mode.value).scale.size
     return EventRun(times[:reached], out_rows, evs, success, message, run_stats, c_mode.value,
                     yy[:ny].copy(), float(hbuf[0]), float(times[reached - 1]), error)
+
+
+def _book(system) -> np.ndarray:
+    bk = system.book
+    return np.array([bk["E_impact"], bk["n_impacts"], bk["v_impact_max"], bk["t_first_slip"], bk["t_first_flight"],
+                     bk["Q"][0], bk["Q"][1], *system._seed, float(system._rebound), float(bk["W_lost"])])
+
+
+class HybridInterval:
+    """The kernel's one interval of the hybrid ball (bmh_interval: the native BallInShell FMU's
+    step with contact = 2) for a `hybrid.HybridBall` (checked with `hybrid_reason`): ``run(mode,
+    t, t_end, y, h)`` integrates t -> t_end as `events.integrate` over the grid (t, t_end) does
+    (h None: the mode's initial step), the bookkeeping read from and written back to the system,
+    the events' ring (the last ``burst``, for the Zeno guard) carried from one call to the next.
+    Returns (status, mode, y, h, row): status 0 done (row: `HybridBall.sample` at t_end), 1 a
+    step failed, 2 a Zeno sequence (mode, y, h, the system and the ring then unchanged)."""
+
+    def __init__(self, system, *, burst: int = 100, max_rate: float = 1e4, scan: int = 3, xtol: float = 1e-11):
+        self.lib, why = _hybrid_lib()
+        if self.lib is None:
+            raise KernelUnavailable(why)
+        self.system = system
+        self.H = _hybrid_problem(system, scan, xtol, burst, max_rate)
+        self.cap = max(burst, 1)
+        self.events = np.zeros((self.cap, HYBRID_NEV))
+        self.n_events = 0
+        self.stats = _Stats()
+
+    def run(self, mode: int, t: float, t_end: float, y, h=None):
+        yy = np.zeros(NYMAX)
+        y = np.asarray(y, dtype=float)
+        yy[:y.size] = y
+        book, events = _book(self.system), self.events.copy()
+        hbuf, row = np.array([math.nan if h is None else h]), np.empty(HYBRID_NCOL)
+        c_mode, n_ev = ctypes.c_int(mode), ctypes.c_longlong(self.n_events)
+        status = self.lib.bmh_interval(ctypes.byref(self.H), t, t_end, ctypes.byref(c_mode), yy.ctypes.data_as(_dp),
+                                       hbuf.ctypes.data_as(_dp), book.ctypes.data_as(_dp),
+                                       events.ctypes.data_as(_dp), self.cap, ctypes.byref(n_ev),
+                                       row.ctypes.data_as(_dp), ctypes.byref(self.stats))
+        if status:
+            return status, mode, y, h, None
+        bk = self.system.book
+        bk.update(E_impact=float(book[0]), n_impacts=int(book[1]), v_impact_max=float(book[2]),
+                  t_first_slip=float(book[3]), t_first_flight=float(book[4]), Q=(float(book[5]), float(book[6])),
+                  W_lost=bool(book[11]))
+        self.system._seed = tuple(float(v) for v in book[7:10])
+        self.system._rebound = bool(book[10])
+        self.events, self.n_events = events, n_ev.value
+        ny = self.system.integrator(c_mode.value).scale.size
+        return 0, c_mode.value, yy[:ny].copy(), float(hbuf[0]), tuple(row.tolist())

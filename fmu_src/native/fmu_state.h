@@ -30,7 +30,7 @@
 #include <stdint.h>
 
 #define FMU_STATE_MAGIC "ballmill"
-#define FMU_STATE_FORMAT 2u /* 1: no checksum, no FMI version field */
+#define FMU_STATE_FORMAT 3u /* 2: BallInShell's data without the hybrid ball's mode and bookkeeping; 1: no checksum, no FMI version field */
 #define FMU_STATE_WHY 320   /* room for the reason a state is refused */
 
 typedef struct {
@@ -63,7 +63,7 @@ const unsigned char *fmu_state_data(const unsigned char *blob);
 /* 0 when blob (size bytes) is a state of this FMU written by the plumbing of FMI version
  * fmi, in one of the instance states whose bits are in phases, with its checksum checked
  * when sealed (a serialised state); else 1 with the reason in why, e.g. "checksum
- * mismatch: stored 0x..., computed 0x...", "format version 1, expected 2", "model
+ * mismatch: stored 0x..., computed 0x...", "format version 2, expected 3", "model
  * 'MotorStartup', expected 'BallInShell'", "size 12329, expected 12328" */
 int fmu_state_check(const unsigned char *blob, size_t size, uint32_t fmi, int32_t phases, int sealed,
                     char why[FMU_STATE_WHY]);

@@ -41,6 +41,9 @@ class _GProblem(ctypes.Structure):
         ("frame_p", ctypes.c_double * 2), ("crank_p", ctypes.c_double * 2),
         ("l", ctypes.c_double), ("centre", ctypes.c_double * 3),
         ("c", ctypes.c_double * 6), ("oc", ctypes.c_double * 10),
+        # BMG_POLY (the native BallInShell FMU's reconstructed chamber; not set from Python)
+        ("poly", ctypes.c_double * 34), ("t0", ctypes.c_double), ("pos", ctypes.c_double * 18),
+        ("om", ctypes.c_double * 12), ("Q", ctypes.c_double * 9),
     ]
 
 
