@@ -150,21 +150,22 @@ def test_the_shell_drawing_colours_the_path_by_mode_and_marks_the_impacts(traj, 
     marker per step that ends with impacts, at the contact point of that step's end sample."""
     axes = drawn[1][3].axes[:2]
     mode = traj["mode"]
-    drawn = {}
+    points = {}
     for ax in axes:
         for col in ax.collections:
             colour = tuple(np.round(col.get_facecolor()[0][:3], 3))
-            drawn[colour] = drawn.get(colour, 0) + len(col.get_offsets())
+            points[colour] = points.get(colour, 0) + len(col.get_offsets())
     from matplotlib.colors import to_rgb
     count = {m: int((mode == m).sum()) for m in (ROLLING, SLIDING, FLIGHT)}
-    assert drawn == {tuple(np.round(to_rgb(c), 3)): count[m] for m, c in
+    assert points == {tuple(np.round(to_rgb(c), 3)): count[m] for m, c in
                      ((ROLLING, "tab:blue"), (SLIDING, "tab:orange"), (FLIGHT, "tab:purple"))}
     markers = [line for ax in axes for line in ax.get_lines() if line.get_marker() == "o" and len(line.get_xdata())]
     assert sum(len(line.get_xdata()) for line in markers) == 6
     assert all(line.get_markeredgecolor() == "tab:red" and line.get_markerfacecolor() == "none" for line in markers)
-    labels = legend(axes[0]) + legend(axes[1])
-    assert "in flight: the wall point nearest the ball (no contact), faint" in labels
-    assert any(text.startswith("7 impacts: the point at the end of each step with any") for text in labels)
+    (fig_legend,) = drawn[1][3].legends  # one for both hemispheres
+    assert [t.get_text() for t in fig_legend.get_texts()] == [
+        "rolling", "sliding", "in flight: the wall point nearest the ball (no contact), faint",
+        "7 impacts: the point at the end of each step with any (6 steps)"]
 
 
 def test_the_summary_has_the_hybrid_indicators(traj, drawn):
@@ -197,8 +198,8 @@ def test_a_ball_with_contact_1_gets_no_marks_and_no_hybrid_summary(tmp_path, tra
     for fig in subplots_made[:2]:
         ax = fig.axes[0]
         assert not shaded(ax, SLIDES) and not shaded(ax, FLIES) and ticks(ax)[1] is None
-    labels = legend(subplots_made[3].axes[0])
-    assert not any("flight" in text or "impacts" in text for text in labels)
+    assert not subplots_made[3].legends and not any("flight" in text or "impacts" in text
+                                                    for ax in subplots_made[3].axes for text in legend(ax))
 
 
 # -- the shipped hybrid scenarios through `ballmill run` ---------------------------------------

@@ -139,8 +139,10 @@ def draw_modes(axes, u, mode, impact_rows=(), n_valid=None, impacts=None):
     (MODE_STYLES: rolling, sliding, and in flight faintly the wall point nearest the ball),
     the points at ``impact_rows`` (the rows ending a communication step with impacts) as
     hollow red circles, the rows from ``n_valid`` on (past the model's validity) in grey.
-    ``impacts``: the number of impacts, for the legend. Every style is in the legend of the
-    hemisphere it appears on."""
+    ``impacts``: the number of impacts, for the legend: one legend for both hemispheres, under
+    them, with what appears on either."""
+    from matplotlib.lines import Line2D
+
     mode = np.asarray(mode)
     n = len(u) if n_valid is None else int(n_valid)
     ok = np.arange(len(u)) < n
@@ -149,20 +151,26 @@ def draw_modes(axes, u, mode, impact_rows=(), n_valid=None, impacts=None):
         sel = (u[:, 2] >= 0) if upper else (u[:, 2] < 0)
         x, y = hemisphere_xy(u, upper)
         _frame(ax)
-        for m, text, style in MODE_STYLES:
+        for m, _, style in MODE_STYLES:
             k = sel & ok & (mode == m)
             if k.any():
                 ax.scatter(x[k], y[k], lw=0, **style)
-                ax.plot([], [], "o", color=style["color"], alpha=style.get("alpha", 1.0), ms=4, label=text)
         if (sel & ~ok).any():
             ax.scatter(x[sel & ~ok], y[sel & ~ok], s=0.6, color="0.72", lw=0)
-            ax.plot([], [], "o", color="0.72", ms=4, label="after the model's validity ended (not physical)")
         here = rows[sel[rows]] if rows.size else rows
         if here.size:
-            what = f"{impacts} impacts" if impacts is not None else "impacts"
-            ax.plot(x[here], y[here], label=f"{what}: the point at the end of each step with any "
-                    f"({here.size} on this hemisphere)", **IMPACT_MARKER)
+            ax.plot(x[here], y[here], **IMPACT_MARKER)
         _finish(ax, upper)
+    handles = [Line2D([], [], marker="o", ls="none", ms=4, color=style["color"], alpha=style.get("alpha", 1.0),
+                      label=text) for m, text, style in MODE_STYLES if (ok & (mode == m)).any()]
+    if (~ok).any():
+        handles.append(Line2D([], [], marker="o", ls="none", ms=4, color="0.72",
+                              label="after the model's validity ended (not physical)"))
+    if rows.size:
+        what = f"{impacts} impacts" if impacts is not None else "impacts"
+        handles.append(Line2D([], [], label=f"{what}: the point at the end of each step with any ({rows.size} "
+                              f"steps)", **IMPACT_MARKER))
+    axes[0].figure.legend(handles=handles, loc="outside lower center", ncol=2, fontsize=8, frameon=False)
 
 
 CAPTION = ("equal-area projection of each hemisphere; centre = bottom resp. top, circle = equator, "
