@@ -49,6 +49,7 @@ from ballmill.fmi.interface import (BALL_ALL_INPUTS, BALL_FEEDTHROUGH, BALL_IN_S
                                     MAX_INTERNAL_STEPS)
 from ballmill.fmi.slave import NEVER, Slave
 from ballmill.physics import Ball, BallModel, BallState, InputReconstruction
+from ballmill.physics.hybrid import FLIGHT, ROLLING, SLIDING, Contact, HybridBall
 from ballmill.physics.platform import GAIN_POSITIONS, ulp
 from ballmill.physics.turning.model import ChamberModel, evaluate_c
 from ballmill.physics.turning.reconstruction import ChamberReconstruction, centre
@@ -59,6 +60,7 @@ INPUT_MODES = {1: "derivatives", 2: "positions", 3: "hold", 4: "accelerations"}
 OUTPUTS = BALL_OUTPUTS
 INPUTS = BALL_INPUTS
 MOTIONS = {1: "translation", 2: "general"}
+CONTACT_MODELS = {1: "rolling", 2: "hybrid"}
 GENERAL_MODES = {1: "derivatives", 3: "hold"}  # input modes of motion = 2
 _UNITS = {v.name: v.unit for v in BALL_IN_SHELL.variables}
 _MOTION_VALUES = operator.attrgetter(*BALL_MOTION_INPUTS)
@@ -110,6 +112,8 @@ class BallInShell(Slave):
                              f"[{self._max_step / MAX_INTERNAL_STEPS:.6g}, inf) s (max_step / "
                              f"{MAX_INTERNAL_STEPS} internal steps, max_step = {self._max_step:.6g} s)")
         self._general = self.choice("motion", MOTIONS) == "general"
+        self._hybrid = self.choice("contact_model", CONTACT_MODELS) == "hybrid"
+        self._system = None
         if self._general:
             self._build_general(ball, method)
             return
@@ -119,6 +123,18 @@ class BallInShell(Slave):
         mode = self.choice("input_mode", INPUT_MODES)
         self._inputs = InputReconstruction(mode, a_tol=self.input_tol)
         self._correct = bool(self.corrector) and mode != "hold"
+
+    def _new_system(self):
+        """contact_model = 2: the hybrid ball (hybrid.HybridBall) over the current fit of the inputs
+        (its motion is replaced at every step: HybridBall.resume), rolling without the work
+        quadrature (energy = False: the rolling model's own floats), the FMU's integrator with the
+        library's bound on internal steps (Integrator's 1e6, fmu_src/ballinshell.c's HYB_MAX_STEPS,
+        not MAX_INTERNAL_STEPS: a slide that starts from zero slip may take more than that within
+        one step, and the flavours must fail alike)."""
+        ball = self._model.ball
+        contact = Contact(mu_k=None if self.mu_k == -1.0 else self.mu_k, e_n=self.e_n, v_rest=self.v_rest)
+        self._system = HybridBall(ball, self._inputs.motion(), contact, METHODS[self.integrator], self.tolerance,
+                                  None, False, self.h_fixed, t_ref=self._time)
 
     def _check_contact(self):
         """The hybrid contact's parameters (interface._BALL_RULES; fmu_src/ballinshell.c's
@@ -140,8 +156,6 @@ class BallInShell(Slave):
         if self.bed != 0:
             raise ValueError(f"contact_model = 2 has no material bed: bed = {self.bed!r} must be 0 (the hybrid "
                              f"ball models no ground-material losses)")
-        raise ValueError("contact_model = 2 (the hybrid ball) is not available in the pythonfmu flavour yet; use "
-                         "contact_model = 1")
 
     def _build_general(self, ball, method):
         """motion = 2: the general model (ballmill.physics.turning) and the chamber's
@@ -175,6 +189,10 @@ class BallInShell(Slave):
             self._state = self._model.initial(self.xC0, self.yC0, (self.wx0, self.wy0, self.wz0),
                                               t0=self._time)
             problem = self._inputs.push(*self._sample(self._time))
+        if self._hybrid:  # the rolling model's start, where the wall decides (hybrid.HybridBall.begin)
+            self._new_system()
+            _, mode, y = self._system.begin(self._time, self._state)
+            self._state = _HState(self._time, mode, y, self._state.h, self._system.bookkeeping())
         # corrected states at the times of the samples in the reconstruction window
         self._history = [self._state]
         self._fed = None
@@ -235,6 +253,9 @@ class BallInShell(Slave):
             self._inputs.set_horizon(t_end - t)
             problem = self._inputs.push(*self._sample(t))
             accel = self._inputs.accel_function()
+            if self._hybrid:
+                accel = _Fit(self._inputs.motion())
+                self._system.set_motion(accel.motion, t)
             history = self._corrected_history(t, accel)
             state = history[-1]
             confirmed = self._outputs_at(state, t)
@@ -250,7 +271,7 @@ class BallInShell(Slave):
         noise_sum = self._noise_sum
         if self._correct and history[-1] is not self._state:
             # a-posteriori estimate of the step's error: predicted vs corrected state at t_k
-            (px, py, pz), (qx, qy, qz) = self._n(self._state), self._n(history[-1])
+            (px, py, pz), (qx, qy, qz) = self._n_pair(self._state, history[-1])
             step_error = self.R * math.sqrt((px - qx) ** 2 + (py - qy) ** 2 + (pz - qz) ** 2)
             # what the corrector cannot repair: the fit itself moves when a new sample arrives
             # (input noise). Each step's change of the fitted acceleration, da (the previous and
@@ -282,7 +303,7 @@ class BallInShell(Slave):
         self._noise_sum = noise_sum
         if self._t_prev is not None and not self._general:  # this fit's a mid-way through the interval
             tm = 0.5 * (self._t_prev + t)
-            self._a_mid = (tm,) + tuple(accel(tm))
+            self._a_mid = (tm,) + tuple(self._inputs.accel_function()(tm))
         self._history = history
         self._state = predicted
         self._fed = None
@@ -309,7 +330,9 @@ class BallInShell(Slave):
                       f"above 1e-6 m/s2: the reconstruction uses the velocity and acceleration inputs "
                       f"there (warned once)")
         self._report(t, self._t_prev, confirmed, self._confirmed)
-        if not out.contact:
+        if self._hybrid:
+            pass  # slip, flight and impacts are the model's: valid stays true
+        elif not out.contact:
             self.invalidate(t_end, f"contact lost (N = {out.N:.6g} N) at the end of the step")
         elif not out.rolling:
             self.invalidate(t_end, f"slip: |F_t|/N = {out.friction_ratio:.4g} > mu = {self.mu:g} at the end "
@@ -352,12 +375,29 @@ class BallInShell(Slave):
 
     # -- outputs -------------------------------------------------------------
     def _advance(self, state, t_end, accel):
+        if self._hybrid:  # accel: the step's _Fit
+            run = self._system.resume(state.mode, state.t, state.y, state.h, state.book, t_end, accel.motion)
+            if not run.success:
+                raise ValueError(f"the hybrid ball could not be followed from t = {state.t:.9g} s in mode "
+                                 f"{_MODE_NAMES[state.mode]}: {run.message}")
+            return _HState(float(t_end), run.mode, run.y, run.h, self._system.bookkeeping())
         if self._general:
             return self._model.advance(state, t_end, _Kin(accel))
         return self._model.advance(state, t_end, accel)
 
     def _n(self, state):
         return tuple(state.y[:3]) if self._general else self._model.nw(state)[0]
+
+    def _n_pair(self, p, q):
+        """The contact directions of the predicted and corrected states at t (coupling_error);
+        with the hybrid, unless both roll, the ball centres over R - r instead (their
+        difference times R is the contact point's)."""
+        if not self._hybrid:
+            return self._n(p), self._n(q)
+        if p.mode == q.mode == ROLLING:
+            return self._n(p.rolling()), self._n(q.rolling())
+        d = self._model.ball.d
+        return tuple(tuple(self._system.free_state(st.mode, st.t, st.y)[:3] / d) for st in (p, q))
 
     def inputs_set(self):
         """Direct feedthrough (interface.BALL_FEEDTHROUGH): the force, moments and contact
@@ -370,7 +410,12 @@ class BallInShell(Slave):
         if self._inputs is None or self._inputs.mode == "positions" or self._state is None:
             return
         now = self._sample(self._time)
-        out = self._general_feedthrough(now) if self._general else self._translation_feedthrough(now)
+        state = self._state
+        if self._hybrid and state.mode != ROLLING:
+            out = self._free_feedthrough(now)
+        else:
+            state = state.rolling() if self._hybrid else state
+            out = self._general_feedthrough(now, state) if self._general else self._translation_feedthrough(now, state)
         if out is None:
             return
         try:
@@ -387,7 +432,27 @@ class BallInShell(Slave):
             return self._fed
         return self._inputs.samples[-1] if self._inputs.samples else None
 
-    def _translation_feedthrough(self, now):
+    def _free_feedthrough(self, now):
+        """contact_model = 2, sliding or in flight: the outputs with the chamber of the sample
+        `now` (motion = 1: A = (x1O, y1O, R), v_A, a_A from the inputs; motion = 2:
+        reconstruction.centre, Omega, Q); None as the rolling ones' (not usable, or unchanged)."""
+        if not all(map(math.isfinite, now)) or (self._general and self._inputs.sample_problem(now) is not None):
+            return None
+        last = self._published_inputs()
+        if last is not None and last[1:] == now[1:]:
+            return None
+        if self._general:
+            A, vA, aA = centre(now, self.R)
+            chamber = (A, vA, aA, now[10:13], now[13:16], now[16:25])
+        else:
+            _, x, y, vx, vy, ax, ay = now
+            chamber = ((x, y, self.R), (vx, vy, 0.0), (ax, ay, 0.0), (0.0,) * 3, (0.0,) * 3, _IDENTITY)
+        try:
+            return self._free_outputs(self._state, self._time, chamber)
+        except (ValueError, ArithmeticError):
+            return None
+
+    def _translation_feedthrough(self, now, state):
         """motion = 1: the outputs with the chamber acceleration and position of the sample
         `now`; None when one is not finite (the next step refuses it) or none of them differs
         from what the published outputs were computed from (another input was set, or the
@@ -401,11 +466,11 @@ class BallInShell(Slave):
             if (sx, sy, sax, say) == (x, y, ax, ay):
                 return None
         try:
-            return _Translated(self._model.outputs(self._state, ax, ay, x, y), x, y, self.R)
+            return _Translated(self._model.outputs(state, ax, ay, x, y), x, y, self.R)
         except (ValueError, ArithmeticError):
             return None
 
-    def _general_feedthrough(self, now):
+    def _general_feedthrough(self, now, state):
         """motion = 2: the same at the chamber state of the sample `now` (A, v_A, a_A from O,
         Omega, Omega', Q: reconstruction.centre); None when it is not a valid sample (the next
         step refuses it) or equal, all 24 inputs, to what the published outputs were computed
@@ -418,12 +483,89 @@ class BallInShell(Slave):
         A, vA, aA = centre(now, self.R)
         cs = A + vA + aA + now[10:25] + (0.0,) * 14
         try:
-            return _general_outputs(self._model, self._state, cs)
+            return _general_outputs(self._model, state, cs)
         except (ValueError, ArithmeticError):
             return None
 
     def _outputs_at(self, state, t):
         """Outputs of a state at time t, with the platform motion reconstructed at t."""
+        if self._hybrid:
+            if state.mode != ROLLING:
+                return self._free_outputs(state, t, self._chamber(self._fit_motion(), t))
+            out = self._rolling_outputs_at(state.rolling(), t)
+            out.hybrid = self._book_values(state, ROLLING, 0.0, 0.0)
+            return out
+        return self._rolling_outputs_at(state, t)
+
+    def _fit_motion(self):
+        return self._system.motion
+
+    def _chamber(self, motion, t):
+        """(A, v_A, a_A, Omega, Omega', Q) of a motion of the hybrid (the step's fit) at t."""
+        st = motion.state(t)
+        if self._general:
+            return st[0:3], st[3:6], st[6:9], st[9:12], st[12:15], st[15:24]
+        x, y, vx, vy, ax, ay = st
+        return (x, y, self.R), (vx, vy, 0.0), (ax, ay, 0.0), (0.0,) * 3, (0.0,) * 3, _IDENTITY
+
+    def _book_values(self, state, mode, slip, gap):
+        """The hybrid's own outputs of a state: its mode, slip speed, gap, and the bookkeeping
+        (the first slip and flight: NEVER until they happen)."""
+        book = state.book
+        ef = book[6] if mode == ROLLING else float(state.y[10])
+        return [("mode", mode), ("slip_speed", slip), ("gap", gap), ("n_impacts", int(book[1])),
+                ("v_impact_max", book[2]), ("E_friction", ef), ("E_impact", book[0]),
+                ("t_first_slip", NEVER if math.isnan(book[3]) else book[3]),
+                ("t_first_flight", NEVER if math.isnan(book[4]) else book[4])]
+
+    def _free_outputs(self, state, t, chamber):
+        """The outputs of a sliding or flying ball (free state z = (C, v_C, omega, W, E_friction))
+        at t with the chamber (A, v_A, a_A, Omega, Omega', Q): N from section 14's formula and
+        friction mu_k N against the slip while sliding, no force in flight; the contact point is
+        the wall's point nearest the ball, A + R n (in flight not the ball's point C + r n);
+        the moments as the rolling outputs' (about A: R n x F; about O1: A x F + M_A)."""
+        z = state.y
+        zl = z.tolist()
+        A, vA, aA, Om, Omd, Q = chamber
+        R, d = self.R, self._model.ball.d
+        rho = (zl[0] - A[0], zl[1] - A[1], zl[2] - A[2])
+        dist = math.sqrt(rho[0] * rho[0] + rho[1] * rho[1] + rho[2] * rho[2])
+        n = (rho[0] / dist, rho[1] / dist, rho[2] / dist)
+        if state.mode == SLIDING:
+            self._system.set_bookkeeping(state.book)  # the sliding direction's seed
+            N, Ftv, slip, _, _ = self._system._slide_forces(t, zl, chamber=(A, vA, aA, Om, Omd))
+            F = (N * n[0] - Ftv[0], N * n[1] - Ftv[1], N * n[2] - Ftv[2])
+            Ft = math.sqrt(Ftv[0] * Ftv[0] + Ftv[1] * Ftv[1] + Ftv[2] * Ftv[2])
+            gap = 0.0
+        else:
+            N, F, Ft, slip, gap = 0.0, (0.0, 0.0, 0.0), 0.0, 0.0, max(d - dist, 0.0)
+        ratio = Ft / N if N > 0.0 else math.inf
+        e = (R * Q[2], R * Q[5], R * Q[8])  # A - O
+        O = (A[0] - e[0], A[1] - e[1], A[2] - e[2])
+        rn = (R * n[0], R * n[1], R * n[2])
+        MA = (rn[1] * F[2] - rn[2] * F[1], rn[2] * F[0] - rn[0] * F[2], rn[0] * F[1] - rn[1] * F[0])
+        MO = ((A[1] * F[2] - A[2] * F[1]) + MA[0], (A[2] * F[0] - A[0] * F[2]) + MA[1],
+              (A[0] * F[1] - A[1] * F[0]) + MA[2])
+        Mr = MO[2] if self._general else O[0] * F[1] - O[1] * F[0]
+        Pch = tuple(Q[i] * rn[0] + Q[3 + i] * rn[1] + Q[6 + i] * rn[2] for i in range(3))
+        Fch = tuple(Q[i] * F[0] + Q[3 + i] * F[1] + Q[6 + i] * F[2] for i in range(3))
+        g = _General()
+        g.contact, g.rolling, g.N, g.friction_ratio = N > 0.0, False, N, ratio
+        g.values = (
+            ("xP", rn[0] + e[0]), ("yP", rn[1] + e[1]), ("zP", rn[2] + e[2]), ("N", N),
+            ("Fx", F[0]), ("Fy", F[1]), ("Fz", F[2]), ("M_reaction", Mr),
+            ("MAx", MA[0]), ("MAy", MA[1]), ("MAz", MA[2]),
+            ("xC", rho[0] + e[0]), ("yC", rho[1] + e[1]), ("zC", rho[2] + e[2]),
+            ("wx", zl[6]), ("wy", zl[7]), ("wz", zl[8]), ("Ft", Ft), ("friction_ratio", ratio),
+            ("P_diss", 0.0), ("P_grind", 0.0), ("s_bed", 1.0),
+            ("xP_ch", Pch[0]), ("yP_ch", Pch[1]), ("zP_ch", Pch[2] + R),
+            ("Fx_ch", Fch[0]), ("Fy_ch", Fch[1]), ("Fz_ch", Fch[2]),
+            ("MO1x", MO[0]), ("MO1y", MO[1]), ("MO1z", MO[2]))
+        g.hybrid = self._book_values(state, state.mode, slip, gap)
+        return g
+
+    def _rolling_outputs_at(self, state, t):
+        """Outputs of a rolling state at time t, with the platform motion reconstructed at t."""
         if self._general:
             return _general_outputs(self._model, state, self._inputs.state(t))
         x, y, _, _, ax, ay = self._inputs.state(t)
@@ -434,6 +576,10 @@ class BallInShell(Slave):
         """v_C [m/s] of a rolling state at t, fixed axes: v_A + R (Omega x n) + r (n x omega), with
         v_A and Omega the reconstruction's at t (motion = 1: (vx1O, vy1O, 0), Omega = 0), n and
         omega the state's; in this operation order (fmu_src/ballinshell.c's centre_velocity)."""
+        if self._hybrid:
+            if state.mode != ROLLING:
+                return tuple(state.y[3:6].tolist())
+            state = state.rolling()
         if self._general:
             y = state.y.tolist()
             n, w = y[0:3], y[3:6]
@@ -466,9 +612,11 @@ class BallInShell(Slave):
     def _values(self, out):
         """The output values to publish (ArithmeticError naming an output that is not finite;
         friction_ratio is +inf when N <= 0, published as 1e300)."""
-        if self._general:
+        hybrid = [(name, v if type(v) is int else self.finite(name, v)) for name, v in out.hybrid]
+        if type(out) is _General:
             finite = self.finite
-            return [(name, finite(name, v, allow_infinite=(name == "friction_ratio"))) for name, v in out.values]
+            return [(name, finite(name, v, allow_infinite=(name == "friction_ratio")))
+                    for name, v in out.values] + hybrid
         extra = out.extra
         out = out.out
         fields = out._fields
@@ -481,7 +629,7 @@ class BallInShell(Slave):
         values.append(("P_grind", finite("P_grind", out.P_grind)))
         values.append(("s_bed", finite("s_bed", out.s_bed)))
         values.extend((name, finite(name, v)) for name, v in extra)
-        return values
+        return values + hybrid
 
     def _set_outputs(self, values, out):
         for name, v in values:
@@ -497,6 +645,8 @@ class BallInShell(Slave):
         and latch valid = false."""
         was_contact, was_rolling = before
         self._confirmed = (bool(out.contact), bool(out.rolling))
+        if self._hybrid:  # slip, flight and impacts are the model's, not the end of its validity
+            return
         when = f"at t = {t:.9g} s" if t_prev is None else f"between t = {t_prev:.9g} s and {t:.9g} s"
         if was_contact and not out.contact:
             self.warn(f"{self.who}: contact lost {when} (N = {out.N:.6g} N): "
@@ -521,11 +671,13 @@ class BallInShell(Slave):
 
     def restore_internal_state(self, s):
         ndim = 6 if self._general else self._model.form.ndim
+        self._inputs.set_state(s["inputs"])
+        if self._hybrid:
+            self._new_system()
         state = self._checked_state(s["state"], ndim)
         if abs(state.t - self._time) > 1e-9 * max(1.0, abs(self._time)):
             raise ValueError(f"the ball state is at t = {state.t!r} s but the FMU time is {self._time!r} s")
         history = [self._checked_state(d, ndim) for d in s["history"]]
-        self._inputs.set_state(s["inputs"])
         confirmed = s["confirmed"]
         if not (isinstance(confirmed, list) and len(confirmed) == 2 and all(isinstance(c, bool) for c in confirmed)):
             raise ValueError(f"confirmed flags {confirmed!r}: expected two Booleans")
@@ -557,7 +709,13 @@ class BallInShell(Slave):
         self._fed = None if fed is None else tuple(float(v) for v in fed)
 
     def _checked_state(self, d, ndim):
-        """A BallState from saved data, or ValueError saying what does not fit this model."""
+        """A BallState (contact_model = 2: a hybrid state) from saved data, or ValueError saying
+        what does not fit this model."""
+        if self._hybrid:
+            return self._checked_hybrid(d)
+        if "mode" in d or "book" in d:
+            raise ValueError(f"a hybrid ball's state (mode, bookkeeping) for contact_model = {self.contact_model}: "
+                             f"expected the rolling model's (t, y, h)")
         y = d["y"]
         if not (isinstance(y, list) and len(y) == ndim and all(isinstance(v, (int, float)) for v in y)):
             raise ValueError(f"ball state {y!r}: expected {ndim} numbers for formulation {self.formulation}"
@@ -572,6 +730,32 @@ class BallInShell(Slave):
         if not self._general:
             self._model.form.check(state.y)
         return state
+
+
+    def _checked_hybrid(self, d):
+        """contact_model = 2: an _HState from saved data (mode 0, 1, 2; y of 6 numbers rolling, 11
+        otherwise; a unit n while rolling; the bookkeeping HybridBall.set_bookkeeping accepts,
+        null for a first slip or flight not yet), or ValueError naming what does not fit."""
+        if not isinstance(d, dict) or set(d) != {"t", "mode", "y", "h", "book"}:
+            raise ValueError(f"hybrid ball state {d!r}: expected t, mode, y, h and book (contact_model = 2)")
+        mode, y, book = d["mode"], d["y"], d["book"]
+        if mode not in (FLIGHT, ROLLING, SLIDING) or type(mode) is not int:
+            raise ValueError(f"hybrid ball state: mode {mode!r}, expected 0 (flight), 1 (rolling) or 2 (sliding)")
+        n = 6 if mode == ROLLING else 11
+        if not (isinstance(y, list) and len(y) == n and all(type(v) in (int, float) and math.isfinite(v) for v in y)):
+            raise ValueError(f"hybrid ball state y = {y!r}: expected {n} finite numbers in mode {_MODE_NAMES[mode]}")
+        t, h = d["t"], d["h"]
+        if not (type(t) in (int, float) and math.isfinite(t)) or \
+                (h is not None and not (type(h) in (int, float) and math.isfinite(h) and h > 0)):
+            raise ValueError(f"hybrid ball state t = {t!r}, h = {h!r}: expected a finite time and a positive step "
+                             f"or null")
+        if mode == ROLLING and abs(math.sqrt(sum(v * v for v in y[:3])) - 1.0) > 1e-6:
+            raise ValueError(f"hybrid ball state {d!r}: n = y[0:3] must be a unit vector while rolling")
+        if not (isinstance(book, list) and all(v is None or type(v) in (int, float) for v in book)):
+            raise ValueError(f"hybrid bookkeeping {book!r}: expected a list of numbers")
+        book = tuple(math.nan if v is None else float(v) for v in book)
+        self._system.set_bookkeeping(book)  # the system's own check
+        return _HState(t, mode, y, h, book)
 
 
 class _Kin:
@@ -589,10 +773,11 @@ class _Translated:
     O1 = A x F + M_A with A = (x1O, y1O, R), so that MO1z = M_reaction + MAz; with losses M_A
     holds the ground material's moments too)."""
 
-    __slots__ = ("out", "extra", "contact", "rolling", "N", "friction_ratio")
+    __slots__ = ("out", "extra", "contact", "rolling", "N", "friction_ratio", "hybrid")
 
     def __init__(self, out, x, y, R):
         self.out = out
+        self.hybrid = ()
         self.contact, self.rolling, self.N, self.friction_ratio = out.contact, out.rolling, out.N, out.friction_ratio
         sx, sy, sz = out.Fx, out.Fy, out.Fz
         self.extra = (("xP_ch", out.xP), ("yP_ch", out.yP), ("zP_ch", out.zP),
@@ -604,7 +789,10 @@ class _Translated:
 class _General:
     """motion = 2: the FMU's outputs from turning.model's ChamberOutputs (see the interface)."""
 
-    __slots__ = ("values", "contact", "rolling", "N", "friction_ratio")
+    __slots__ = ("values", "contact", "rolling", "N", "friction_ratio", "hybrid")
+
+    def __init__(self):
+        self.hybrid = ()
 
 
 def _general_outputs(model, state, cs):
@@ -634,3 +822,37 @@ def _general_outputs(model, state, cs):
         ("Fx_ch", o.Fch_x), ("Fy_ch", o.Fch_y), ("Fz_ch", o.Fch_z),
         ("MO1x", mo[0]), ("MO1y", mo[1]), ("MO1z", mo[2]))
     return g
+
+
+_IDENTITY = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+_MODE_NAMES = {FLIGHT: "flight", ROLLING: "rolling", SLIDING: "sliding"}
+
+
+class _Fit:
+    """contact_model = 2: the step's fit of the inputs as the hybrid ball's chamber motion
+    (platform.ReconstructedPlatform, turning.reconstruction.ReconstructedChamber)."""
+
+    __slots__ = ("motion",)
+
+    def __init__(self, motion):
+        self.motion = motion
+
+
+class _HState:
+    """contact_model = 2: the hybrid ball's state at t: its mode, the mode's state y (rolling:
+    n, omega; sliding and flight: C, v_C, omega, W, E_friction), the integrator's next step
+    h and the bookkeeping (HybridBall.BOOK's 12 floats)."""
+
+    __slots__ = ("t", "mode", "y", "h", "book")
+
+    def __init__(self, t, mode, y, h, book):
+        self.t, self.mode, self.y, self.book = float(t), int(mode), np.array(y, dtype=float), tuple(book)
+        self.h = None if h is None else float(h)
+
+    def rolling(self):
+        """The rolling model's BallState of a rolling state."""
+        return BallState(self.t, self.y, self.h)
+
+    def to_dict(self):
+        return {"t": self.t, "mode": self.mode, "y": [float(v) for v in self.y], "h": self.h,
+                "book": [None if math.isnan(v) else float(v) for v in self.book]}

@@ -10,10 +10,13 @@ import numpy as np
 import pytest
 
 from ballmill.physics import CrankStartup, InputReconstruction
+from ballmill.physics.drives.crank import Harmonic
 from ballmill.physics.turning.reconstruction import ChamberReconstruction, ReconstructedChamber
 
 H = 2e-3
 FAST = CrankStartup(t0=0.5)  # the fast start: n0 = 60 1/min in 0.5 s, slips at once
+SHAKE = Harmonic(x_amp=0.05, x_omega=25.0)  # with mu = 0.2: slip, flight, impacts (over 1 s)
+HARD = Harmonic(x_amp=0.1, x_omega=30.0)  # with mu = 0.2: slip, flight, 5 impacts, rest (0.25 s)
 
 # -- the chamber along the reconstruction (platform.ReconstructedPlatform) ------------------------
 _GL = {2: ((-1 / math.sqrt(3), 1.0), (1 / math.sqrt(3), 1.0)),
@@ -67,3 +70,278 @@ def test_the_reconstructed_turning_chamber_is_the_fit_itself():
     for t in (3 * H, 3.5 * H, 4 * H):
         assert mot.state(t) == rec.state(t)
         assert mot.accel(t) == rec.accel_function()(t)
+
+
+# -- the library's step from a state (HybridBall.resume) --------------------------------------
+def test_resuming_a_run_step_by_step_is_the_run_bit_for_bit():
+    """A run resumed at every grid point from (mode, y, h, bookkeeping) alone, the bookkeeping
+    scrambled in between (so nothing survives in the system but what the state carries), is
+    simulate_hybrid's run, every row and event time the same floats: slip, flight and an
+    impact in a shaken chamber."""
+    from ballmill.physics import Ball
+    from ballmill.physics.hybrid import Contact, HybridBall, simulate_hybrid
+
+    ball, contact, shake = Ball(mu=0.2), Contact(e_n=0.6, mu_k=0.15), SHAKE
+    ref = simulate_hybrid(ball, shake, 0.5, 0.01, contact, kernel="python")
+    kinds = {e.kind for e in ref.events}
+    assert ref.success and {"slip", "leave", "impact"} <= kinds, kinds
+    system = HybridBall(ball, shake, contact)
+    t, mode, y = system.begin(0.0)
+    h, book = None, system.bookkeeping()
+    rows, events = [system.sample(mode, t, y)], []
+    for k in range(1, len(ref.t)):
+        system.set_bookkeeping((1.0, 7.0, 3.0, 0.5, 0.5, 2.0, 2.0, 1.0, 0.0, 0.0, 1.0, 0.0))  # scrambled
+        run = system.resume(mode, t, y, h, book, float(ref.t[k]))
+        assert run.success, run.message
+        mode, t, y, h, book = run.mode, run.t_last, run.y, run.h, system.bookkeeping()
+        rows.append(run.rows[-1])
+        events += run.events
+    assert [e.t for e in events] == [e.t for e in ref.events]
+    assert [e.kind for e in events] == [e.kind for e in ref.events]
+    got = np.array(rows, dtype=float)
+    want = np.column_stack([ref.out[c] for c in HybridBall.COLUMNS])
+    assert np.array_equal(got, want, equal_nan=True)
+
+
+# -- the FMU, contact_model = 2 ---------------------------------------------------------------
+# DOP853 at 1e-9: with RK45 at the FMU's default 1e-8 a slide that starts from zero slip (the
+# fast start at 0.2687 s) takes tens of thousands of steps (the slip direction's seed threshold,
+# 1e-3 slip_eps = 1e-9 m/s, is below RK45's error in the slip there): seconds for one 2 ms step
+HYBRID = dict(contact_model=2, integrator=1, tolerance=1e-9)
+SHAKEN = dict(mu=0.2, mu_k=0.15, e_n=0.6)  # Harmonic(0.1 m, 30 rad/s): slip, flight, 5 impacts, rest
+
+
+def run_scene(fmus_of, flavour, motion, t_end, h=H, keep=False, on_step=None, **parameters):
+    """BallInShell of `flavour` ("pythonfmu", "native") driven by a platform motion (inputs
+    x1O..ay1O from motion.state at each communication point), steps of h to t_end: every output
+    at every communication point (name -> array, and "time": the FMU's times) and, with keep,
+    the open instance (the caller frees it). on_step(fmu, k) runs after step k."""
+    from conformance.harness import driver
+
+    fmu = driver(2)(fmus_of(flavour)["BallInShell"], "ball", **parameters)
+
+    def feed(t):
+        x, y, vx, vy, ax, ay = motion.state(t)
+        assert fmu.set(x1O=x, y1O=y, vx1O=vx, vy1O=vy, ax1O=ax, ay1O=ay) == 0
+
+    try:
+        feed(0.0)
+        assert fmu.init() == 0, fmu.messages()
+        rows, times = [fmu.outputs()], [fmu.time]
+        for k in range(int(round(t_end / h))):
+            feed(fmu.time)
+            assert fmu.step(h) == 0, fmu.messages()
+            rows.append(fmu.outputs())
+            times.append(fmu.time)
+            if on_step:
+                on_step(fmu, k)
+    except BaseException:
+        fmu.free()
+        raise
+    out = {name: np.array([r[name] for r in rows], dtype=float) for name in rows[0]}
+    out["time"] = np.array(times)
+    if keep:
+        return out, fmu
+    fmu.free()
+    return out
+
+
+def _balances(out, ball, motion):
+    """(momentum residuals x, y, z [N s], energy residual [J], the chamber's work's range [J])
+    from the outputs alone: sum F_mean h + m dv_C (- m g t in z), and E + E_friction + E_impact
+    - W with E = m v_C^2 / 2 + I omega^2 / 2 + m g zC and W = -sum F_mean . v_A h the chamber's
+    work on the ball (v_A the platform's velocity mean over the step: the product rule's
+    error, O(h^2) on smooth parts and |J| |a_A| h / 2 at an impulse, is what the balance
+    cannot close)."""
+    h, m, t = np.diff(out["time"]), ball.m, out["time"]
+    mom = [np.sum(out[f"F{c}_mean"][1:] * h) + m * (out[f"v{c}C"][-1] - out[f"v{c}C"][0]) for c in "xy"]
+    mom.append(np.sum(out["Fz_mean"][1:] * h) + m * (out["vzC"][-1] - out["vzC"][0]) + m * ball.g * (t[-1] - t[0]))
+    E = (0.5 * m * (out["vxC"] ** 2 + out["vyC"] ** 2 + out["vzC"] ** 2)
+         + 0.5 * ball.I * (out["wx"] ** 2 + out["wy"] ** 2 + out["wz"] ** 2) + m * ball.g * out["zC"])
+    vA = np.array([motion.state(s)[2:4] for s in t])
+    vbar = 0.5 * (vA[1:] + vA[:-1])
+    W = np.concatenate([[0.0], np.cumsum(-(out["Fx_mean"][1:] * vbar[:, 0] + out["Fy_mean"][1:] * vbar[:, 1]) * h)])
+    res = E + out["E_friction"] + out["E_impact"] - W
+    return mom, float(np.max(np.abs(res - res[0]))), float(np.ptp(W))
+
+
+def _library(ball, motion, t_end, contact):
+    from ballmill.physics.hybrid import simulate_hybrid
+
+    ref = simulate_hybrid(ball, motion, t_end, H, contact, method="DOP853", tol=1e-9, kernel="python")
+    assert ref.success
+    return ref
+
+
+def _contact_point_error(out, ref, R):
+    return float(np.max(np.sqrt((out["xP"] - R * ref["nx"]) ** 2 + (out["yP"] - R * ref["ny"]) ** 2
+                                + (out["zP"] - (R + R * ref["nz"])) ** 2)))
+
+
+def test_the_fast_start_through_the_fmu_is_the_librarys_hybrid_ball(fmus_of):
+    """CrankStartup(t0 = 0.5 s) with 2 ms steps: slides at once, rolls from 0.073 s, slides again
+    from 0.269 s. Against simulate_hybrid on the crank itself: the same mode at every point,
+    the contact point within 1e-6 m (measured 3.7e-8 m: the coupling error of the
+    reconstructed motion over 2 ms with derivative inputs and the corrector), E_friction
+    within 1e-5 relative (measured 2e-7), the first slip at 0; valid all along. Momentum:
+    sum F_mean h = -m dv_C (+ m g t in z) to round-off; energy: closes to 1e-3 of the
+    chamber's work (measured 2.6e-5: the work's product rule, see _balances)."""
+    from ballmill.physics import Ball
+    from ballmill.physics.hybrid import Contact
+
+    ball = Ball()
+    out = run_scene(fmus_of, "pythonfmu", FAST, 0.4, **HYBRID)
+    ref = _library(ball, FAST, 0.4, Contact(e_n=0.5))
+    assert np.array_equal(out["mode"], ref["mode"])
+    assert set(out["mode"]) == {1.0, 2.0}
+    assert _contact_point_error(out, ref, ball.R) < 1e-6
+    assert out["E_friction"][-1] == pytest.approx(ref["E_friction"][-1], rel=1e-5) and out["E_friction"][-1] > 0.05
+    assert out["t_first_slip"][-1] == 0.0 and out["t_first_flight"][-1] == 1e300 and out["n_impacts"][-1] == 0
+    assert np.all(out["valid"] == 1.0) and np.all(out["t_invalid"] == 1e300)
+    assert np.all(out["slip_speed"][out["mode"] == 1] == 0.0) and np.max(out["slip_speed"]) > 0.03
+    mom, res, work = _balances(out, ball, FAST)
+    assert max(abs(v) for v in mom) < 1e-12, mom
+    assert res < 1e-3 * work, (res, work)
+
+
+def test_a_shaken_chamber_slides_flies_and_strikes_through_the_fmu_as_in_the_library(fmus_of):
+    """Harmonic(0.1 m, 30 rad/s), mu = 0.2, mu_k = 0.15, e_n = 0.6: slides from 2.5 ms, leaves
+    the wall at 0.129 s, strikes it 5 times, comes to rest. Against simulate_hybrid: the same
+    mode at every point and the same impacts, the contact point within 1e-4 m (measured
+    2.9e-6 m: in flight the ball's path carries the reconstruction's error of where the
+    chamber was when it left), E_impact and E_friction within 1e-6 relative, the first slip
+    and flight within 1e-8 s (measured 1e-12 and 1.6e-10 s). Momentum to round-off with the
+    impulses in F_mean; energy within 5 % of the chamber's work (measured 0.12 %: at each
+    impulse the product rule errs by up to |J| |a_A| h / 2)."""
+    from ballmill.physics import Ball
+    from ballmill.physics.hybrid import Contact
+
+    ball = Ball(mu=0.2)
+    out = run_scene(fmus_of, "pythonfmu", HARD, 0.26, **HYBRID, **SHAKEN)
+    ref = _library(ball, HARD, 0.26, Contact(e_n=0.6, mu_k=0.15))
+    assert np.array_equal(out["mode"], ref["mode"]) and set(out["mode"]) == {0.0, 1.0, 2.0}
+    assert np.array_equal(out["n_impacts"], ref["n_impacts"]) and out["n_impacts"][-1] == 5
+    assert _contact_point_error(out, ref, ball.R) < 1e-4
+    for name in ("E_impact", "E_friction", "v_impact_max"):
+        assert out[name][-1] == pytest.approx(ref[name][-1], rel=1e-6), name
+    assert out["t_first_slip"][-1] == pytest.approx(ref.t_first_slip, abs=1e-8)
+    assert out["t_first_flight"][-1] == pytest.approx(ref.t_first_flight, abs=1e-8)
+    flight = out["mode"] == 0
+    assert np.all(out["N"][flight] == 0.0) and np.all(out["Fx"][flight] == 0.0) and np.all(out["gap"][flight] >= 0.0)
+    assert np.max(out["gap"]) == pytest.approx(np.max(ref["gap"]), rel=1e-4) and np.max(out["gap"]) > 0.01
+    assert np.all(out["contact"][flight] == 0.0) and np.all(out["rolling"][out["mode"] != 1] == 0.0)
+    assert np.all(out["friction_ratio"][flight] == 1e300)
+    sliding = out["mode"] == 2
+    assert np.allclose(out["Ft"][sliding], 0.15 * out["N"][sliding], rtol=1e-12)
+    assert np.all(out["valid"] == 1.0)
+    mom, res, work = _balances(out, ball, HARD)
+    assert max(abs(v) for v in mom) < 1e-12, mom
+    assert res < 0.05 * work, (res, work)
+
+
+def test_a_scene_that_keeps_rolling_gives_contact_model_1s_numbers_bit_for_bit(fmus_of):
+    """The default start (t0 = 2.5 s) rolls: with contact_model = 2 (the FMU's default integrator
+    and corrector) every output is contact_model = 1's, bit for bit."""
+    one = run_scene(fmus_of, "pythonfmu", CrankStartup(), 0.2)
+    two = run_scene(fmus_of, "pythonfmu", CrankStartup(), 0.2, contact_model=2)
+    assert np.all(two["mode"] == 1) and np.ptp(one["yP"]) > 1e-4
+    for name in one:
+        assert np.array_equal(one[name], two[name]), name
+
+
+def test_fmu_states_in_sliding_and_in_flight_round_trip(fmus_of):
+    """In the shaken chamber, a state got while sliding (t = 0.05 s) and one in flight after
+    the first impact (t = 0.2 s: its count and loss in the bookkeeping): stepping on from a
+    state set back gives the same outputs as the first time, and a state serialised,
+    deserialised and serialised again gives the same bytes."""
+    from ballmill.fmi.slave import state_from_bytes, state_to_bytes
+
+    saved = {}
+
+    def on_step(fmu, k):
+        if k in (24, 99):  # ends at 0.05 s (sliding) and 0.2 s (flight)
+            saved[k] = (fmu.time, fmu.get_state(), fmu.get("mode"))
+
+    out, fmu = run_scene(fmus_of, "pythonfmu", HARD, 0.21, keep=True, on_step=on_step, **HYBRID, **SHAKEN)
+    try:
+        assert [saved[k][2] for k in (24, 99)] == [2, 0] and out["n_impacts"][100] == 1
+        for k, (t, state, _) in saved.items():
+            assert fmu.set_state(state) == 0
+            fmu.time = t
+            for j in range(3):
+                x, y, vx, vy, ax, ay = HARD.state(fmu.time)
+                fmu.set(x1O=x, y1O=y, vx1O=vx, vy1O=vy, ax1O=ax, ay1O=ay)
+                assert fmu.step(H) == 0, fmu.messages()
+                again = fmu.outputs()
+                assert all(again[n] == out[n][k + 2 + j] for n in again), (k, j)
+            blob = fmu.serialize(state)
+            st, restored = fmu.deserialize(blob)
+            assert st == 0 and fmu.serialize(restored) == blob
+        # the states' format is the bumped one (they carry the hybrid's mode and bookkeeping): the
+        # previous format is refused by name (pythonfmu: fmi2Fatal, the last call here)
+        old = state_from_bytes(blob)
+        old["__format__"] = 3
+        old_blob = state_to_bytes(old).replace(b"format 4\n", b"format 3\n", 1)
+        n = len(fmu.log)
+        st, _ = fmu.deserialize(old_blob)
+        assert st != 0 and "format version 3, expected 4" in fmu.messages(n)
+    finally:
+        fmu.free()
+
+
+def test_a_turning_chamber_through_the_fmu_is_the_librarys_hybrid_ball(fmus_of):
+    """motion = 2: a chamber spun at 12 rad/s about a horizontal axis (mu = 0.05): the ball slips,
+    rolls, slides again and leaves the wall at 0.237 s. Against simulate_hybrid on the Spin itself
+    (the FMU sees it through the turning reconstruction): the same mode at every point, omega and
+    v_C within 1e-9 (measured 4e-12 rad/s, 4e-13 m/s), E_friction within 1e-9 relative (2e-15)."""
+    from ballmill.physics import Ball
+    from ballmill.physics.hybrid import Contact, simulate_hybrid
+    from ballmill.physics.turning.motions import Spin
+    from ballmill.physics.turning.reconstruction import NAMES, inputs_of
+
+    spin, ball = Spin(Omega=(12.0, 0, 0), A=(0, 0, 0.25)), Ball(mu=0.05)
+
+    class Inputs:  # the FMU's 24 motion inputs from the spin, as a platform motion's state gives 6
+        @staticmethod
+        def state(t):
+            return inputs_of(spin.state(t), ball.R)
+
+    from conformance.harness import driver
+
+    fmu = driver(2)(fmus_of("pythonfmu")["BallInShell"], "ball", motion=2, mu=0.05, e_n=0.5, **HYBRID)
+    try:
+        rows = []
+        for k in range(131):
+            assert fmu.set(**dict(zip(NAMES, Inputs.state(fmu.time)))) == 0
+            assert (fmu.init() if k == 0 else fmu.step(H)) == 0, fmu.messages()
+            rows.append(fmu.outputs())
+    finally:
+        fmu.free()
+    out = {name: np.array([r[name] for r in rows], dtype=float) for name in rows[0]}
+    ref = simulate_hybrid(ball, spin, 0.26, H, Contact(e_n=0.5), method="DOP853", tol=1e-9, kernel="python")
+    assert np.array_equal(out["mode"], ref["mode"]) and set(out["mode"]) == {0.0, 1.0, 2.0}
+    for a, b in (("wx", "wx"), ("wy", "wy"), ("wz", "wz"), ("vxC", "vCx"), ("vyC", "vCy"), ("vzC", "vCz")):
+        assert np.max(np.abs(out[a] - ref[b])) < 1e-9, a
+    assert out["E_friction"][-1] == pytest.approx(ref["E_friction"][-1], rel=1e-9) and out["E_friction"][-1] > 0.01
+    assert np.all(out["valid"] == 1.0)
+
+
+def test_a_sliding_balls_force_follows_the_inputs_set_between_steps(fmus_of):
+    """Direct feedthrough off rolling: sliding (the fast start at 0.05 s), the platform
+    acceleration set 1 m/s2 higher in y without a step changes N by -m n_y (section 14's N,
+    n_y = yC / (R - r) from the outputs) and the friction with it (Ft = mu_k N)."""
+    from ballmill.physics import Ball
+
+    ball = Ball()
+    out, fmu = run_scene(fmus_of, "pythonfmu", FAST, 0.05, keep=True, **HYBRID)
+    try:
+        assert fmu.get("mode") == 2
+        x, y, vx, vy, ax, ay = FAST.state(fmu.time)
+        N0 = fmu.get("N")
+        ny = fmu.get("yC") / ball.d
+        assert fmu.set(x1O=x, y1O=y, vx1O=vx, vy1O=vy, ax1O=ax, ay1O=ay + 1.0) == 0
+        N1 = fmu.get("N")
+        assert N1 - N0 == pytest.approx(-ball.m * ny, rel=1e-6) and abs(ny) > 0.01
+        assert fmu.get("Ft") == pytest.approx(ball.mu * N1, rel=1e-12)  # mu_k = -1: mu
+    finally:
+        fmu.free()

@@ -45,7 +45,7 @@ import numpy as np
 
 from . import outputs as _out
 from .errors import ParameterError
-from .events import integrate
+from .events import EventRun, integrate
 from .integrators import Integrator, StepStats
 from .model import BallModel, BallState
 from .params import Ball
@@ -120,7 +120,7 @@ class HybridBall:
 
     def __init__(self, ball: Ball, motion, contact: Contact = Contact(), method: str = "DOP853",
                  tol: float = 1e-9, h_max: float | None = None, energy: bool = True,
-                 h_fixed: float = 1e-3):
+                 h_fixed: float = 1e-3, max_steps: int = 1_000_000, t_ref: float = 0.0):
         if ball.rolling_resistance or ball.drag:
             raise ParameterError(
                 f"the hybrid model has no rolling resistance or drag in sliding and flight; got "
@@ -136,12 +136,14 @@ class HybridBall:
         # the chamber turning) on the general one
         self.turning = isinstance(motion, ChamberMotion)
         if self.turning:
-            self.rolling = _turning.ChamberModel(ball, method, tol=tol, h_fixed=h_fixed, h_max=h_max)
+            self.rolling = _turning.ChamberModel(ball, method, tol=tol, h_fixed=h_fixed, h_max=h_max,
+                                                 max_steps=max_steps)
             self._f_roll = self.rolling.rhs(motion)
             self._c_roll, self._oc_roll = _turning.constants(ball), _turning.out_constants(ball)
             project, check = _turning._project, (lambda y: None)
         else:
-            self.rolling = BallModel(ball, "vector", method, tol=tol, h_fixed=h_fixed, h_max=h_max)
+            self.rolling = BallModel(ball, "vector", method, tol=tol, h_fixed=h_fixed, h_max=h_max,
+                                     max_steps=max_steps)
             self._f_roll = self.rolling.rhs(motion.accel)
             project, check = self.rolling.form.project, self.rolling.form.check
         v_ref = math.sqrt(ball.g * ball.r)
@@ -149,16 +151,104 @@ class HybridBall:
         q = [e_ref, e_ref]  # W, E_friction
         roll_scale = list(self.rolling.integrator.scale) + q
         self._int_roll_q = Integrator(method, tol=tol, scale=roll_scale, h_fixed=h_fixed, h_max=h_max,
-                                      project=project, check=check)
+                                      max_steps=max_steps, project=project, check=check)
         free = [ball.r] * 3 + [v_ref] * 3 + [v_ref / ball.r] * 3 + q
-        self._int_free = Integrator(method, tol=tol, scale=free, h_fixed=h_fixed, h_max=h_max)
+        self._int_free = Integrator(method, tol=tol, scale=free, h_fixed=h_fixed, h_max=h_max,
+                                    max_steps=max_steps)
         self.book = dict(E_impact=0.0, n_impacts=0, v_impact_max=0.0, t_first_slip=math.nan,
                          t_first_flight=math.nan, Q=(0.0, 0.0), W_lost=False)
         self._seed = (0.0, 0.0, 0.0)
         self._rebound = False  # the last map was a rebound (the flight's gap is opening)
-        A0 = self.chamber(0.0)[0]
-        # the gap's resolution [m]: HOP_MIN_ULPS ulps of the coordinates it is computed from
-        self._gap_res = HOP_MIN_ULPS * 2.2e-16 * (ball.R + math.sqrt(_dot(A0, A0)))
+        self._set_gap_res(t_ref)
+
+    def _set_gap_res(self, t):
+        """The gap's resolution [m]: HOP_MIN_ULPS ulps of the coordinates it is computed from,
+        HOP_MIN_ULPS 2.2e-16 (R + |A(t)|), A at the run's reference time t."""
+        A0 = self.chamber(t)[0]
+        self._gap_res = HOP_MIN_ULPS * 2.2e-16 * (self.ball.R + math.sqrt(_dot(A0, A0)))
+
+    def set_motion(self, motion, t_ref: float) -> None:
+        """Move the chamber along ``motion`` from now on (of the kind the system was built for:
+        a platform motion or a ChamberMotion), the gap's resolution taken at t_ref: the
+        co-simulation step's chamber, a new input fit at every step (`resume`)."""
+        if isinstance(motion, ChamberMotion) != self.turning:
+            raise ParameterError(f"set_motion: a {'turning' if self.turning else 'translating'} chamber's "
+                                 f"system cannot take the motion {type(motion).__name__}")
+        self.motion = motion
+        self._f_roll = self.rolling.rhs(motion if self.turning else motion.accel)
+        self._set_gap_res(t_ref)
+
+    # -- resuming a run (the co-simulation step) ----------------------------
+    BOOK = ("E_impact", "n_impacts", "v_impact_max", "t_first_slip", "t_first_flight", "Q0", "Q1",
+            "seed_x", "seed_y", "seed_z", "rebound", "W_lost")
+
+    def bookkeeping(self) -> tuple:
+        """The run's bookkeeping as BOOK's 12 floats (the compiled kernel's bmh book: fast.hybrid_run):
+        impact loss, count, largest impact speed, first slip and flight times (NaN: not yet), the
+        rolling mode's quadratures (W, E_friction) while they are not in its state (energy =
+        False), the sliding direction's seed, the rebound flag, whether W was lost."""
+        bk = self.book
+        return (float(bk["E_impact"]), float(bk["n_impacts"]), float(bk["v_impact_max"]),
+                float(bk["t_first_slip"]), float(bk["t_first_flight"]), float(bk["Q"][0]), float(bk["Q"][1]),
+                *(float(v) for v in self._seed), float(self._rebound), float(bk["W_lost"]))
+
+    def set_bookkeeping(self, book) -> None:
+        """Take back `bookkeeping`'s 12 floats (ValueError naming what does not fit)."""
+        book = tuple(float(v) for v in book)
+        if len(book) != len(self.BOOK):
+            raise ValueError(f"the hybrid bookkeeping holds {len(self.BOOK)} numbers {self.BOOK}, got {len(book)}")
+        for name, v in zip(self.BOOK, book):
+            if name in ("t_first_slip", "t_first_flight"):
+                if not (math.isnan(v) or math.isfinite(v)):
+                    raise ValueError(f"bookkeeping {name} = {v!r}: expected a finite time or NaN (not yet)")
+            elif not math.isfinite(v):
+                raise ValueError(f"bookkeeping {name} = {v!r} is not finite")
+        if book[1] < 0 or book[1] != int(book[1]) or book[0] < 0.0 or book[2] < 0.0:
+            raise ValueError(f"bookkeeping E_impact = {book[0]!r} J, n_impacts = {book[1]!r}, v_impact_max = "
+                             f"{book[2]!r} m/s: expected non-negative values and a whole count")
+        if book[10] not in (0.0, 1.0) or book[11] not in (0.0, 1.0):
+            raise ValueError(f"bookkeeping rebound = {book[10]!r}, W_lost = {book[11]!r}: expected 0 or 1")
+        self.book.update(E_impact=book[0], n_impacts=int(book[1]), v_impact_max=book[2], t_first_slip=book[3],
+                         t_first_flight=book[4], Q=(book[5], book[6]), W_lost=bool(book[11]))
+        self._seed = book[7:10]
+        self._rebound = bool(book[10])
+
+    def begin(self, t0, initial=None):
+        """(mode, y) of the run's start at t0 (`simulate_hybrid`'s ``initial``: None, (C, v_C,
+        omega) or a rolling model's `BallState`, whose own time replaces t0), with the first
+        flight booked if it starts in flight. Returns (t0, mode, y)."""
+        b = self.ball
+        if initial is None:  # at rest relative to the chamber (co-rotating) at its lowest point
+            A, vA, _, Om, _ = self.chamber(t0)
+            Q = self.motion.state(t0)[15:24] if self.turning else (1, 0, 0, 0, 1, 0, 0, 0, 1)
+            rho = (-b.d * Q[2], -b.d * Q[5], -b.d * Q[8])
+            spin = _cross(Om, rho)
+            initial = (tuple(A[i] + rho[i] for i in range(3)), tuple(vA[i] + spin[i] for i in range(3)), Om)
+        if isinstance(initial, BallState):  # the rolling model's state, taken as it is
+            t0 = initial.t
+            mode, y = self.start_rolling(t0, initial.y)
+        else:
+            mode, y = self.start(t0, *initial)
+        if mode == FLIGHT and math.isnan(self.book["t_first_flight"]):
+            self.book["t_first_flight"] = t0
+        return t0, mode, y
+
+    def resume(self, mode: int, t: float, y, h, book, t_end: float, motion=None, *, burst: int = 100,
+               max_rate: float = 1e4) -> EventRun:
+        """Go on with a run from its state at t, (mode, y, the integrator's next step h, the
+        bookkeeping `book` as `bookkeeping` gave it), to t_end, the only grid point: events
+        inside are located and applied as in any run (`events.integrate`, the one driver).
+        ``motion``: the chamber's motion from now on (`set_motion`, its gap resolution at t),
+        None: keep the system's. The bookkeeping is taken back first, so a step redone from
+        the same saved state (the predictor-corrector) gives the same numbers. Returns the
+        `EventRun`: on success its ``mode``, ``y``, ``h`` and `bookkeeping`() are the state at
+        t_end and ``rows[-1]`` the sample there; on failure (``success`` False: a failed step or
+        the Zeno guard, ``message`` says which and when) the system's bookkeeping is whatever
+        the run reached: take it back from the saved state before going on."""
+        if motion is not None:
+            self.set_motion(motion, t)
+        self.set_bookkeeping(book)
+        return integrate(self, mode, t, y, (t_end,), h=h, burst=burst, max_rate=max_rate)
 
     # -- chamber ----------------------------------------------------------
     def chamber(self, t):
@@ -217,13 +307,14 @@ class HybridBall:
         y = y.tolist()
         return (y[3], y[4], y[5], 0.0, 0.0, -self.ball.g, 0.0, 0.0, 0.0, 0.0, 0.0)
 
-    def _slide_forces(self, t, y, seed=None):
+    def _slide_forces(self, t, y, seed=None, chamber=None):
         """(N, friction force on the ball F_t, slip speed |u_t|, n, the wall's velocity at P)
-        of a sliding state."""
+        of a sliding state; ``chamber``: (A, v_A, a_A, Omega, Omega') to use instead of the
+        motion's at t (an FMU's outputs with the inputs just set)."""
         b = self.ball
         if type(y) is not list:
             y = y.tolist()  # Python floats: faster than numpy scalars here
-        A, vA, aA, Om, _ = self.chamber(t)
+        A, vA, aA, Om, _ = self.chamber(t) if chamber is None else chamber
         rho = (y[0] - A[0], y[1] - A[1], y[2] - A[2])
         dist = math.sqrt(_dot(rho, rho))
         n = (rho[0] / dist, rho[1] / dist, rho[2] / dist)
@@ -662,19 +753,7 @@ def simulate_hybrid(ball: Ball, motion, t_end: float, dt: float, contact: Contac
     if not (math.isfinite(t_end) and t_end >= t0):
         raise ValueError(f"t_end must be finite and >= t0 = {t0!r} s, got t_end = {t_end!r} s")
     system = HybridBall(ball, motion, contact, method, tol, h_max, energy, h_fixed)
-    if initial is None:  # at rest relative to the chamber (co-rotating) at its lowest point
-        A, vA, _, Om, _ = system.chamber(t0)
-        Q = motion.state(t0)[15:24] if system.turning else (1, 0, 0, 0, 1, 0, 0, 0, 1)
-        rho = (-ball.d * Q[2], -ball.d * Q[5], -ball.d * Q[8])
-        spin = _cross(Om, rho)
-        initial = (tuple(A[i] + rho[i] for i in range(3)), tuple(vA[i] + spin[i] for i in range(3)), Om)
-    if isinstance(initial, BallState):  # the rolling model's state, taken as it is
-        t0 = initial.t
-        mode, y = system.start_rolling(t0, initial.y)
-    else:
-        mode, y = system.start(t0, *initial)
-    if mode == FLIGHT and math.isnan(system.book["t_first_flight"]):
-        system.book["t_first_flight"] = t0
+    t0, mode, y = system.begin(t0, initial)
     n_steps = int(round((t_end - t0) / dt))
     times = t0 + dt * np.arange(n_steps + 1)
     run = None

@@ -186,6 +186,17 @@ def test_configurations_me_cannot_run_are_refused_at_initialisation(me_paths, ve
         f.free()
 
 
+def test_model_exchange_refuses_the_hybrid_contact(me_paths, version):
+    """contact_model = 2: the hybrid ball's states change with its mode (rolling's n, omega are
+    one of them), so Model Exchange refuses it at initialisation, naming it."""
+    f = _open(me_paths["BallInShell"], "me", version, contact_model=2)
+    try:
+        assert f.init() == ERROR
+        assert "contact_model = 2" in f.messages(), f.messages()
+    finally:
+        f.free()
+
+
 @pytest.mark.parametrize("model", STATEFUL)
 def test_states_set_lower_or_higher_are_what_the_derivatives_see(me_paths, version, model):
     """After setContinuousStates, the derivatives are those of the states just set, whether each

@@ -95,6 +95,15 @@ def test_a_tunable_parameter_takes_effect_at_the_next_step(open_fmu, flavour):
     ("Fig1Drive", "shaft", 3, "parameter shaft = 3 is outside its accepted range [1, 2]"),
     ("Fig1Drive", "frame_law", -1, "parameter frame_law = -1 is outside its accepted range [0, 4]"),
     ("Fig1Drive", "m_platform", -1.0, "parameter m_platform = -1.0 kg is outside its accepted range [0, "),
+    # the hybrid contact's parameters
+    ("BallInShell", "mu_k", 0.5, "parameter mu_k = 0.5 is outside its accepted range: -1 (equal to mu) or [0, "
+     "mu = 0.3] (kinetic friction does not exceed static friction)"),
+    ("BallInShell", "mu_k", -0.5, "parameter mu_k = -0.5 is outside its accepted range: -1 (equal to mu) or [0, "),
+    ("BallInShell", "e_n", 1.5, "parameter e_n = 1.5 is outside its accepted range [0, 1]"),
+    ("BallInShell", "e_n", -0.1, "parameter e_n = -0.1 is outside its accepted range [0, 1]"),
+    ("BallInShell", "v_rest", 0.0, "v_rest must be positive and finite, got v_rest = 0.0 m/s"),
+    ("BallInShell", "v_rest", -1.0, "parameter v_rest = -1.0 m/s is outside its accepted range [0, 1000] m/s"),
+    ("BallInShell", "contact_model", 3, "parameter contact_model = 3 is outside its accepted range [1, 2]"),
 ])
 def test_refused_initialisation_names_variable_value_and_range(open_fmu, flavour, model, name, value, expected):
     fmu = open_fmu(model, **{name: value})
@@ -104,6 +113,24 @@ def test_refused_initialisation_names_variable_value_and_range(open_fmu, flavour
     msg = fmu.messages()
     assert expected in msg, msg
     assert "rolling_resistance" not in msg and "drag =" not in msg.replace("c_drag =", "")
+
+
+@pytest.mark.parametrize("parameters, expected", [
+    (dict(formulation=2), "contact_model = 2 needs formulation = 1 (the paper's coordinates end at the chamber's "
+     "equator; a sliding or flying ball is followed in fixed axes), got formulation = 2"),
+    (dict(c_drag=0.5), "contact_model = 2 models no ground-material losses off rolling: delta = 0.0 m and c_drag = "
+     "0.5 N.s/m must be 0"),
+    (dict(delta=1e-3), "contact_model = 2 models no ground-material losses off rolling: delta = 0.001 m and c_drag "
+     "= 0.0 N.s/m must be 0"),
+    (dict(bed=1, h_bed=0.05), "contact_model = 2 has no material bed: bed = 1 must be 0 (the hybrid ball models no "
+     "ground-material losses)")])
+def test_the_hybrid_contact_refuses_what_it_does_not_model(open_fmu, flavour, parameters, expected):
+    """contact_model = 2 models no ground-material losses and follows the ball in fixed axes:
+    each configuration it cannot run is refused at initialisation, named with its value."""
+    fmu = open_fmu("BallInShell", contact_model=2, **parameters)
+    feed(fmu, 0.0)
+    assert fmu.init() == flavour.refusal
+    assert expected in fmu.messages(), fmu.messages()
 
 
 @pytest.mark.parametrize("model", MODELS)
