@@ -24,6 +24,7 @@ from ballmill.scenario.runner import RunResult
 from ballmill.scenario.spec import CONTACT, Instance, Scenario
 
 DT, STOP = 0.002, 2.0
+DT_MOTOR = 0.001  # induction_start's communication step [s]
 BALL = Ball(r=0.025, R=0.25, m=0.5105088062083415, mu=0.3)
 CRANK = CrankStartup(l=0.5, n0=60.0, t0=0.1)
 SLIDES, FLIES = "ball slides on the wall (mode 2)", "ball in flight (mode 0)"
@@ -231,6 +232,7 @@ def run_copy(hybrid_fmus, tmp_path, name, stop, *sets):
 
     text, n = re.subn(r"(?m)^stop\s*=\s*[^#\n]+", f"stop = {stop!r} ", (SCENARIOS / f"{name}.toml").read_text())
     assert n == 1
+    tmp_path.mkdir(parents=True, exist_ok=True)
     path = tmp_path / f"{name}.toml"
     path.write_text(text)
     build, flavour = hybrid_fmus
@@ -265,3 +267,84 @@ def test_a_hybrid_ball_must_record_what_its_marks_and_summary_need(tmp_path, fmu
     assert ("record.variables: ball has contact_model = 2 (the hybrid ball): its plots' marks and the summary need "
             "ball.mode, ball.n_impacts, ball.v_impact_max, ball.E_friction, ball.E_impact, ball.t_first_slip, "
             "ball.t_first_flight recorded") in err
+
+
+def test_violent_start_slides_at_once_and_rolls_again_when_the_library_says(hybrid_fmus, tmp_path, subplots_made):
+    """violent_start (t0 = 0.5 s) over 1 s: exit 0, valid throughout, sliding from t = 0; every
+    sliding span shaded on its plots is one of the library's (`simulate_hybrid` on the same crank
+    law), its ends within half a step of the library's switch times (each instant is drawn in the
+    mode of its nearest sample; the FMU's switches are the library's to well within a step:
+    drawn 0-0.073, 0.269-0.437, 0.801-1 s against 0-0.07305, 0.26869-0.43684, 0.80087-1 s);
+    friction's energy as the library's within 1e-3 (measured 4.5e-4: the FMU's input
+    reconstruction has one sample over its first step, while the ball already slides)."""
+    status, out, summary = run_copy(hybrid_fmus, tmp_path, "violent_start", 1.0)
+    assert status == 0 and summary["left_validity"] is False
+    v = hybrid_values(summary)
+    tr = simulate_hybrid(BALL, CrankStartup(l=0.5, n0=60.0, t0=0.5), 1.0, DT, Contact())
+    truth = mode_intervals(tr, SLIDING)
+    assert v["t_first_slip"] == 0.0 and v["t_first_flight"] is None and v["n_impacts"] == 0
+    assert v["E_friction"] == pytest.approx(tr["E_friction"][-1], rel=1e-3)
+    ax = subplots_made[1].axes[0]  # N.png
+    spans = shaded(ax, SLIDES)
+    assert len(spans) == len(truth) == 3 and spans[0][0] == 0.0
+    for (a, b), (ta, tb) in zip(spans, truth):
+        assert abs(a - ta) <= DT / 2 + 1e-9 and abs(b - tb) <= DT / 2 + 1e-9
+    assert SLIDES in legend(ax) and not shaded(ax, FLIES)
+
+
+def test_induction_start_hybrid_stays_valid_where_the_rolling_ball_fails(hybrid_fmus, tmp_path, subplots_made):
+    """induction_start_hybrid over 0.03 s: the direct-on-line start makes the ball slide within the
+    10th millisecond, where induction_start's rolling ball stops being valid (t_invalid = 0.01 s,
+    exit 3 over 0.3 s: tests/test_report_figures.py); here the run exits 0, valid
+    throughout, and every time plot shades the slide from its start (to half a step)."""
+    status, out, summary = run_copy(hybrid_fmus, tmp_path, "induction_start_hybrid", 0.03)
+    assert status == 0 and summary["left_validity"] is False
+    v = hybrid_values(summary)
+    assert 0.009 < v["t_first_slip"] <= 0.01 and v["sliding_fraction"] > 0
+    timed = [fig.axes[0] for fig in subplots_made if fig.axes[0].get_xlabel() == "time [s]"]
+    assert len(timed) == 6
+    for ax in timed:
+        assert shaded(ax, SLIDES)[0][0] == pytest.approx(v["t_first_slip"], abs=DT_MOTOR / 2 + 1e-9)
+        assert SLIDES in legend(ax)
+
+
+def test_fig1_machine_hybrid_runs_as_the_library(hybrid_fmus, tmp_path, subplots_made):
+    """fig1_machine_hybrid over 3 s: exit 0 and valid where fig1_machine's rolling ball fails at
+    2.508 s; its first slip, first flight, its two impacts and the losses as the library's hybrid
+    ball on the same machine (simulate_hybrid with Fig1Machine; measured: slip equal to 1e-13 s,
+    flight 2.3e-6 s apart, E_friction 1.8e-4 and E_impact 1.9e-3 relative, the two impacts being
+    soft re-landings at 0.023 m/s whose loss goes with the square of that speed); the two impacts
+    marked on the shell drawing and ticked on the time plots."""
+    from ballmill.physics.turning.motions import ConstantSpeed, Fig1Machine
+
+    status, out, summary = run_copy(hybrid_fmus, tmp_path, "fig1_machine_hybrid", 3.0)
+    assert status == 0 and summary["left_validity"] is False
+    v = hybrid_values(summary)
+    machine = Fig1Machine(frame=ConstantSpeed(0.5), crank=CrankStartup(l=0.5, n0=60.0, t0=2.5))
+    tr = simulate_hybrid(BALL, machine, 3.0, DT, Contact())
+    assert v["t_first_slip"] == pytest.approx(tr.t_first_slip, abs=1e-6)
+    assert v["t_first_flight"] == pytest.approx(tr.t_first_flight, abs=1e-5)
+    assert v["n_impacts"] == len(tr.of_kind("impact")) == 2
+    assert v["E_friction"] == pytest.approx(tr["E_friction"][-1], rel=1e-3)
+    assert v["E_impact"] == pytest.approx(tr["E_impact"][-1], rel=1e-2)
+    shell_fig = subplots_made[0]
+    marks = [line for ax in shell_fig.axes[:2] for line in ax.get_lines() if line.get_marker() == "o"]
+    assert sum(len(line.get_xdata()) for line in marks) == 2
+    n_ax = subplots_made[1].axes[0]
+    assert len(ticks(n_ax)[0]) == 2 and shaded(n_ax, FLIES)[0][0] == pytest.approx(tr.t_first_flight, abs=DT)
+
+
+def test_absorber_hybrid_slides_where_the_rolling_ball_would_lose_contact(hybrid_fmus, tmp_path):
+    """absorber_hybrid over 36 s (the absorber_frf case at 5 N, 0.74 Hz, from rest): the ball that
+    slides starts to slide at 23.58 s, with the rolling ball's latch at that step's end
+    (--set ball.contact_model=1: exit 3, slip at 23.585 s), and keeps the wall past 33.4 s, where
+    the rolling ball (glued to the wall after its slip) loses contact: exit 0, valid, no flight."""
+    status, out, summary = run_copy(hybrid_fmus, tmp_path / "hybrid", "absorber_hybrid", 36.0)
+    assert status == 0 and summary["left_validity"] is False
+    v = hybrid_values(summary)
+    assert 23.58 < v["t_first_slip"] <= 23.585 and v["t_first_flight"] is None and v["n_impacts"] == 0
+    assert 0.1 < v["sliding_fraction"] < 0.5 and v["E_friction"] > 1.0
+    status, out, rolling = run_copy(hybrid_fmus, tmp_path / "rolling", "absorber_hybrid", 36.0, "ball.contact_model=1")
+    assert status == 3 and rolling["t_invalid_s"] == pytest.approx(23.585, abs=1e-9)
+    assert rolling["invalid_reason"] == "slip"
+    assert rolling["validity"]["contact"]["first_failure_interpolated_s"] == pytest.approx(33.40, abs=0.01)
