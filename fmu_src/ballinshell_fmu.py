@@ -3,6 +3,11 @@
 the general model of ballmill.physics.turning along turning/reconstruction.py's fit of the
 chamber's motion; outputs also in the chamber's axes and the moment about O1).
 
+With contact_model = 2 the ball also slides, flies and strikes the shell (docs/design.md
+section 14): every step resumes the library's hybrid ball (hybrid.HybridBall.resume, on
+events.integrate) from its state at the step's start along the step's fit of the inputs
+(InputReconstruction.motion, ChamberReconstruction.motion), events located inside the step.
+
 A thin pythonfmu adapter over ballmill.physics (docs/design.md sections 3 and 5).
 Inputs: the platform position x1O, y1O (and, when the source knows them, its
 velocity and acceleration). Outputs: contact point, normal force, the ball's
@@ -612,7 +617,7 @@ class BallInShell(Slave):
     def _values(self, out):
         """The output values to publish (ArithmeticError naming an output that is not finite;
         friction_ratio is +inf when N <= 0, published as 1e300)."""
-        hybrid = [(name, v if type(v) is int else self.finite(name, v)) for name, v in out.hybrid]
+        hybrid = [(name, v if type(v) is int else self.finite(name, v)) for name, v in getattr(out, "hybrid", ())]
         if type(out) is _General:
             finite = self.finite
             return [(name, finite(name, v, allow_infinite=(name == "friction_ratio")))
