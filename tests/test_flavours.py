@@ -25,11 +25,10 @@ import pytest
 from ballmill.scenario import runner, spec
 
 SCENARIOS = sorted(p.stem for p in spec.SCENARIO_DIR.glob("*.toml"))
-# the scenarios whose ball slides (contact_model = 2) compared over a shorter span [s]: the
-# pythonfmu flavour runs the hybrid ball in Python, and a sliding ball's stiff Coulomb direction
-# costs it about 25 s of CPU per 10 ms of induction_start_hybrid's slide (the native flavour runs
-# it in C); the spans cover the first slip (violent_start: at 0, rolling again at 0.073 s;
-# induction_start_hybrid: at 0.0099 s)
+# the scenarios whose ball slides early (contact_model = 2) compared over a shorter span [s]: the
+# pythonfmu flavour runs the hybrid ball in Python, about a hundred times slower than the native
+# one's C through a slide; the spans cover the first slip (violent_start: at 0, rolling again at
+# 0.073 s; induction_start_hybrid: at 0.0099 s)
 SPAN = {"violent_start": 0.25, "induction_start_hybrid": 0.012}
 
 
