@@ -25,6 +25,11 @@ import pytest
 from ballmill.scenario import runner, spec
 
 SCENARIOS = sorted(p.stem for p in spec.SCENARIO_DIR.glob("*.toml"))
+# the scenarios whose ball slides early (contact_model = 2) compared over a shorter span [s]: the
+# pythonfmu flavour runs the hybrid ball in Python, about a hundred times slower than the native
+# one's C through a slide; the spans cover the first slip (violent_start: at 0, rolling again at
+# 0.073 s; induction_start_hybrid: at 0.0099 s)
+SPAN = {"violent_start": 0.25, "induction_start_hybrid": 0.012}
 
 
 def _run(name, build_dir, flavour, overrides=(), stop=2.0):
@@ -43,10 +48,11 @@ def _same(a, b):
 
 @pytest.mark.parametrize("scenario", SCENARIOS)
 def test_native_and_pythonfmu_flavours_agree_bit_for_bit(fmu_build_dir, scenario):
-    a = _run(scenario, fmu_build_dir, "native")
-    b = _run(scenario, fmu_build_dir, "pythonfmu")
+    stop = SPAN.get(scenario, 2.0)
+    a = _run(scenario, fmu_build_dir, "native", stop=stop)
+    b = _run(scenario, fmu_build_dir, "pythonfmu", stop=stop)
     assert a.success, a.message
-    assert len(a.data) > 100
+    assert len(a.data) > min(100, stop / 0.001)
     _same(a, b)
 
 

@@ -14,6 +14,12 @@ structure's displacement with and without the ball.
 A ball in a turning chamber (BallInShell with motion = 2: outputs
 xP_ch, yP_ch, zP_ch) adds the fraction of the shell its contact point visits
 (ballmill/plotting/shell.py) and the failure times interpolated between samples.
+A hybrid ball (BallInShell with contact_model = 2: it slides, flies and strikes the shell, and stays
+valid through all of it) adds the hybrid indicators (`hybrid`: the fractions of time rolling,
+sliding and flying, the impacts, the friction and impact losses, per crank revolution where a
+drive's psi is recorded; ballmill.sweep.indicators.hybrid computes them, as for the studies); its
+time plots mark the sliding and the flight spans and the impacts (`mark_hybrid`) and its shell
+drawing colours the path by mode (ballmill/plotting/shell.py's draw_modes).
 
 Plots ([[plots]]): time series or x-y curves of recorded variables; ``kind =
 "shell"``: the contact point's path on the chamber's sphere, two equal-area
@@ -94,11 +100,13 @@ def _failures(res: RunResult, models, ball: str) -> dict:
     return out
 
 
-def validity_end(res: RunResult, ball: str):
+def validity_end(res: RunResult, ball: str, hybrid: bool = False):
     """Where the ball model's validity ended: (index of the first row with valid false, t_invalid
     [s] (the FMU's, else that row's time), why: "loss of contact", "slip", or "inconsistent
-    inputs" when contact and rolling held at that row; "see log" without them), or None while
-    valid (or without a recorded `valid`)."""
+    inputs" when contact and rolling held at that row; "see log" without them; for a hybrid ball
+    (``hybrid``: contact_model = 2, whose validity survives slip and flight) "inconsistent inputs, a Zeno
+    sequence or a failed step", what it cannot follow), or None while valid (or without a recorded
+    `valid`)."""
     cols = set(res.columns)
     if f"{ball}.valid" not in cols:
         return None
@@ -107,6 +115,8 @@ def validity_end(res: RunResult, ball: str):
         return None
     i = int(bad[0])
     t_inv = float(res.column(f"{ball}.t_invalid")[i]) if f"{ball}.t_invalid" in cols else float(res.column("time")[i])
+    if hybrid:
+        return i, t_inv, "inconsistent inputs, a Zeno sequence or a failed step"
     flags = [f for f in ("contact", "rolling") if f"{ball}.{f}" in cols]
     failed = [f for f in flags if res.column(f"{ball}.{f}")[i] < 0.5]
     if "contact" in failed:  # rolling needs contact: it fails with it
@@ -174,6 +184,7 @@ def summarise(res: RunResult, models, bare: RunResult | None = None) -> dict:
     ball = _ball_instance(res)
     cols = set(res.columns)
     absorber = bool(sc.summary.get("structure"))
+    hybrid = is_hybrid(res, models, ball)
     if absorber and len(res.data):
         out["structure"] = absorber_summary(res, models, bare)
     if ball and f"{ball}.N" in cols and len(res.data):
@@ -182,7 +193,7 @@ def summarise(res: RunResult, models, bare: RunResult | None = None) -> dict:
         # latched valid became false); later rows stay in results.csv
         keep = np.ones(t_all.size, dtype=bool)
         if f"{ball}.valid" in cols:
-            end = validity_end(res, ball)
+            end = validity_end(res, ball, hybrid)
             if end is not None:
                 i, t_inv, why = end
                 keep[i:] = False
@@ -216,6 +227,10 @@ def summarise(res: RunResult, models, bare: RunResult | None = None) -> dict:
         t = t_all
         col = lambda v: res.column(f"{ball}.{v}")  # noqa: E731
         validity = {}
+        if hybrid:  # slip and flight are the model's modes, not failures: the flags say which mode
+            validity["note"] = ("the hybrid ball (contact_model = 2): slip, flight and impacts are followed and keep "
+                                "the model valid; 'contact' and 'rolling' (where recorded) say when the ball first "
+                                "left the wall and first stopped rolling, not failures")
         for flag in ("contact", "rolling"):
             if f"{ball}.{flag}" in cols:
                 bad = np.flatnonzero(col(flag) < 0.5)
@@ -230,7 +245,9 @@ def summarise(res: RunResult, models, bare: RunResult | None = None) -> dict:
                 validity[flag]["first_failure_interpolated_s"] = when
         out["validity"] = validity
         if not absorber:
-            out["indicators"] = mill_indicators(res, models, ball)
+            out["indicators"] = mill_indicators(res, models, ball, hybrid)
+        if hybrid:
+            out["hybrid"] = hybrid_indicators(res, models, ball)
         if all(f"{ball}.{v}" in cols for v in SHELL_OUTPUTS):
             u = _shell_unit_vectors(res, models, ball)
             k = int(keep.sum())
@@ -247,13 +264,14 @@ def summarise(res: RunResult, models, bare: RunResult | None = None) -> dict:
     return out
 
 
-def mill_indicators(res: RunResult, models, ball: str) -> dict:
-    """The mill's design indicators (ballmill.sweep.indicators.mill: the drive's peak torque and
-    power, the mean grinding power after the start-up, the fraction of time in the bed, the
-    grinding work per crank revolution, the shell area swept inside the bed, the slip and
-    lift-off margins), computed as the sweep
-    computes them, each {"value": ..., "unit": ..., "description": ...} (value None where the run
-    does not say: not recorded, or past the model's validity)."""
+def is_hybrid(res: RunResult, models, ball: str | None) -> bool:
+    """Whether the ball is the hybrid one (BallInShell with contact_model = 2: spec.hybrid_balls)."""
+    return bool(ball) and ball in _spec.hybrid_balls(res.scenario, models)
+
+
+def _record(res: RunResult, models, ball: str):
+    """The run as a ballmill.sweep.indicators.Record (the ball's and the drive's series, the
+    window references), for the indicators the sweep computes."""
     from ..sweep import indicators as ind  # the module alone (ballmill.sweep imports lazily)
 
     sc = res.scenario
@@ -267,13 +285,52 @@ def mill_indicators(res: RunResult, models, ball: str) -> dict:
             refs[f"{ball}.{p}"] = _parameter(res, models, ball, p)
         except KeyError:
             pass
-    rec = ind.Record(t, series, ball, drive, mu, refs)
-    N = series[f"{ball}.N"]
-    fr = series.get(f"{ball}.friction_ratio", np.zeros_like(N))
-    n_valid = ind.validity(t, N, fr, mu)[2]
+    return ind.Record(t, series, ball, drive, mu, refs)
+
+
+def _hybrid_valid(res: RunResult, ball: str) -> int:
+    """The rows a hybrid ball's statistics may use: up to the first with valid false (all: none)."""
+    end = validity_end(res, ball, hybrid=True)
+    return len(res.data) if end is None else end[0]
+
+
+def _described(values: dict, table: dict) -> dict:
+    from ..sweep import indicators as ind
+
+    return {name: {"value": ind.clean(values[name]), "unit": table[name][0], "description": table[name][1]}
+            for name in values}
+
+
+def mill_indicators(res: RunResult, models, ball: str, hybrid: bool = False) -> dict:
+    """The mill's design indicators (ballmill.sweep.indicators.mill: the drive's peak torque and
+    power, the mean grinding power after the start-up, the fraction of time in the bed, the
+    grinding work per crank revolution, the shell area swept inside the bed, the slip and
+    lift-off margins), computed as the sweep
+    computes them, each {"value": ..., "unit": ..., "description": ...} (value None where the run
+    does not say: not recorded, or past the model's validity: the rolling rule N > 0 and
+    |F_t| <= mu N, or for a hybrid ball, ``hybrid``, its latched `valid`, as the sweep's
+    evaluate_hybrid)."""
+    from ..sweep import indicators as ind
+
+    rec = _record(res, models, ball)
+    if hybrid:
+        n_valid = _hybrid_valid(res, ball)
+    else:
+        N = rec.series[f"{ball}.N"]
+        fr = rec.series.get(f"{ball}.friction_ratio", np.zeros_like(N))
+        n_valid = ind.validity(rec.t, N, fr, rec.mu)[2]
     values = ind.mill(rec, n_valid)
-    return {name: {"value": ind.clean(values[name]), "unit": ind.BUILTIN[name][0],
-                   "description": ind.BUILTIN[name][1]} for name in ind.MILL}
+    return _described({name: values[name] for name in ind.MILL}, ind.BUILTIN)
+
+
+def hybrid_indicators(res: RunResult, models, ball: str) -> dict:
+    """The hybrid ball's indicators (ballmill.sweep.indicators.hybrid, over the run [start, stop]:
+    the fractions of time rolling, sliding and flying, n_impacts, v_impact_max, E_friction,
+    E_impact, and per crank revolution where the drive's psi is recorded; t_first_slip,
+    t_first_flight), each {"value", "unit", "description"}; None past the latched `valid`."""
+    from ..sweep import indicators as ind
+
+    return _described(ind.hybrid(_record(res, models, ball), _hybrid_valid(res, ball)), ind.HYBRID)
 
 
 def write_csv(res: RunResult, path: Path):
@@ -291,6 +348,14 @@ def write_csv(res: RunResult, path: Path):
 def _plot_shell(res: RunResult, models, spec, plt):
     ball = spec.get("ball") or _ball_instance(res)
     t = res.column("time")
+    if is_hybrid(res, models, ball):  # the path by mode, the impacts marked (shell.draw_modes)
+        fig, axes = plt.subplots(1, 2, figsize=(9.0, 4.9), layout="constrained")
+        n_ok = _hybrid_valid(res, ball)
+        mode, count = res.column(f"{ball}.mode"), res.column(f"{ball}.n_impacts")
+        shell.draw_modes(axes, _shell_unit_vectors(res, models, ball), mode, impact_rows(count[:n_ok]), n_ok,
+                         impacts=int(count[n_ok - 1] - count[0]) if n_ok else 0)
+        fig.suptitle(f"{spec.get('title', 'Contact point on the shell')}\n({shell.CAPTION})", fontsize=10)
+        return fig
     fail = _failures(res, models, ball)
     t_fail = min((v for v in fail.values() if v is not None), default=None)
     fig, axes = plt.subplots(1, 2, figsize=(9.0, 4.9), layout="constrained")
@@ -312,12 +377,13 @@ def _plot_slip_margin(res: RunResult, models, spec, plt):
             label=f"mu - friction_ratio (mu = {mu:g})")
     ax.axhline(0.0, color="k", lw=0.6)
     ax.set_ylim(-mu, 1.05 * mu)  # from rolling freely (mu) to well past slip; spikes beyond are cut
-    fail = _failures(res, models, ball)
+    # the rolling model's first failures (a hybrid ball slides and flies on: its marks show when)
+    fail = {} if is_hybrid(res, models, ball) else _failures(res, models, ball)
     for flag, style in (("rolling", ":"), ("contact", "--")):
         if fail.get(flag) is not None:
             ax.axvline(fail[flag], color="tab:red", ls=style, lw=1.0, label=f"{flag} first fails, "
                        f"t = {fail[flag]:.4f} s")
-    _shade_invalid(ax, res, float(t[-1]))
+    _mark_time(ax, res, models, float(t[-1]))
     ax.set_xlabel("time [s]")
     ax.set_ylabel(spec.get("ylabel", "slip margin mu - F_t / N [1] (cut at -mu)"))
     ax.set_title(spec.get("title", "Slip margin: the ball rolls while positive"))
@@ -368,13 +434,79 @@ def invalid_label(end) -> str:
     return f"ball model not valid ({end[2]} at {end[1]:.4g} s)"
 
 
-def _shade_invalid(ax, res: RunResult, t_end: float):
+def _shade_invalid(ax, res: RunResult, t_end: float, hybrid: bool = False):
     """Shade and label the span after the ball model's validity ended on a time plot."""
     ball = _ball_instance(res)
-    end = validity_end(res, ball) if ball else None
+    end = validity_end(res, ball, hybrid) if ball else None
     if end is not None:
         ax.axvspan(end[1], max(t_end, end[1]), label=invalid_label(end), **INVALID_SPAN)
     return end
+
+
+# a hybrid ball's marks on a time plot: its modes off rolling shaded (under the curves), its impacts ticked
+MODE_SPANS = ((2, "ball slides on the wall (mode 2)", "tab:orange"),
+              (0, "ball in flight (mode 0)", "tab:purple"))
+MODE_SPAN = {"alpha": 0.22, "lw": 0, "zorder": 0.5}
+IMPACT_TICK = {"colors": "tab:red", "lw": 0.7, "zorder": 2.6}
+IMPACT_TICK_HEIGHT = 0.06  # of the axes' height, from the bottom
+
+
+def mode_spans(t, mode, m) -> list[tuple[float, float]]:
+    """The spans [s] in which the ball is in mode ``m``, every instant counted in the mode of the
+    sample nearest to it: a run of rows i..j in that mode spans from the midpoint between rows
+    i - 1 and i to that between j and j + 1, cut to [t[0], t[-1]]. The spans of the modes tile
+    the run, and their lengths are the trapezoidal rule's fractions (indicators.hybrid) times it."""
+    t = np.asarray(t, float)
+    inside = np.asarray(mode) == m
+    if not inside.any():
+        return []
+    edges = np.concatenate([t[:1], 0.5 * (t[1:] + t[:-1]), t[-1:]])  # row i covers edges[i]..edges[i + 1]
+    change = np.diff(np.concatenate([[0], inside.astype(np.int8), [0]]))
+    return [(float(edges[a]), float(edges[b])) for a, b in zip(np.flatnonzero(change == 1),
+                                                                np.flatnonzero(change == -1))]
+
+
+def impact_rows(n_impacts) -> np.ndarray:
+    """The rows at the end of a communication step in which one or more impacts happened (the
+    cumulative n_impacts rose since the row before)."""
+    n = np.asarray(n_impacts, float)
+    return np.flatnonzero(np.diff(n) > 0) + 1
+
+
+def impacts_label(n: int, steps: int) -> str:
+    """The legend entry of the impact ticks: how many impacts, and in how many steps (one tick each)."""
+    return f"impacts on the shell: {n}, ticked at the end of each step with any ({steps} steps)"
+
+
+def mark_hybrid(ax, res: RunResult, models) -> bool:
+    """On a time plot of a hybrid ball (contact_model = 2): its sliding and its flight spans shaded
+    (mode_spans) and its impacts as thin ticks at the bottom (impact_rows), each in the legend,
+    over the rows up to its latched `valid` (the rest is shaded as not valid). False otherwise."""
+    from matplotlib.collections import PolyCollection
+
+    ball = _ball_instance(res)
+    if not is_hybrid(res, models, ball):
+        return False
+    n = _hybrid_valid(res, ball)
+    t, mode = res.column("time")[:n], res.column(f"{ball}.mode")[:n]
+    for m, text, colour in MODE_SPANS:
+        spans = mode_spans(t, mode, m)
+        if spans:
+            ax.add_collection(PolyCollection([[(a, 0.0), (a, 1.0), (b, 1.0), (b, 0.0)] for a, b in spans],
+                                             transform=ax.get_xaxis_transform(), facecolors=colour,
+                                             label=text, **MODE_SPAN), autolim=False)
+    count = res.column(f"{ball}.n_impacts")[:n]
+    rows = impact_rows(count)
+    if rows.size:
+        ax.vlines(t[rows], 0.0, IMPACT_TICK_HEIGHT, transform=ax.get_xaxis_transform(),
+                  label=impacts_label(int(count[-1] - count[0]), rows.size), **IMPACT_TICK)
+    return True
+
+
+def _mark_time(ax, res: RunResult, models, t_end: float):
+    """Every time plot's marks: a hybrid ball's modes and impacts, the span after the ball
+    model's validity ended."""
+    return _shade_invalid(ax, res, t_end, mark_hybrid(ax, res, models))
 
 
 def _vlines(ax, res: RunResult, models, spec):
@@ -405,7 +537,7 @@ def _draw_path(ax, res: RunResult, models, spec, lw, summary):
     sc = res.scenario
     t, x = res.column("time"), res.column(spec.get("x", "time"))
     ball = _ball_instance(res)
-    end = validity_end(res, ball) if ball else None
+    end = validity_end(res, ball, is_hybrid(res, models, ball)) if ball else None
     n = end[0] if end is not None else t.size
     after = summary["after_s"] if summary and summary.get("after_s") is not None else _after_time(res, models)
     k = min(int(np.searchsorted(t, after - 1e-12)), n)  # the summary's window: t >= after - 1e-12
@@ -474,7 +606,7 @@ def _plot_series(res: RunResult, models, spec, plt, summary):
             y = np.where(np.abs(y) >= 1e299, np.nan, y)  # 1e300 stands for "infinite" (no contact)
             ax.plot(x, y, lw=lw, label=text or (_var_label(sc, yname, names) if len(ys) > 1 else None))
         _vlines(ax, res, models, spec)
-        _shade_invalid(ax, res, float(x[-1]))
+        _mark_time(ax, res, models, float(x[-1]))
     else:
         _draw_path(ax, res, models, spec, lw, summary)
     ax.set_xlabel(spec.get("xlabel") or _var_label(sc, xname, names, width=70))
@@ -488,8 +620,9 @@ def _plot_series(res: RunResult, models, spec, plt, summary):
     return fig
 
 
-def plot_bare(res: RunResult, bare: RunResult, out_dir: Path) -> list[Path]:
-    """The structure's displacement at the absorber with and without the ball."""
+def plot_bare(res: RunResult, bare: RunResult, out_dir: Path, models=None) -> list[Path]:
+    """The structure's displacement at the absorber with and without the ball (``models``: the
+    model descriptions, for a hybrid ball's marks)."""
     from ..plotting import figures as plt
 
     st = res.scenario.summary["structure"]
@@ -501,7 +634,7 @@ def plot_bare(res: RunResult, bare: RunResult, out_dir: Path) -> list[Path]:
         fig, ax = plt.subplots(figsize=(7.5, 4.8), layout="tight")
         ax.plot(bare.column("time"), bare.column(name), lw=0.8, color="tab:red", label="bare structure")
         ax.plot(res.column("time"), res.column(name), lw=0.8, color="tab:blue", label="with the ball absorber")
-        _shade_invalid(ax, res, float(res.column("time")[-1]))
+        _mark_time(ax, res, models, float(res.column("time")[-1]))
         ax.set_xlabel("time [s]")
         ax.set_ylabel(f"displacement {axis} at the absorber [m]")
         ax.set_title(f"Structure displacement {axis}, with and without the ball")
@@ -519,7 +652,7 @@ def draw(res: RunResult, models, out_dir: Path, bare: RunResult | None = None,
     out_dir.mkdir(parents=True, exist_ok=True)
     names = [p.name for p in plot(res, out_dir, models, summary)] if len(res.data) > 1 else []
     if bare is not None and bare.success and len(bare.data) > 1:
-        names += [p.name for p in plot_bare(res, bare, out_dir)]
+        names += [p.name for p in plot_bare(res, bare, out_dir, models)]
     return names
 
 

@@ -8,7 +8,8 @@ A scenario is a TOML file:
                             or table = "file.csv" (columns: time, then signals)
     [instances.NAME.parameters]   parameter = value
     connections = ["drive.x1O -> ball.x1O", ...]
-    [record]                variables = ["ball.zP", ...]  (default: all outputs)
+    [record]                variables = ["ball.zP", ...]  (default: all outputs; a BallInShell
+                            with contact_model = 2 needs HYBRID_RECORD among them)
     [summary]               ball = "ball"; after = 2.5 or "drive.t0" (statistics after the start-up);
                             structure = "NAME" (a Structure instance: the absorber summary, and a
                             second run without the ball for the bare structure unless bare = false)
@@ -56,6 +57,12 @@ import numpy as np
 SCENARIO_DIR = Path(__file__).resolve().parents[2] / "scenarios"
 # [[plots]] kind -> the ball outputs it draws besides N and Ft (report.py); "series" is the default
 PLOT_KINDS = {"series": (), "shell": ("xP_ch", "yP_ch", "zP_ch"), "slip_margin": ("friction_ratio",)}
+# BallInShell's parameter choosing the contact model: 1 rolling only, 2 the hybrid ball (it slides,
+# flies and strikes the shell)
+CONTACT = "contact_model"
+# what a BallInShell with contact_model = 2 (the hybrid ball) must record: the marks on its plots (mode,
+# n_impacts) and the summary's hybrid indicators (ballmill.sweep.indicators.hybrid)
+HYBRID_RECORD = ("mode", "n_impacts", "v_impact_max", "E_friction", "E_impact", "t_first_slip", "t_first_flight")
 
 
 class ScenarioError(ValueError):
@@ -562,6 +569,11 @@ def check(sc: Scenario, models: dict, record_all: bool, connection_at=None, reco
             at = i if record_all or record_at is None else record_at[i]
             problems.append(f"{where}: record.variables[{at}]: no variable {inst}.{var}")
     recorded = {f"{a}.{b}" for a, b in sc.record} | {"time"}
+    for ball in hybrid_balls(sc, models):
+        missing = [f"{ball}.{v}" for v in HYBRID_RECORD if f"{ball}.{v}" not in recorded]
+        if missing and ball not in broken:
+            problems.append(f"{where}: record.variables: {ball} has {CONTACT} = 2 (the hybrid ball): its plots' marks "
+                            f"and the summary need {', '.join(missing)} recorded")
     for i, plot in enumerate(sc.plots):
         if not isinstance(plot, dict):
             continue  # reported by load
@@ -625,6 +637,22 @@ def parameter_value(sc: Scenario, models, inst: str, param: str):
     if v is None:
         raise KeyError(f"{i.fmu} has no parameter {param!r}")
     return _typed(v.start, getattr(v, "type", "Real"))
+
+
+def hybrid_balls(sc: Scenario, models) -> list[str]:
+    """The BallInShell instances whose contact_model (CONTACT) is 2 in the run (the ball that
+    slides, flies and strikes the shell), by parameter_value; a model without it has none."""
+    out = []
+    for name, inst in sc.instances.items():
+        if inst.fmu != "BallInShell":
+            continue
+        try:
+            contact = parameter_value(sc, models or {}, name, CONTACT)
+        except KeyError:
+            continue
+        if not isinstance(contact, bool) and contact == 2:
+            out.append(name)
+    return out
 
 
 def _format(value, fmt: str) -> str:

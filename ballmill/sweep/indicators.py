@@ -405,6 +405,8 @@ HYBRID = {
     "flight_fraction": ("1", "fraction of the run the ball flies (mode 0)"),
     "n_impacts": ("1", "number of impacts on the shell over the run"),
     "v_impact_max": ("m/s", "largest approaching normal speed of an impact over the run (0 without impacts)"),
+    "E_friction": ("J", "energy lost to sliding friction over the run (E_friction at the end - at the start)"),
+    "E_impact": ("J", "energy lost in impacts over the run (E_impact at the end - at the start)"),
     "E_friction_rev": ("J", "energy lost to sliding friction per crank revolution over the run: E_friction at "
                             "the end / the revolutions psi / 2 pi"),
     "E_impact_rev": ("J", "energy lost in impacts per crank revolution over the run: E_impact at the end / the "
@@ -412,6 +414,9 @@ HYBRID = {
     "t_first_slip": ("s", "time of the first slip (None: the ball never slid)"),
     "t_first_flight": ("s", "time the ball first left the wall (None: never)"),
 }
+
+
+NEVER = 1e299  # at or above: the FMUs' "not yet" (1e300) of a time such as t_first_slip
 
 
 def hybrid(rec: Record, n_valid: int) -> dict:
@@ -432,14 +437,16 @@ def hybrid(rec: Record, n_valid: int) -> dict:
     out["v_impact_max"] = float(rec.series[b + "v_impact_max"][last])
     for name in ("t_first_slip", "t_first_flight"):
         v = float(rec.series[b + name][last])
-        out[name] = v if math.isfinite(v) else None
+        out[name] = v if math.isfinite(v) and abs(v) < NEVER else None  # NaN (library), 1e300 (FMU): never
+    for name in ("E_friction", "E_impact"):
+        e = rec.series[b + name]
+        out[name] = float(e[last] - e[sl.start])
     psi = rec.series.get(f"{rec.drive}.psi") if rec.drive is not None else None
     if psi is not None:
         turns = abs(float(psi[last] - psi[sl.start])) / (2.0 * math.pi)
         if turns > 0.0:
-            for name, col in (("E_friction_rev", "E_friction"), ("E_impact_rev", "E_impact")):
-                e = rec.series[b + col]
-                out[name] = float(e[last] - e[sl.start]) / turns
+            for name in ("E_friction", "E_impact"):
+                out[name + "_rev"] = out[name] / turns
     return out
 
 

@@ -238,10 +238,11 @@ def _md_base_unit(unit) -> dict:
 
 def test_every_shipped_scenario_exports_each_connector_as_its_model_declares_it(native_models):
     exported = _exported(native_models)
-    assert {sc.name for sc, _ in exported} == {"absorber_frf", "fast_start", "fast_start_positions", "fig1_machine",
+    assert {sc.name for sc, _ in exported} == {"absorber_frf", "absorber_hybrid", "fast_start", "fast_start_positions",
+                                               "fig1_machine", "fig1_machine_hybrid",
                                                "grinding", "grinding_design", "grinding_design_motor", "induction_soft_start",
-                                               "induction_start", "slow_start",
-                                               "spinning_bowl", "tower_absorber", "tumbling_drum"}
+                                               "induction_start", "induction_start_hybrid", "slow_start",
+                                               "spinning_bowl", "tower_absorber", "tumbling_drum", "violent_start"}
     for sc, root in exported:
         comps = root.findall("ssd:System/ssd:Elements/ssd:Component", ssp.NS)
         assert [c.get("name") for c in comps] == list(sc.instances), sc.name
