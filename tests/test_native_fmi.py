@@ -418,6 +418,56 @@ def test_impossible_dynamic_states_are_refused_and_a_missing_step_size_is_chosen
     assert runs[0] == runs[1]
 
 
+def test_a_state_whose_newest_input_sample_is_at_its_time_is_refused(opened, fmus_of):
+    """A step pushes the inputs at its start and ends later, so in every state BallInShell
+    writes after a step the newest input sample is older than the state's time (only
+    initialisation's one sample is at it). A history of several samples whose newest is moved
+    to the state's time (checksum made right), which a step would then replace, with the one
+    before it as the input-consistency check's previous sample (input_mode 1), is refused by
+    name, and the instance keeps its state."""
+    ball = opened(fmus_of("native")["BallInShell"], "newest", xC0=0.05, input_mode=1)
+    ball.initialize()
+    t = 0.0
+    for k in range(6):  # consistent inputs (x = 1.5 t^2 m): the history keeps every sample
+        ball.set(x1O=1.5 * t * t, vx1O=3.0 * t, ax1O=3.0)
+        ball.fmu.doStep(t, H)
+        t += H
+    assert ball.get("valid")
+    good = ball.fmu.getFMUstate()
+    blob = bytes(ball.fmu.serializeFMUstate(good))
+    before = ball.reals(("xC", "yC", "N"))
+    found = _refusals_of_forged_states(ball, blob, good, "<d", t)
+    reason = "its newest input sample is not before its time (only a history of one sample may end there)"
+    assert reason in found, found
+    assert ball.reals(("xC", "yC", "N")) == before
+    ball.set(x1O=1.5 * t * t, vx1O=3.0 * t, ax1O=3.0)
+    ball.fmu.doStep(t, H)  # and it carries on
+    assert ball.get("valid")
+
+
+@pytest.mark.parametrize("model", MODELS + ("Structure",))
+def test_a_state_built_before_initialisation_is_refused(opened, fmus_of, model):
+    """A state taken in the instantiated state holds no configuration (the model is set up
+    when initialisation ends): one whose built flag says otherwise (checksum made right) is
+    refused naming the flag and the state, and the instance keeps its state; the same state with
+    the flag 0 is accepted."""
+    inst = opened(fmus_of("native")[model], "unbuilt")
+    blob = bytearray(inst.fmu.serializeFMUstate(inst.fmu.getFMUstate()))
+    built_at = HEADER_BYTES - 24  # int32 built, uint32 reserved, double t_start, double t
+    assert struct.unpack_from("<i", blob, built_at)[0] == 0
+    inst.fmu.setFMUstate(inst.fmu.deSerializeFMUstate(_sealed(blob)))
+    struct.pack_into("<i", blob, built_at, 1)
+    state = inst.fmu.deSerializeFMUstate(_sealed(blob))
+    with pytest.raises(FMICallException) as info:
+        inst.fmu.setFMUstate(state)
+    assert info.value.status == ERROR
+    assert _errors(inst)[-1] == (f"{model} 'unbuilt': fmi2SetFMUstate: state refused, instance unchanged: built "
+                                 "flag 1 in state instantiated, expected 0 (the model is set up when "
+                                 "initialisation ends)")
+    inst.initialize()  # and it carries on
+    inst.fmu.doStep(0.0, H)
+
+
 def test_a_state_from_another_configuration_restores_that_configuration(opened, fmus_of):
     """A state carries its parameters: set into an instance with other parameters, the
     configuration is rebuilt from the state's (checked like at initialisation) and the
