@@ -100,6 +100,35 @@ def test_many_tiny_steps_agree_with_one_step(open_fmu, h):
     assert resolution == pytest.approx(X * 2.0 ** -52, rel=1e-2)
 
 
+@pytest.mark.parametrize("factor,warned", [(0.992, True), (1.008, False)], ids=["below", "above"])
+def test_the_positions_are_fit_down_to_their_resolution_bound(open_fmu, factor, warned):
+    """The fit takes the position inputs while their round-off, 6 ulp(X) / w^2 (X the largest
+    |x1O|, |y1O| of its nodes, ulp(X) = X 2^-52, w its window), stays within 1e-6 m/s2 of
+    acceleration. A chamber at rest at x1O = 3000 m, stepped with h 0.8 % below and above
+    the bound's h* = sqrt(6 ulp(X) / 1e-6 m/s2) = 2.0 ms (the smallest window is one step):
+    below, warned once with the window and the resolution; above, nothing said."""
+    X = 3000.0
+    rest = dict(x1O=X, y1O=0.0, vx1O=0.0, vy1O=0.0, ax1O=0.0, ay1O=0.0)
+    h = factor * math.sqrt(6.0 * X * 2.0 ** -52 / 1e-6)
+    fmu = open_fmu("BallInShell", input_mode=1)
+    fmu.set(**rest)
+    assert fmu.init() == OK, fmu.messages()
+    t = 0.0
+    for _ in range(8):
+        assert fmu.step(h, t) == OK, fmu.messages()
+        t += h
+        fmu.set(**rest)
+    said = re.findall(r"the positions \(\|x1O\|, \|y1O\| up to (\S+) m, resolution (\S+) m\) over a window of (\S+) s "
+                      r"would give acceleration errors above 1e-6 m/s2", fmu.messages())
+    if warned:
+        assert len(said) == 1, fmu.messages()
+        x, resolution, window = (float(v) for v in said[0])
+        assert x == X and resolution == pytest.approx(X * 2.0 ** -52, rel=1e-2)
+        assert window == pytest.approx(h, rel=1e-2)
+    else:
+        assert said == [], fmu.messages()
+
+
 def _started(open_fmu, model):
     if model == "BallInShell":
         fmu, st = run_ball(open_fmu, [H] * 5)
