@@ -129,6 +129,25 @@ def test_the_positions_are_fit_down_to_their_resolution_bound(open_fmu, factor, 
         assert said == [], fmu.messages()
 
 
+def test_fit_nodes_closer_than_the_fit_resolves_refuse_the_step_state_intact(open_fmu):
+    """input_mode 2 fits the positions of up to 6 samples at least half a step apart, their
+    offsets in units of the newest spacing rounded to 12 decimals: after a 1e-15 s step, a 2 ms
+    one and another 1e-15 s one, two nodes are 1e-15 s / 2 ms = 5e-13 apart and round to one
+    offset, which determines no fit. The step is refused (fmi2Discard) saying so, with the
+    outputs kept; a 2 ms step from there goes on."""
+    fmu, st = run_ball(open_fmu, [H] * 6 + [1e-15, H], input_mode=2, xC0=0.03)
+    assert st == OK, fmu.messages()
+    t = 0.0
+    for h in [H] * 6 + [1e-15, H]:
+        t += h  # the communication point as run_ball added it up
+    before = fmu.outputs()
+    n = len(fmu.log)
+    assert fmu.step(1e-15, t) == DISCARD
+    assert "the input samples do not determine the reconstruction" in fmu.messages(n), fmu.messages(n)
+    assert fmu.outputs() == before
+    assert fmu.step(H, t) == OK, fmu.messages(n)
+
+
 def _started(open_fmu, model):
     if model == "BallInShell":
         fmu, st = run_ball(open_fmu, [H] * 5)
