@@ -400,6 +400,7 @@ def test_impossible_dynamic_states_are_refused_and_a_missing_step_size_is_chosen
     assert "its coupling-error sums are not finite" in negative, negative
     nan = _refusals_of_forged_states(ball, blob, good, "<d", float("nan"))
     assert "an input sample is not finite" in nan, nan
+    assert len(nan.get("its mid-interval acceleration is not finite", [])) == 3, nan  # its (t, ax, ay)
     assert ball.reals(("xC", "yC", "N")) == before  # every refusal kept the state
     # the step size: the double before the history's count
     h_at = count["its input history has a wrong number of samples"][0] - 8

@@ -148,6 +148,19 @@ def test_fit_nodes_closer_than_the_fit_resolves_refuse_the_step_state_intact(ope
     assert fmu.step(H, t) == OK, fmu.messages(n)
 
 
+def test_a_step_longer_than_the_time_so_far_after_a_full_history(open_fmu):
+    """input_mode 2 keeps up to 12 input samples: twelve 0.1 ms steps from t = 0 fill the
+    history, and the next step, 2 ms long from t = 1.2 ms (longer than all the time before it),
+    is a step like any other: the ball's centre agrees with a run whose first step is 1.2 ms
+    within 1e-8 m (measured 5.9e-10 m)."""
+    fine, st = run_ball(open_fmu, [1e-4] * 12 + [H] * 10, input_mode=2, xC0=0.03)
+    assert st == OK, fine.messages()
+    coarse, st = run_ball(open_fmu, [1.2e-3] + [H] * 10, input_mode=2, xC0=0.03)
+    assert st == OK, coarse.messages()
+    assert fine.time == pytest.approx(coarse.time, abs=1e-15)
+    assert abs(fine.get("xC") - coarse.get("xC")) < 1e-8
+
+
 def _started(open_fmu, model):
     if model == "BallInShell":
         fmu, st = run_ball(open_fmu, [H] * 5)
