@@ -216,6 +216,24 @@ def test_fmu_states_from_elsewhere_are_refused(opened, fmus_of):
     assert ball.get("xC") == before
 
 
+def test_a_state_with_its_reserved_header_field_set_is_refused(opened, fmus_of):
+    """The header's reserved field is 0 in every state the plumbing writes: a state with it
+    set (checksum made right) is refused at fmi2DeSerializeFMUstate naming the field and what
+    was expected, and the instance keeps its state."""
+    ball = _start(opened, fmus_of, "BallInShell")
+    blob = bytearray(ball.fmu.serializeFMUstate(ball.fmu.getFMUstate()))
+    reserved_at = HEADER_BYTES - 20  # int32 built, uint32 reserved, double t_start, double t
+    assert struct.unpack_from("<iI", blob, reserved_at - 4) == (1, 0)
+    struct.pack_into("<I", blob, reserved_at, 7)
+    before = ball.get("xC")
+    with pytest.raises(FMICallException) as info:
+        ball.fmu.deSerializeFMUstate(_sealed(blob))
+    assert info.value.status == ERROR
+    assert _errors(ball)[-1] == ("BallInShell 'ballinshell': fmi2DeSerializeFMUstate: state refused: built flag 1 "
+                                 "and reserved field 7, expected 0 or 1 and 0")
+    assert ball.get("xC") == before
+
+
 def _sealed(blob: bytearray) -> bytes:
     """A native state with its checksum made right again (docs/conformance.md: the CRC-32 of
     every byte before the last 4, little-endian), so that the check of what it holds is reached."""
