@@ -143,9 +143,10 @@ def test_the_c_initial_step_is_the_pythons_on_a_swinging_start():
 @pytest.mark.parametrize("law", ["scurve", "linear", "quintic"])
 def test_every_start_up_law_identical(law):
     """The crank's other start-up laws (the paper's quadratic one is FAST_START): their angle,
-    speed and acceleration in the kernel's motion, through the whole start and after."""
+    speed and acceleration in the kernel's motion, through the whole start and after (a
+    start-up time other than 1 s, where t / t0 and t t0 would agree)."""
     a, b = run_both(lambda: BallModel(Ball(), method="RK45", tol=1e-9),
-                    CrankStartup(l=0.5, n0=60.0, t0=1.0, law=law), 1.5, 0.01)
+                    CrankStartup(l=0.5, n0=60.0, t0=1.25, law=law), 1.5, 0.01)
     assert a.success and np.ptp(a["N"]) > 0.1
     assert_identical(a, b)
 
