@@ -316,6 +316,13 @@ def test_fmi3_every_clock_call_takes_no_clock_and_refuses_any(fmi3):
             n = len(log)
             assert call(slave.component, ctypes.cast(ref, ctypes.c_void_p), 1, *buffers) == 3, name
             assert any(s == 3 and name in m and "this FMU has no clocks" in m for s, m in log[n:]), (name, log[n:])
+        # and the one call of scheduled execution
+        activate = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_uint32, ctypes.c_double)(
+            ("fmi3ActivateModelPartition", slave.dll))
+        n = len(log)
+        assert activate(slave.component, 0, 0.0) == 3
+        assert [m for s, m in log[n:] if s == 3] == [
+            "MotorStartup 'clocks': fmi3ActivateModelPartition: this FMU has no scheduled execution"], log[n:]
     finally:
         slave.terminate()
         slave.freeInstance()
