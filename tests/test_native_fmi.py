@@ -487,6 +487,19 @@ def test_a_state_built_before_initialisation_is_refused(opened, fmus_of, model):
     inst.fmu.doStep(0.0, H)
 
 
+def test_an_induction_motor_state_with_more_load_samples_than_it_keeps_is_refused(opened, fmus_of):
+    """InductionMotor keeps the last four load samples (M_reaction at the communication points):
+    a state whose sample count, found by setting every int of the model's data to 5 in turn
+    (checksum made right), says five is refused with the model's reason, instance unchanged."""
+    motor = _start(opened, fmus_of, "InductionMotor")
+    good = motor.fmu.getFMUstate()
+    blob = bytes(motor.fmu.serializeFMUstate(good))
+    before = motor.get("psi_dot")
+    found = _refusals_of_forged_states(motor, blob, good, "<i", 5)
+    assert "its drive state or load samples are not valid" in found, found
+    assert motor.get("psi_dot") == before
+
+
 def test_a_state_from_another_configuration_restores_that_configuration(opened, fmus_of):
     """A state carries its parameters: set into an instance with other parameters, the
     configuration is rebuilt from the state's (checked like at initialisation) and the
