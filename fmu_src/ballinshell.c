@@ -1810,6 +1810,10 @@ static fmi2Status check(fmu_instance *fi, const void *data, const double *v)
             if (!isfinite(s[j])) why = "an input sample is not finite";
         if (i && !(b->samples[i].t > b->samples[i - 1].t)) why = "its input samples are not in time order";
     }
+    /* a step pushes the sample at its start and ends later; only the one sample of
+     * initialisation is at the instance's time */
+    if (!why && b->n_samples > 1 && !(b->samples[b->n_samples - 1].t < b->state.t))
+        why = "its newest input sample is not before its time (only a history of one sample may end there)";
     for (int i = 0; !why && i < b->n_hist; i++)
         if (state_problem(b, &b->hist[i])) why = "a corrected state is not one it can continue from";
     if (!why) return fmi2OK;

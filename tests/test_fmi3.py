@@ -289,6 +289,45 @@ def test_fmi3_binary_and_clock_calls_take_no_variable_and_refuse_any(fmi3):
         slave.freeInstance()
 
 
+# the clock calls: the arrays each takes after nValueReferences (a clock's interval, shift, counter,
+# resolution, qualifier)
+CLOCK_CALLS = {"fmi3GetIntervalDecimal": 2, "fmi3GetIntervalFraction": 3, "fmi3GetShiftDecimal": 1,
+               "fmi3GetShiftFraction": 2, "fmi3SetIntervalDecimal": 1, "fmi3SetIntervalFraction": 2,
+               "fmi3SetShiftDecimal": 1, "fmi3SetShiftFraction": 2}
+
+
+def test_fmi3_every_clock_call_takes_no_clock_and_refuses_any(fmi3):
+    """The calls on a clock's interval and shift: with no value references they do nothing
+    (fmi3OK), with one they are refused (fmi3Error) saying the FMU has no clocks, whatever
+    the call."""
+    import ctypes
+
+    slave, vr, log = _slave(fmi3["MotorStartup"], "clocks", False)
+    try:
+        slave.enterInitializationMode(startTime=0.0)
+        slave.exitInitializationMode()
+        ref = (ctypes.c_uint32 * 1)(vr["psi"])
+        for name, arrays in CLOCK_CALLS.items():
+            # a prototype of our own: every array as a pointer to 8 bytes, enough for one value
+            call = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_size_t,
+                                    *[ctypes.c_void_p] * arrays)((name, slave.dll))
+            buffers = [ctypes.cast((ctypes.c_uint64 * 1)(), ctypes.c_void_p) for _ in range(arrays)]
+            assert call(slave.component, ctypes.cast(ref, ctypes.c_void_p), 0, *buffers) == 0, name
+            n = len(log)
+            assert call(slave.component, ctypes.cast(ref, ctypes.c_void_p), 1, *buffers) == 3, name
+            assert any(s == 3 and name in m and "this FMU has no clocks" in m for s, m in log[n:]), (name, log[n:])
+        # and the one call of scheduled execution
+        activate = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_uint32, ctypes.c_double)(
+            ("fmi3ActivateModelPartition", slave.dll))
+        n = len(log)
+        assert activate(slave.component, 0, 0.0) == 3
+        assert [m for s, m in log[n:] if s == 3] == [
+            "MotorStartup 'clocks': fmi3ActivateModelPartition: this FMU has no scheduled execution"], log[n:]
+    finally:
+        slave.terminate()
+        slave.freeInstance()
+
+
 def test_fmi3_a_wrong_token_is_named_and_an_empty_read_checks_the_state(fmi3):
     """fmi3InstantiateCoSimulation with another instantiationToken refuses naming both tokens;
     a getter with no value references still checks that the instance may be read (not in the

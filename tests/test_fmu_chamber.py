@@ -19,6 +19,7 @@ flavours (``built_fmus`` is parametrised over native and pythonfmu).
 from __future__ import annotations
 
 import hashlib
+import math
 import struct
 
 import numpy as np
@@ -100,6 +101,42 @@ def test_motion_1_ignores_new_inputs_away_from_their_defaults(built_fmus, opened
     assert np.array_equal(run_crank(inst, OUTPUTS, steps=20), plain)
     text = " | ".join(m for _, m in inst.messages)
     assert text.count("is ignored") == 1 and f"input {name} = {value!r}" in text and "set motion = 2" in text, text
+
+
+def test_motion_2_names_none_of_its_inputs_as_ignored(built_fmus, opened):
+    """motion = 2 takes those inputs (here the chamber turning at Omega_z = 0.5 rad/s about its
+    vertical axis, Q following it): none is named as ignored, at initialisation or at a step."""
+    inst = opened.open(built_fmus["BallInShell"], "m2turns", motion=2)
+
+    def turned(t):
+        c, s = math.cos(0.5 * t), math.sin(0.5 * t)
+        return dict(crank(t), Omega_z=0.5, Q11=c, Q12=-s, Q21=s, Q22=c)
+    inst.set(**turned(0.0))
+    inst.initialize()
+    for k in range(10):
+        inst.fmu.doStep(currentCommunicationPoint=k * 0.002, communicationStepSize=0.002)
+        inst.set(**turned((k + 1) * 0.002))
+    assert np.isfinite(inst.get("N")) and inst.get("valid")
+    assert [m for _, m in inst.messages if "is ignored" in m] == []
+
+
+def test_a_tilted_chamber_starts_the_ball_where_the_python_flavour_does(fmus_of, opened):
+    """motion = 2 at rest, the chamber tilted by 0.3 rad about x (Q with every row mixed but the
+    first): the initial state (xC0, yC0 in the chamber's axes) turned into the frame's, and the
+    steps from it, in the native flavour equal the pythonfmu twin's bit for bit."""
+    c, s = math.cos(0.3), math.sin(0.3)
+    tilted = dict(Q22=c, Q23=-s, Q32=s, Q33=c)
+    rows = {}
+    for flavour in ("native", "pythonfmu"):
+        inst = opened.open(fmus_of(flavour)["BallInShell"], f"tilted_{flavour}", motion=2, xC0=0.05, yC0=0.02)
+        inst.set(**tilted)
+        inst.initialize()
+        rows[flavour] = [inst.reals(OUTPUTS)]
+        for k in range(5):
+            inst.fmu.doStep(currentCommunicationPoint=k * 0.002, communicationStepSize=0.002)
+            inst.set(**tilted)
+            rows[flavour].append(inst.reals(OUTPUTS))
+    assert rows["native"] == rows["pythonfmu"]
 
 
 # --------------------------------------------------- motion = 2 with a translation only

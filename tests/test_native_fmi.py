@@ -216,6 +216,24 @@ def test_fmu_states_from_elsewhere_are_refused(opened, fmus_of):
     assert ball.get("xC") == before
 
 
+def test_a_state_with_its_reserved_header_field_set_is_refused(opened, fmus_of):
+    """The header's reserved field is 0 in every state the plumbing writes: a state with it
+    set (checksum made right) is refused at fmi2DeSerializeFMUstate naming the field and what
+    was expected, and the instance keeps its state."""
+    ball = _start(opened, fmus_of, "BallInShell")
+    blob = bytearray(ball.fmu.serializeFMUstate(ball.fmu.getFMUstate()))
+    reserved_at = HEADER_BYTES - 20  # int32 built, uint32 reserved, double t_start, double t
+    assert struct.unpack_from("<iI", blob, reserved_at - 4) == (1, 0)
+    struct.pack_into("<I", blob, reserved_at, 7)
+    before = ball.get("xC")
+    with pytest.raises(FMICallException) as info:
+        ball.fmu.deSerializeFMUstate(_sealed(blob))
+    assert info.value.status == ERROR
+    assert _errors(ball)[-1] == ("BallInShell 'ballinshell': fmi2DeSerializeFMUstate: state refused: built flag 1 "
+                                 "and reserved field 7, expected 0 or 1 and 0")
+    assert ball.get("xC") == before
+
+
 def _sealed(blob: bytearray) -> bytes:
     """A native state with its checksum made right again (docs/conformance.md: the CRC-32 of
     every byte before the last 4, little-endian), so that the check of what it holds is reached."""
@@ -400,6 +418,7 @@ def test_impossible_dynamic_states_are_refused_and_a_missing_step_size_is_chosen
     assert "its coupling-error sums are not finite" in negative, negative
     nan = _refusals_of_forged_states(ball, blob, good, "<d", float("nan"))
     assert "an input sample is not finite" in nan, nan
+    assert len(nan.get("its mid-interval acceleration is not finite", [])) == 3, nan  # its (t, ax, ay)
     assert ball.reals(("xC", "yC", "N")) == before  # every refusal kept the state
     # the step size: the double before the history's count
     h_at = count["its input history has a wrong number of samples"][0] - 8
@@ -416,6 +435,69 @@ def test_impossible_dynamic_states_are_refused_and_a_missing_step_size_is_chosen
             rows.append(inst.reals(("xC", "yC", "N", "wz")))
         runs.append(rows)
     assert runs[0] == runs[1]
+
+
+def test_a_state_whose_newest_input_sample_is_at_its_time_is_refused(opened, fmus_of):
+    """A step pushes the inputs at its start and ends later, so in every state BallInShell
+    writes after a step the newest input sample is older than the state's time (only
+    initialisation's one sample is at it). A history of several samples whose newest is moved
+    to the state's time (checksum made right), which a step would then replace, with the one
+    before it as the input-consistency check's previous sample (input_mode 1), is refused by
+    name, and the instance keeps its state."""
+    ball = opened(fmus_of("native")["BallInShell"], "newest", xC0=0.05, input_mode=1)
+    ball.initialize()
+    t = 0.0
+    for k in range(6):  # consistent inputs (x = 1.5 t^2 m): the history keeps every sample
+        ball.set(x1O=1.5 * t * t, vx1O=3.0 * t, ax1O=3.0)
+        ball.fmu.doStep(t, H)
+        t += H
+    assert ball.get("valid")
+    good = ball.fmu.getFMUstate()
+    blob = bytes(ball.fmu.serializeFMUstate(good))
+    before = ball.reals(("xC", "yC", "N"))
+    found = _refusals_of_forged_states(ball, blob, good, "<d", t)
+    reason = "its newest input sample is not before its time (only a history of one sample may end there)"
+    assert reason in found, found
+    assert ball.reals(("xC", "yC", "N")) == before
+    ball.set(x1O=1.5 * t * t, vx1O=3.0 * t, ax1O=3.0)
+    ball.fmu.doStep(t, H)  # and it carries on
+    assert ball.get("valid")
+
+
+@pytest.mark.parametrize("model", MODELS + ("Structure",))
+def test_a_state_built_before_initialisation_is_refused(opened, fmus_of, model):
+    """A state taken in the instantiated state holds no configuration (the model is set up
+    when initialisation ends): one whose built flag says otherwise (checksum made right) is
+    refused naming the flag and the state, and the instance keeps its state; the same state with
+    the flag 0 is accepted."""
+    inst = opened(fmus_of("native")[model], "unbuilt")
+    blob = bytearray(inst.fmu.serializeFMUstate(inst.fmu.getFMUstate()))
+    built_at = HEADER_BYTES - 24  # int32 built, uint32 reserved, double t_start, double t
+    assert struct.unpack_from("<i", blob, built_at)[0] == 0
+    inst.fmu.setFMUstate(inst.fmu.deSerializeFMUstate(_sealed(blob)))
+    struct.pack_into("<i", blob, built_at, 1)
+    state = inst.fmu.deSerializeFMUstate(_sealed(blob))
+    with pytest.raises(FMICallException) as info:
+        inst.fmu.setFMUstate(state)
+    assert info.value.status == ERROR
+    assert _errors(inst)[-1] == (f"{model} 'unbuilt': fmi2SetFMUstate: state refused, instance unchanged: built "
+                                 "flag 1 in state instantiated, expected 0 (the model is set up when "
+                                 "initialisation ends)")
+    inst.initialize()  # and it carries on
+    inst.fmu.doStep(0.0, H)
+
+
+def test_an_induction_motor_state_with_more_load_samples_than_it_keeps_is_refused(opened, fmus_of):
+    """InductionMotor keeps the last four load samples (M_reaction at the communication points):
+    a state whose sample count, found by setting every int of the model's data to 5 in turn
+    (checksum made right), says five is refused with the model's reason, instance unchanged."""
+    motor = _start(opened, fmus_of, "InductionMotor")
+    good = motor.fmu.getFMUstate()
+    blob = bytes(motor.fmu.serializeFMUstate(good))
+    before = motor.get("psi_dot")
+    found = _refusals_of_forged_states(motor, blob, good, "<i", 5)
+    assert "its drive state or load samples are not valid" in found, found
+    assert motor.get("psi_dot") == before
 
 
 def test_a_state_from_another_configuration_restores_that_configuration(opened, fmus_of):

@@ -128,3 +128,31 @@ def test_failure_is_handed_to_python():
     a, b = res
     assert not a.success and a.message == b.message and np.array_equal(a.y, b.y, equal_nan=True)
     assert math.isfinite(a.y[0, 0])
+
+
+@needs_kernel
+def test_a_failure_along_a_reconstructed_motion_is_handed_to_python():
+    """BallInShell's chamber (motion = 2) advances along the motion reconstructed from its
+    inputs in the kernel (bmg_advance_poly): an interval the kernel cannot finish (here the
+    work bound, one internal step) is redone in Python, which fails with its own message and
+    leaves the state as it was; never a state at t_end made of a half-done interval."""
+    from ballmill.physics.errors import StepFailure
+    from ballmill.physics.turning.reconstruction import ChamberReconstruction, inputs_of
+
+    class Kin:
+        pass
+    motion = Fig1Machine()
+    for kernel in ("python", "auto"):
+        m = turning.ChamberModel(BALL, method="DOP853", kernel=kernel, max_steps=1)
+        rec = ChamberReconstruction("derivatives", R=0.25)
+        s = m.initial(motion, 0.03, 0.0)
+        y0 = s.y.copy()
+        rec.set_horizon(0.05)
+        rec.push(0.0, *inputs_of(motion.state(0.0), 0.25))
+        kin = Kin()
+        kin.accel = rec.accel_function()
+        with pytest.raises(StepFailure, match=r"DOP853: more than 1 internal steps between t = 0\.03886\d* s "
+                                              r"and 0\.05 s"):
+            m.advance(s, 0.05, kin)
+        assert s.t == 0.0 and np.array_equal(s.y, y0)
+    assert "_fast_poly" in m.__dict__  # the kernel was asked first

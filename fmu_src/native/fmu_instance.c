@@ -777,6 +777,12 @@ fmi2Status fmu_set_state(fmu_instance *fi, const char *fn, const void *state)
     }
     fmu_state_header h;
     fmu_state_header_of(b, &h);
+    if (h.built && h.phase == S_INSTANTIATED) { /* nothing is built before initialisation: a state never written */
+        fmu_log(fi, fmi2Error, "%s '%s': %s: state refused, instance unchanged: built flag 1 in state %s, "
+                "expected 0 (the model is set up when initialisation ends)", FMU_MODEL.identifier, fi->name, fn,
+                fmu_state_name(fi, S_INSTANTIATED));
+        return fmi2Error;
+    }
     const double *v = fmu_state_values(b);
     const unsigned char *data = fmu_state_data(b);
     size_t nv = (size_t)FMU_MODEL.n_vars * sizeof(double);

@@ -54,6 +54,10 @@ def test_a_tunable_parameter_takes_effect_at_the_next_step(open_fmu, flavour):
     assert fmu.step(2e-3) == OK
     assert "coupling_warn = 0 m" in fmu.messages(n)  # warns now with the new threshold
     n = len(fmu.log)
+    feed(fmu, fmu.time)
+    assert fmu.step(2e-3) == OK and fmu.get("coupling_error") > 0.0
+    assert "coupling_warn" not in fmu.messages(n)  # warned once
+    n = len(fmu.log)
     assert fmu.set(coupling_warn=-1.0) == flavour.refusal
     assert "tunable parameter coupling_warn = -1.0 m refused: accepted range [0, inf] m" in fmu.messages(n)
     if flavour.usable_after_refusal:

@@ -100,6 +100,67 @@ def test_many_tiny_steps_agree_with_one_step(open_fmu, h):
     assert resolution == pytest.approx(X * 2.0 ** -52, rel=1e-2)
 
 
+@pytest.mark.parametrize("factor,warned", [(0.992, True), (1.008, False)], ids=["below", "above"])
+def test_the_positions_are_fit_down_to_their_resolution_bound(open_fmu, factor, warned):
+    """The fit takes the position inputs while their round-off, 6 ulp(X) / w^2 (X the largest
+    |x1O|, |y1O| of its nodes, ulp(X) = X 2^-52, w its window), stays within 1e-6 m/s2 of
+    acceleration. A chamber at rest at x1O = 3000 m, stepped with h 0.8 % below and above
+    the bound's h* = sqrt(6 ulp(X) / 1e-6 m/s2) = 2.0 ms (the smallest window is one step):
+    below, warned once with the window and the resolution; above, nothing said."""
+    X = 3000.0
+    rest = dict(x1O=X, y1O=0.0, vx1O=0.0, vy1O=0.0, ax1O=0.0, ay1O=0.0)
+    h = factor * math.sqrt(6.0 * X * 2.0 ** -52 / 1e-6)
+    fmu = open_fmu("BallInShell", input_mode=1)
+    fmu.set(**rest)
+    assert fmu.init() == OK, fmu.messages()
+    t = 0.0
+    for _ in range(8):
+        assert fmu.step(h, t) == OK, fmu.messages()
+        t += h
+        fmu.set(**rest)
+    said = re.findall(r"the positions \(\|x1O\|, \|y1O\| up to (\S+) m, resolution (\S+) m\) over a window of (\S+) s "
+                      r"would give acceleration errors above 1e-6 m/s2", fmu.messages())
+    if warned:
+        assert len(said) == 1, fmu.messages()
+        x, resolution, window = (float(v) for v in said[0])
+        assert x == X and resolution == pytest.approx(X * 2.0 ** -52, rel=1e-2)
+        assert window == pytest.approx(h, rel=1e-2)
+    else:
+        assert said == [], fmu.messages()
+
+
+def test_fit_nodes_closer_than_the_fit_resolves_refuse_the_step_state_intact(open_fmu):
+    """input_mode 2 fits the positions of up to 6 samples at least half a step apart, their
+    offsets in units of the newest spacing rounded to 12 decimals: after a 1e-15 s step, a 2 ms
+    one and another 1e-15 s one, two nodes are 1e-15 s / 2 ms = 5e-13 apart and round to one
+    offset, which determines no fit. The step is refused (fmi2Discard) saying so, with the
+    outputs kept; a 2 ms step from there goes on."""
+    fmu, st = run_ball(open_fmu, [H] * 6 + [1e-15, H], input_mode=2, xC0=0.03)
+    assert st == OK, fmu.messages()
+    t = 0.0
+    for h in [H] * 6 + [1e-15, H]:
+        t += h  # the communication point as run_ball added it up
+    before = fmu.outputs()
+    n = len(fmu.log)
+    assert fmu.step(1e-15, t) == DISCARD
+    assert "the input samples do not determine the reconstruction" in fmu.messages(n), fmu.messages(n)
+    assert fmu.outputs() == before
+    assert fmu.step(H, t) == OK, fmu.messages(n)
+
+
+def test_a_step_longer_than_the_time_so_far_after_a_full_history(open_fmu):
+    """input_mode 2 keeps up to 12 input samples: twelve 0.1 ms steps from t = 0 fill the
+    history, and the next step, 2 ms long from t = 1.2 ms (longer than all the time before it),
+    is a step like any other: the ball's centre agrees with a run whose first step is 1.2 ms
+    within 1e-8 m (measured 5.9e-10 m)."""
+    fine, st = run_ball(open_fmu, [1e-4] * 12 + [H] * 10, input_mode=2, xC0=0.03)
+    assert st == OK, fine.messages()
+    coarse, st = run_ball(open_fmu, [1.2e-3] + [H] * 10, input_mode=2, xC0=0.03)
+    assert st == OK, coarse.messages()
+    assert fine.time == pytest.approx(coarse.time, abs=1e-15)
+    assert abs(fine.get("xC") - coarse.get("xC")) < 1e-8
+
+
 def _started(open_fmu, model):
     if model == "BallInShell":
         fmu, st = run_ball(open_fmu, [H] * 5)

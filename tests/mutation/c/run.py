@@ -112,12 +112,34 @@ def sh_limited(cmd, cwd=None, env=None, timeout=None, cpu_limit=None, capture=Tr
 
 
 # ----------------------------------------------------------------------------- mutants
+# universalmutator (1.14.1) scans every language for Haskell's block comments: from a line
+# holding "{-" it skips every line up to one holding "-}", which in C is the rest of the file
+# (an initialiser such as {{5.0, 8.0, -1.0}, {-1.0, 8.0, 5.0}} left three quarters of the kernel
+# without a mutant). It is given a copy with "{ -" there; each mutant then gets the original's
+# text back on the lines it does not change.
+HASKELL_COMMENT = "{-"
+
+
+def _unhide(original: list[str], hidden: list[str], lines: list[str]) -> list[str]:
+    """A mutant of the copy `hidden` as a mutant of `original` (the same lines, one to one)."""
+    back = [m.replace("{ -", HASKELL_COMMENT) for m in lines]  # the changed lines as the original writes them
+    if len(lines) == len(hidden):
+        return [o if m == h else b for o, h, m, b in zip(original, hidden, lines, back)]
+    out = []
+    for op, i1, i2, j1, j2 in difflib.SequenceMatcher(a=hidden, b=lines, autojunk=False).get_opcodes():
+        out += original[i1:i2] if op == "equal" else back[j1:j2]
+    return out
+
+
 def generate(rel: str, gen: Path) -> list[dict]:
     """Every mutant of the checkout's file `rel`: [{id, file, line, before, after, path}].
     Cached under gen/<file>-<file's sha256>/ (a changed file gets new mutants)."""
     src = ROOT / rel
     digest = hashlib.sha256(src.read_bytes()).hexdigest()[:16]
-    out = gen / f"{rel.replace('/', '_')}-{digest}"
+    text = src.read_text()
+    hide = HASKELL_COMMENT in text
+    # (a file with "{-" was cut short before this copy: its folder gets another name)
+    out = gen / f"{rel.replace('/', '_')}-{digest}{'-whole' if hide else ''}"
     done = out / "DONE"
     if not done.exists():
         # shards share gen/: each generates into its own folder and renames it into place
@@ -125,9 +147,20 @@ def generate(rel: str, gen: Path) -> list[dict]:
         tmp = out.with_name(f"{out.name}.tmp{os.getpid()}")
         shutil.rmtree(tmp, ignore_errors=True)
         tmp.mkdir(parents=True)
-        code, log = sh(["mutate", str(src), "c", "--noCheck", "--mutantDir", str(tmp)])
+        target = src
+        if hide:
+            target = out.with_name(f"{out.name}.src{os.getpid()}") / src.name
+            shutil.rmtree(target.parent, ignore_errors=True)
+            target.parent.mkdir(parents=True)
+            target.write_text(text.replace(HASKELL_COMMENT, "{ -"))
+        code, log = sh(["mutate", str(target), "c", "--noCheck", "--mutantDir", str(tmp)])
         if code != 0:
             raise SystemExit(f"universalmutator failed on {rel} (exit {code}):\n{log[-2000:]}")
+        if hide:
+            original, hidden = text.splitlines(), target.read_text().splitlines()
+            for path in tmp.glob(f"{src.stem}.mutant.*{src.suffix}"):
+                path.write_text("\n".join(_unhide(original, hidden, path.read_text().splitlines())) + "\n")
+            shutil.rmtree(target.parent, ignore_errors=True)
         (tmp / "DONE").write_text(log)
         try:
             tmp.rename(out)
