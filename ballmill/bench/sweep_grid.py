@@ -49,7 +49,23 @@ VARIANTS = (("one-pass (default)", []), ("--error richardson", ["--error", "rich
             ("--error richardson --scheduler local", ["--error", "richardson", "--scheduler", "local"]))
 
 
-SPLIT_SCRIPT = """
+# both scripts' CPU clock on a function: wraps owner.name so that its CPU time adds to cpu[key]
+# (once: only its first call counts)
+CLOCKED = """
+import time
+cpu = {}
+def clocked(owner, name, key, once=False):
+    f = getattr(owner, name)
+    def g(*a, **k):
+        c = time.process_time()
+        try:
+            return f(*a, **k)
+        finally:
+            if not (once and key in cpu):
+                cpu[key] = cpu.get(key, 0.0) + time.process_time() - c
+    setattr(owner, name, g)
+"""
+SPLIT_SCRIPT = CLOCKED + """
 import json, sys, time
 from pathlib import Path
 from ballmill.physics import fast
@@ -58,16 +74,6 @@ grid = {k: spec.parse_grid_option(g)[1] for k, g in (("drive.t0", "drive.t0=1:5:
 study = spec.load("fast_start", grid=grid)
 st = engine.setup(study, Path(sys.argv[1]), None, lambda m: None)
 sample = [(i, spec.point_id(p), p) for i, p in enumerate(study.points())][::10]
-cpu = {}
-def clocked(owner, name, key):
-    f = getattr(owner, name)
-    def g(*a, **k):
-        c = time.process_time()
-        try:
-            return f(*a, **k)
-        finally:
-            cpu[key] = cpu.get(key, 0.0) + time.process_time() - c
-    setattr(owner, name, g)
 clocked(fast, "study_run", "kernel")
 clocked(evaluators.CrankPrepared, "run", "run")
 clocked(evaluators.CrankPrepared, "evaluate", "indicators")
@@ -81,23 +87,12 @@ print(json.dumps({"kernel run (fast.study_run)": cpu["kernel"] / n,
                   "indicators": cpu["indicators"] / n,
                   "row assembly": (total - cpu["run"] - cpu["indicators"]) / n, "per point": total / n}))
 """
-FIXED_SCRIPT = """
+FIXED_SCRIPT = CLOCKED + """
 import json, sys, time
 c0 = time.process_time()
 from ballmill import cli
 from ballmill.plotting import figures
 from ballmill.sweep import engine, plots
-cpu = {}
-def clocked(owner, name, key, once=False):
-    f = getattr(owner, name)
-    def g(*a, **k):
-        c = time.process_time()
-        try:
-            return f(*a, **k)
-        finally:
-            if not (once and key in cpu):
-                cpu[key] = cpu.get(key, 0.0) + time.process_time() - c
-    setattr(owner, name, g)
 clocked(engine, "setup", "setup")
 clocked(engine.Executor, "run", "run")
 clocked(engine, "_table", "table")
