@@ -355,11 +355,19 @@ def test_fmu_bundles_the_kernel(fmus_of, tmp_path):
         names = zipfile.ZipFile(fmu).namelist()
         bundled = [n for n in names if n.startswith("resources/ballmill/physics/_kernel")]
         assert bundled == ([f"resources/ballmill/physics/{lib.name}"] if lib else []), bundled
-        assert not [n for n in names if "__pycache__" in n or n.endswith((".c", ".o"))]
+        assert not [n for n in names if "__pycache__" in n or n.endswith((".c", ".h", ".o"))]
     if lib is not None:  # a library that is not the build of the source beside it is not bundled
         assert fast.check_library(lib) == ""
         stale = tmp_path / "_kernel.c"
         stale.write_text(fast.SOURCE.read_text() + "\n/* edited */\n")
+        for h in fast.KERNEL_HEADERS:
+            shutil.copy2(fast.SOURCE.with_name(h), tmp_path / h)
+        assert "stale" in fast.check_library(lib, stale)
+        # an edited header beside the unchanged source (the kernel #includes it): stale too
+        shutil.copy2(fast.SOURCE, stale)
+        assert fast.check_library(lib, stale) == ""
+        header = tmp_path / fast.KERNEL_HEADERS[0]
+        header.write_text(header.read_text() + "\n/* edited */\n")
         assert "stale" in fast.check_library(lib, stale)
         assert "no kernel source" in fast.check_library(lib, tmp_path / "missing.c")
 

@@ -138,7 +138,7 @@ def _stage(dest: Path) -> tuple[Path, str]:
         target.parent.mkdir(parents=True, exist_ok=True)
         if src.is_dir():
             shutil.copytree(src, target, ignore=shutil.ignore_patterns(
-                "__pycache__", "*.so", "*.pyd", "*.dylib", "*.c", "*.o"))
+                "__pycache__", "*.so", "*.pyd", "*.dylib", "*.c", "*.h", "*.o"))
         else:
             shutil.copy2(src, target)
     lib, why = kernel_to_bundle()
