@@ -120,12 +120,20 @@ def test_motion_2_names_none_of_its_inputs_as_ignored(built_fmus, opened):
     assert [m for _, m in inst.messages if "is ignored" in m] == []
 
 
-def test_a_tilted_chamber_starts_the_ball_where_the_python_flavour_does(fmus_of, opened):
-    """motion = 2 at rest, the chamber tilted by 0.3 rad about x (Q with every row mixed but the
-    first): the initial state (xC0, yC0 in the chamber's axes) turned into the frame's, and the
-    steps from it, in the native flavour equal the pythonfmu twin's bit for bit."""
-    c, s = math.cos(0.3), math.sin(0.3)
-    tilted = dict(Q22=c, Q23=-s, Q32=s, Q33=c)
+_C, _S = math.cos(0.3), math.sin(0.3)
+
+
+@pytest.mark.parametrize("tilted", [
+    dict(Q22=_C, Q23=-_S, Q32=_S, Q33=_C),
+    # a third of a turn about (1, -1, 1) / sqrt(3): the chamber's axes permuted with signs, every
+    # cofactor of det Q in play (-Q12 Q23 (Q31 - Q23) = -2 would turn a wrong cofactor's det to -1)
+    dict(Q11=0.0, Q12=-1.0, Q13=0.0, Q21=0.0, Q22=0.0, Q23=-1.0, Q31=1.0, Q32=0.0, Q33=0.0),
+], ids=["about-x", "permuted"])
+def test_a_tilted_chamber_starts_the_ball_where_the_python_flavour_does(fmus_of, opened, tilted):
+    """motion = 2 at rest, the chamber tilted (by 0.3 rad about x: Q with every row mixed but the
+    first; or its axes permuted): the initial state (xC0, yC0 in the chamber's axes) turned into
+    the frame's, and the steps from it, in the native flavour equal the pythonfmu twin's bit for
+    bit."""
     rows = {}
     for flavour in ("native", "pythonfmu"):
         inst = opened.open(fmus_of(flavour)["BallInShell"], f"tilted_{flavour}", motion=2, xC0=0.05, yC0=0.02)

@@ -280,6 +280,12 @@ def test_co_simulation_reads_its_model_exchange_variables_from_its_own_state(me_
         assert cs.set(**u_read) == OK
         x, dx, z = _cs_locals(cs)
         assert np.array_equal(x, x2) and not np.array_equal(dx, dx_before)  # the inputs set now count
+        # one read of the states, derivatives and outputs together gives each what its own read
+        # gives (the Model Exchange variables come from the instance's work copy, the rest do not)
+        kind = cs.vars[cs.md.derivatives[0].variable.name].type
+        names = [n for n, v in cs.vars.items() if v.type == kind and v.causality in ("output", "local")]
+        together = getattr(cs.fmu, "get" + cs.TYPES[kind][0])([cs.vars[n].valueReference for n in names])
+        assert np.array_equal(np.array(together, dtype=float), [cs.get(n) for n in names], equal_nan=True)
         me = _running(me_paths[model], version=version, **parameters)
         assert me.set(**u_read) == OK
         assert me.call("setTime", cs.time)[0] == OK
