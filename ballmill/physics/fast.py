@@ -113,14 +113,18 @@ _dp = ctypes.POINTER(ctypes.c_double)
 
 def source_hash(path: Path = SOURCE) -> int | None:
     """The first 60 bits of the sha256 of _kernel.c and the headers it includes
-    (KERNEL_HEADERS), as setup.py embeds them in the build (None without the files: an FMU's
-    bundle, checked when it was built, has none)."""
+    (KERNEL_HEADERS), as setup.py embeds them in the build (None without _kernel.c: an FMU's
+    bundle, checked when it was built, has none; a header missing beside it counts as empty, so
+    the hash is not the build's)."""
     try:
-        data = b"".join(f.read_bytes() for f in [path, *(path.with_name(h) for h in KERNEL_HEADERS)])
+        data = path.read_bytes()
     except OSError:
         return None
     import hashlib  # only here: importing it costs milliseconds
 
+    for h in KERNEL_HEADERS:  # a header missing beside the source: not the tree the build came from
+        header = path.with_name(h)
+        data += header.read_bytes() if header.is_file() else b""
     return int(hashlib.sha256(data).hexdigest()[:15], 16)
 
 
