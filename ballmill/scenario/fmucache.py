@@ -119,8 +119,8 @@ def extracted(path) -> Path:
             shutil.rmtree(folder, ignore_errors=True)
             extract(str(path), folder, include=lambda name: not name.startswith(_SKIP))
             _folders[key] = folder
-        if (folder / "resources" / "pythonfmu").is_dir():
-            import pythonfmu  # noqa: F401  (the installed one, before the FMU's copy can shadow it)
+            if (folder / "resources" / "pythonfmu").is_dir():
+                import pythonfmu  # noqa: F401  (the installed one, before the FMU's copy can shadow it)
         return folder
 
 
