@@ -1,10 +1,13 @@
 """The FMU flavours the conformance suite runs over (docs/conformance.md).
 
 `flavours()` is the one place that says which builds of the models exist.
-``pythonfmu`` (build/pythonfmu/<Model>.fmu), ``native`` (the C FMUs, FMI 2.0,
-build/<Model>.fmu) and ``native3`` (the same C FMUs as FMI 3.0 archives,
-build/fmi3/<Model>.fmu), all written by `ballmill build`; or, when BALLMILL_TEST_FMU_DIR names
-a folder, the FMUs already built there (the C mutation runner, tests/mutation/c/run.py).
+``pythonfmu`` (<build>/pythonfmu/<Model>.fmu), ``native`` (the C FMUs, FMI 2.0,
+<build>/<Model>.fmu) and ``native3`` (the same C FMUs as FMI 3.0 archives,
+<build>/fmi3/<Model>.fmu), all in the session's one build (tests/conftest.py's
+``fmu_build_dir``: every FMU built once into a temporary folder, or the folder
+BALLMILL_TEST_FMU_DIR names, as the C mutation runner tests/mutation/c/run.py does); never the
+repository's build/ folder, which a concurrent `ballmill build` or a second pytest process
+could be rewriting.
 
 A flavour also says which FMI status its refusals carry: the specification asks
 for fmi2Error; pythonfmu 0.7.0 can only return fmi2Fatal from a refused call
@@ -21,7 +24,6 @@ numbered alike in both versions (OK 0 .. Fatal 4).
 """
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -39,7 +41,7 @@ MODELS = ("BallInShell", "MotorStartup", "InductionMotor", "Fig1Drive", "Structu
 @dataclass(frozen=True)
 class Flavour:
     name: str
-    paths: Callable[[], dict]  # model name -> FMU path (built on demand)
+    paths: Callable[[Path], dict]  # the session's build folder -> {model name: FMU path}
     refusal: int  # status of a refused call other than doStep (spec: ERROR)
     step_refusal: int  # status of a doStep refused for its arguments or phase (spec: ERROR)
     usable_after_refusal: bool  # the instance keeps its state after a refused call (spec: True)
@@ -62,42 +64,35 @@ class Flavour:
         return fmi_name(self.fmi, name)
 
 
-def _paths(flavour: str) -> dict:
-    from ballmill.fmi.build import build_all, fmu_path
+def _paths(flavour: str, build_dir: Path) -> dict:
+    from ballmill.fmi.build import fmu_path
 
-    prebuilt = os.environ.get("BALLMILL_TEST_FMU_DIR")  # as tests/conftest.py's fmu_build_dir
-    if prebuilt:
-        return {name: fmu_path(name, Path(prebuilt), flavour) for name in MODELS}
-    paths = build_all(ROOT / "build", log=lambda msg: None, flavour=flavour)
-    return {p.stem: p for p in paths}
+    return {name: fmu_path(name, build_dir, flavour) for name in MODELS}
 
 
 def fmi3_paths(paths: dict) -> dict:
-    """the FMI 3.0 archives `ballmill build` writes beside the native FMI 2.0 ones (build/fmi3/)"""
+    """the FMI 3.0 archives `ballmill build` writes beside the native FMI 2.0 ones (fmi3/)"""
     return {name: path.parent / "fmi3" / path.name for name, path in paths.items()}
 
 
-def _pythonfmu_paths() -> dict:
-    return _paths("pythonfmu")
+def _pythonfmu_paths(build_dir: Path) -> dict:
+    return _paths("pythonfmu", build_dir)
 
 
-def _native_paths() -> dict:
-    return _paths("native")
+def native_paths(build_dir: Path) -> dict:
+    return _paths("native", build_dir)
 
 
-def _native3_paths() -> dict:
-    return fmi3_paths(_native_paths())
+def _native3_paths(build_dir: Path) -> dict:
+    return fmi3_paths(native_paths(build_dir))
 
 
 def flavours() -> list[Flavour]:
     return [
         Flavour("pythonfmu", _pythonfmu_paths, refusal=FATAL, step_refusal=DISCARD, usable_after_refusal=False),
-        Flavour("native", _native_paths, refusal=ERROR, step_refusal=ERROR, usable_after_refusal=True),
+        Flavour("native", native_paths, refusal=ERROR, step_refusal=ERROR, usable_after_refusal=True),
         Flavour("native3", _native3_paths, refusal=ERROR, step_refusal=ERROR, usable_after_refusal=True, fmi=3),
     ]
-
-
-_CACHE: dict = {}
 
 
 @pytest.fixture(scope="session", params=flavours(), ids=str)
@@ -106,10 +101,8 @@ def flavour(request) -> Flavour:
 
 
 @pytest.fixture(scope="session")
-def fmus(flavour) -> dict:
-    if flavour.name not in _CACHE:
-        _CACHE[flavour.name] = flavour.paths()
-    return _CACHE[flavour.name]
+def fmus(flavour, fmu_build_dir) -> dict:
+    return flavour.paths(fmu_build_dir)
 
 
 @pytest.fixture

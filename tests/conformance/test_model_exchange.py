@@ -7,7 +7,8 @@ import ctypes
 import numpy as np
 import pytest
 
-from .conftest import ERROR, OK, _native_paths, fmi3_paths
+from .conftest import ERROR, OK, fmi3_paths
+from .conftest import native_paths as _native_build
 from .harness import Fmu, driver, fmi_name
 
 from .conftest import MODELS as ME_MODELS  # every model has Model Exchange
@@ -15,8 +16,8 @@ STATEFUL = ("BallInShell", "InductionMotor", "Structure")
 
 
 @pytest.fixture(scope="module")
-def native_paths():
-    return _native_paths()
+def native_paths(fmu_build_dir):
+    return _native_build(fmu_build_dir)
 
 
 @pytest.fixture(scope="module", params=[2, 3], ids=["fmi2", "fmi3"])
@@ -403,7 +404,7 @@ class _Importer:
         return t_root, y_root
 
 
-def test_event_indicators_have_hysteresis_so_a_restart_at_the_root_does_not_retrigger():
+def test_event_indicators_have_hysteresis_so_a_restart_at_the_root_does_not_retrigger(native_paths):
     """The ball spun at wy0 = -20 rad/s begins to slip (mu = 0.1): an importer (scipy's
     solve_ivp on the FMU's derivatives) locates the root of the slip indicator, handles the event
     there and restarts at that very state. The indicator carries the hysteresis the FMI standard
@@ -411,7 +412,7 @@ def test_event_indicators_have_hysteresis_so_a_restart_at_the_root_does_not_retr
     where the ball does slip), after the event update mu N - |F_t| - eps, clearly negative: no
     second crossing at the restart. eps = 1e-10 m g (the ball's weight)."""
     from ballmill.physics.params import Ball
-    f = _running(_native_paths()["BallInShell"], wy0=-20.0, mu=0.1)
+    f = _running(native_paths["BallInShell"], wy0=-20.0, mu=0.1)
     try:
         eps = 1e-10 * Ball().m * Ball().g
         imp = _Importer(f)
