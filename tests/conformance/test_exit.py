@@ -50,13 +50,14 @@ def test_forty_processes_with_the_induction_motor_exit_cleanly(fmus, flavour):
 
 
 @pytest.mark.parametrize("command", [["ballmill", "run", "induction_start", "--quiet", "--set", "motor.model=1"]])
-def test_the_ballmill_command_leaves_without_the_exit_handlers(tmp_path, command):
+def test_the_ballmill_command_leaves_without_the_exit_handlers(tmp_path, command, fmu_build_dir):
     """`ballmill run` on an InductionMotor scenario: exit status 3 (the direct start leaves
     the model's validity at 10 ms), results written, no abort."""
     import shutil
 
     exe = shutil.which("ballmill", path=str(__import__("pathlib").Path(sys.executable).parent))
-    proc = subprocess.run([exe] + command[1:] + ["--out", str(tmp_path)], capture_output=True, text=True,
+    proc = subprocess.run([exe] + command[1:] + ["--out", str(tmp_path), "--build-dir", str(fmu_build_dir)],
+                          capture_output=True, text=True,
                           timeout=600, cwd=ROOT)
     assert proc.returncode == 3, proc.stderr[-2000:]
     assert (tmp_path / "summary.json").exists()
