@@ -38,7 +38,7 @@ del test_an_invalid_state_blob_is_refused_and_the_instance_keeps_its_state  # no
 
 H = 2e-3
 N_STEPS = 100
-IN_PROCESS = Flavour("in-process", lambda: {}, refusal=FATAL, step_refusal=DISCARD, usable_after_refusal=True)
+IN_PROCESS = Flavour("in-process", lambda build_dir: {}, refusal=FATAL, step_refusal=DISCARD, usable_after_refusal=True)
 
 
 @pytest.fixture(scope="module")
