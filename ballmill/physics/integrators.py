@@ -192,7 +192,7 @@ def _kernel(method: str, n: int, scaled: bool, n_err: int | None = None):
     tol * scale tuples (unused when not ``scaled``).
     """
     ne = n if n_err is None else n_err
-    key = (method, n, scaled, ne)
+    key = (method, n, scaled) if ne == n else (method, n, scaled, ne)
     fn = _KERNELS.get(key)
     if fn is not None:
         return fn
@@ -301,14 +301,19 @@ class Integrator:
     def initial_step(self, f, t, y, f0, span):
         """Hairer-Wanner starting step for the adaptive methods."""
         ne = self.n_err
-        sc = self._scale(y, y)[:ne]
-        f0 = np.asarray(f0, dtype=float)
-        d0 = math.sqrt(np.mean((y[:ne] / sc) ** 2))
-        d1 = math.sqrt(np.mean((f0[:ne] / sc) ** 2))
+        sc = self._scale(y, y)
+        if ne is None:
+            yc, fc, scc = y, f0, sc
+        else:  # the controlled components only (quadratures after them do not steer the step)
+            yc, fc, scc = y[:ne], np.broadcast_to(f0, y.shape)[:ne], sc[:ne]
+        d0 = math.sqrt(np.mean((yc / scc) ** 2))
+        d1 = math.sqrt(np.mean((fc / scc) ** 2))
         h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
         h0 = min(h0, span)
         f1 = np.asarray(f(t + h0, y + h0 * f0))
-        d2 = math.sqrt(np.mean(((f1[:ne] - f0[:ne]) / sc) ** 2)) / h0
+        if ne is not None:
+            f1 = np.broadcast_to(f1, y.shape)[:ne]
+        d2 = math.sqrt(np.mean(((f1 - fc) / scc) ** 2)) / h0
         if d1 <= 1e-15 and d2 <= 1e-15:
             h1 = max(1e-6, h0 * 1e-3)
         else:
@@ -328,7 +333,8 @@ class Integrator:
     def _error_norm(self, K, h, y, y_new):
         tab = self.tab
         ne = self.n_err
-        K, y, y_new = K[:, :ne], y[:ne], y_new[:ne]
+        if ne is not None:
+            K, y, y_new = K[:, :ne], y[:ne], y_new[:ne]
         sc = self._scale(y, y_new)
         if tab.E3 is None:
             err = (tab.E @ K) * h / sc
