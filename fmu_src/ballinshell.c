@@ -1623,8 +1623,10 @@ static const char *hybrid_stop_text(const hyb_stop *s, char *why, size_t size)
 {
     static const char *const kinds[4] = {"slip", "leave", "stick", "impact"};
     static const char *const modes[3] = {"flight", "rolling", "sliding"};
+    /* where the driver stopped: a Zeno sequence at its last event (events.integrate's message) */
     int n = snprintf(why, size, "the hybrid ball could not be followed from t = %.9g s in mode %s: stopped at t = %.9g "
-                     "s: ", s->t_from, modes[s->mode >= 0 && s->mode < 3 ? s->mode : 1], s->t_from);
+                     "s: ", s->t_from, modes[s->mode >= 0 && s->mode < 3 ? s->mode : 1],
+                     s->status == 2 ? s->t_last : s->t_from);
     if (n < 0 || (size_t)n >= size) return why;
     if (s->status == 2)
         snprintf(why + n, size - (size_t)n, "Zeno sequence: %d events within %.3g s before t = %.9g s (the last: "

@@ -391,3 +391,55 @@ def test_a_sliding_balls_force_follows_the_inputs_set_between_steps(fmus_of):
         assert fmu.get("Ft") == pytest.approx(ball.mu * N1, rel=1e-12)  # mu_k = -1: mu
     finally:
         fmu.free()
+
+
+# -- a Zeno sequence the FMU refuses ---------------------------------------------------------
+def _dropped_chamber(t, a0=1.5 * 9.81, T=0.04):
+    """(z1O, vz1O, az1O) of a chamber (motion = 2) pulled down by az = -a0 sin^2(pi t / T) over T,
+    then moving on at constant speed: a0 > g lifts the ball off the wall for a bounce sequence."""
+    w = 2.0 * math.pi / T
+    if t < T:
+        return (-a0 / 2 * (t * t / 2 + (math.cos(w * t) - 1) / w ** 2), -a0 / 2 * (t - math.sin(w * t) / w),
+                -a0 / 2 * (1 - math.cos(w * t)))
+    return (-a0 / 2 * T * T / 2 - a0 / 2 * T * (t - T), -a0 / 2 * T, 0.0)
+
+
+@pytest.mark.parametrize("flavour", ["native", "pythonfmu"])
+def test_a_zeno_sequence_is_refused_at_its_communication_point_with_the_last_good_state_kept(fmus_of, flavour):
+    """The chamber (motion = 2) pulled down at up to 1.5 g for 40 ms lifts the ball (started at
+    xC0 = 0.02 m) off the wall; it falls back and bounces with e_n = 0.94, v_rest = 1e-6 m/s. The
+    last 100 hops of such a sequence last 2 v (1 - e_n^100) / (g (1 - e_n)), under the driver's
+    10 ms once the rebound speed v is below 2.9e-3 m/s, while rest is further than 100 hops away
+    (e_n^100 v = 6e-6 m/s > v_rest, a hop of 1.8e-12 m the gap still resolves): the Zeno guard
+    stops the step from t = 0.16 s (40 ms steps). Both flavours, at that same communication point:
+    fmi2Discard, the message naming the Zeno sequence and where it stopped (0.179059087 s, the
+    100th event within 9.68 ms), the time not advanced, every output as before the call, and
+    another call to doStep refused the same way (the state was not touched)."""
+    from conformance.harness import driver
+
+    fmu = driver(2)(fmus_of(flavour)["BallInShell"], "ball", contact_model=2, motion=2, xC0=0.02, e_n=0.94,
+                    v_rest=1e-6, integrator=1, tolerance=1e-9)
+    step = 0.04
+
+    def feed(t):
+        z, vz, az = _dropped_chamber(t)
+        assert fmu.set(z1O=z, vz1O=vz, az1O=az) == 0
+
+    try:
+        feed(0.0)
+        assert fmu.init() == 0, fmu.messages()
+        status = 0
+        while status == 0 and fmu.time < 1.0:
+            feed(fmu.time)
+            before, t_before, n = fmu.outputs(), fmu.time, len(fmu.log)
+            status = fmu.step(step)
+        assert status == 2, (status, fmu.time)  # fmi2Discard
+        assert t_before == pytest.approx(0.16, abs=1e-12) and fmu.time == t_before
+        text = fmu.messages(n)
+        assert "step from t = 0.16 s refused, last good state kept" in text
+        assert "in mode flight: stopped at t = 0.179059087 s: Zeno sequence: 100 events within 0.00968 s before " \
+               "t = 0.179059087 s (the last: 'impact')" in text, text
+        assert fmu.outputs() == before and before["n_impacts"] == 33 and before["valid"]
+        assert fmu.step(step) == 2 and fmu.time == t_before and fmu.outputs() == before
+    finally:
+        fmu.free()
