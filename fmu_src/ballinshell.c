@@ -783,7 +783,7 @@ static void hybrid_start(ball_in_shell *b, ball_state *s, const fit *f)
     memcpy(y, s->y, 6 * sizeof(double));
     bmh_roll_out(H, s->t, y, &N, &Ft);
     s->mode = BMH_ROLLING;
-    bmh_rolling_state(&run, y, y + 3, 0.0, 0.0, s->y);
+    bmh_rolling_state(&run, y, y + 3, 0.0, 0.0, 0.0, s->y);
     if (!(N > 0.0 && Ft <= H->mu * N)) {
         bmh_free_state(&run, BMH_ROLLING, s->t, s->y, z);
         s->mode = bmh_on_wall(&run, s->t, z, s->y, &ny, rec);
@@ -990,11 +990,33 @@ static void outputs_at(ball_in_shell *b, const ball_state *s, const fit *f, doub
     }
 }
 
+/* contact_model = 2: K of the hybrid state s along the fit f (hybrid.HybridBall.reaction_momentum)
+ * and its torque quadrature *Lq */
+static double reaction_momentum(ball_in_shell *b, const ball_state *s, const fit *f, double *Lq)
+{
+    bmh_run run = {&b->H, 0.0, 0.0, 0.0, NAN, NAN, {0.0, 0.0}, {0.0, 0.0, 0.0}, 0, 0};
+    double z[BMH_NZ];
+    hybrid_chamber(b, f);
+    bmh_free_state(&run, s->mode, s->t, s->y, z);
+    *Lq = z[BMH_NZ - 1];
+    return bmh_reaction_momentum(&b->H, s->t, z);
+}
+
+/* M_reaction_mean over the step of length h from s0 to s1 along the fit f: ((Lq1 - Lq0) - (K1 - K0)) / h
+ * (contact_model = 2; ballinshell_fmu.BallInShell._torque_mean) */
+static double torque_mean(ball_in_shell *b, const ball_state *s0, const ball_state *s1, const fit *f, double h)
+{
+    double L0, L1;
+    double K0 = reaction_momentum(b, s0, f, &L0), K1 = reaction_momentum(b, s1, f, &L1);
+    return ((L1 - L0) - (K1 - K0)) / h;
+}
+
 /* the ball centre's velocity vxC..vzC published with the state at t, and the force on the chamber
  * averaged over the step of length h that ends there, m (g_vec - (v_C(t) - v_C(t - h)) / h) with
  * v_C(t - h) the one published before (h = 0: the start, where the mean is the instantaneous force
- * Fx..Fz just published) */
-static void publish_motion(const ball_in_shell *b, double *v, const double o[N_OUT], double h)
+ * Fx..Fz just published); M_reaction_mean = m_mean (NAN: M_reaction, at the start and with
+ * contact_model = 1) */
+static void publish_motion(const ball_in_shell *b, double *v, const double o[N_OUT], double h, double m_mean)
 {
     static const int vr_v[3] = {VR_vxC, VR_vyC, VR_vzC}, vr_f[3] = {VR_Fx, VR_Fy, VR_Fz};
     static const int vr_mean[3] = {VR_Fx_mean, VR_Fy_mean, VR_Fz_mean};
@@ -1007,6 +1029,7 @@ static void publish_motion(const ball_in_shell *b, double *v, const double o[N_O
         v[vr_mean[i]] = h == 0.0 ? v[vr_f[i]] : m * (gv[i] - (vc[i] - v[vr_v[i]]) / h);
         v[vr_v[i]] = vc[i];
     }
+    v[VR_M_reaction_mean] = isnan(m_mean) ? v[VR_M_reaction] : m_mean;
 }
 
 static void publish(double *v, const double o[N_OUT])
@@ -1276,16 +1299,23 @@ static void hybrid_setup(ball_in_shell *b, const double *v, double inertia)
      * tiny steps (the fast start, t0 = 0.5 s: 20406 steps between 0.268 s and 0.270 s, the library's
      * run as much as the FMU's) */
     H->roll.max_steps = HYB_MAX_STEPS;
-    /* HybridBall's free integrator: the scales r, sqrt(g r), sqrt(g r) / r, m g r, no projection */
+    /* HybridBall's free integrator: the scales r, sqrt(g r), sqrt(g r) / r, m g r, no projection;
+     * the torque's quadrature Lq after the states of either, outside the error norm (scale m g r
+     * sqrt(r / g), as hybrid.py sizes it) */
+    double v_ref = sqrt(g * r), e_ref = m * g * r, l_ref = e_ref * sqrt(r / g);
     bm_problem *F = &H->free;
     *F = H->roll;
     F->form = BM_GENERIC;
     F->ny = BMH_NZ;
-    double v_ref = sqrt(g * r), e_ref = m * g * r;
+    F->nerr = BMH_NZ - 1;
     for (int i = 0; i < BMH_NZ; i++) {
-        F->scale[i] = i < 3 ? r : i < 6 ? v_ref : i < 9 ? v_ref / r : e_ref;
+        F->scale[i] = i < 3 ? r : i < 6 ? v_ref : i < 9 ? v_ref / r : i < BMH_NZ - 1 ? e_ref : l_ref;
         F->tols[i] = F->tol * F->scale[i];
     }
+    H->roll.nerr = H->roll.ny;
+    H->roll.scale[H->roll.ny] = l_ref;
+    H->roll.tols[H->roll.ny] = H->roll.tol * l_ref;
+    H->roll.ny += 1;
 }
 
 /* the hybrid contact's parameters (interface._BALL_RULES; ballinshell_fmu.py's _check_contact,
@@ -1562,7 +1592,7 @@ static fmi2Status setup(fmu_instance *fi, void *data, double *v, double t)
     double o[N_OUT];
     outputs_at(b, &b->state, &f, t, o);
     publish(v, o);
-    publish_motion(b, v, o, 0.0);
+    publish_motion(b, v, o, 0.0, NAN);
     for (int i = 0; i < FMU_N_VARS; i++)
         if (FMU_VARIABLES[i].causality == FMU_OUTPUT && !isfinite(v[i])) {
             char e[6][32];
@@ -1593,8 +1623,10 @@ static const char *hybrid_stop_text(const hyb_stop *s, char *why, size_t size)
 {
     static const char *const kinds[4] = {"slip", "leave", "stick", "impact"};
     static const char *const modes[3] = {"flight", "rolling", "sliding"};
+    /* where the driver stopped: a Zeno sequence at its last event (events.integrate's message) */
     int n = snprintf(why, size, "the hybrid ball could not be followed from t = %.9g s in mode %s: stopped at t = %.9g "
-                     "s: ", s->t_from, modes[s->mode >= 0 && s->mode < 3 ? s->mode : 1], s->t_from);
+                     "s: ", s->t_from, modes[s->mode >= 0 && s->mode < 3 ? s->mode : 1],
+                     s->status == 2 ? s->t_last : s->t_from);
     if (n < 0 || (size_t)n >= size) return why;
     if (s->status == 2)
         snprintf(why + n, size - (size_t)n, "Zeno sequence: %d events within %.3g s before t = %.9g s (the last: "
@@ -1673,6 +1705,7 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
         return refuse_step(fi, t, why);
     }
     outputs_at(b, &predicted, &f, t_end, out);
+    double m_mean = b->contact == 2 ? torque_mean(b, now, &predicted, &f, t_end - t) : NAN;
     double coupling_error = v[VR_coupling_error], noise_sum = b->noise_sum;
     if (corrected > 0) {
         /* a-posteriori estimate: predicted vs corrected contact point at t */
@@ -1717,7 +1750,7 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
     b->state = predicted;
     b->has_fed = 0;
     publish(v, out);
-    publish_motion(b, v, out, t_end - t);
+    publish_motion(b, v, out, t_end - t, m_mean);
     v[VR_coupling_error] = coupling_error;
     if (coupling_error > v[VR_coupling_warn] && !b->warned) {
         b->warned = 1;
@@ -1771,7 +1804,7 @@ static const char *state_problem(const ball_in_shell *b, const ball_state *s)
     } else if (!(s->mode == BMH_FLIGHT || s->mode == BMH_ROLLING || s->mode == BMH_SLIDING)) {
         return "its contact mode is not 0 (flight), 1 (rolling) or 2 (sliding)";
     }
-    int ny = s->mode == BMH_ROLLING ? b->P.ny : BMH_NZ;
+    int ny = s->mode != BMH_ROLLING ? BMH_NZ : b->contact == 2 ? b->H.roll.ny : b->P.ny;
     if (!(isfinite(s->t) && bm_all_finite(s->y, ny))) return "its ball state is not finite";
     if (b->contact == 2) {
         const double *k = s->book;

@@ -212,7 +212,7 @@ class BallInShell(Slave):
         self.E_friction, self.E_impact, self.t_first_slip, self.t_first_flight = 0.0, 0.0, NEVER, NEVER
         try:
             self._publish(out)
-            for name, v in self._motion_values(self._state, self._time, None):
+            for name, v in self._motion_values(self._state, self._time, None, self.M_reaction):
                 setattr(self, name, v)
         except ArithmeticError as e:
             raise ValueError(f"the initial state (xC0 = {self.xC0!r} m, yC0 = {self.yC0!r} m, wx0 = "
@@ -266,7 +266,10 @@ class BallInShell(Slave):
             confirmed = self._outputs_at(state, t)
             predicted = self._advance(state, t_end, accel)
             out = self._outputs_at(predicted, t_end)
-            values = self._values(out) + self._motion_values(predicted, t_end, t_end - t)
+            values = self._values(out)
+            h = t_end - t
+            m_mean = self._torque_mean(state, predicted, h) if self._hybrid else dict(values)["M_reaction"]
+            values += self._motion_values(predicted, t_end, h, m_mean)
         except (ValueError, ArithmeticError) as e:
             # a valid sample recorded before the failure is harmless: a retry at the
             # same time replaces it
@@ -599,10 +602,22 @@ class BallInShell(Slave):
         c2 = (n[1] * w[2] - n[2] * w[1], n[2] * w[0] - n[0] * w[2], n[0] * w[1] - n[1] * w[0])
         return tuple((vA[i] + R * c1[i]) + r * c2[i] for i in range(3))
 
-    def _motion_values(self, state, t, h):
+    def _torque_mean(self, s0, s1, h):
+        """contact_model = 2: M_reaction_mean over the step of length h from the hybrid state s0 to
+        s1 along the step's fit (the system's motion): ((Lq1 - Lq0) - (K1 - K0)) / h, K the
+        angular momentum the torque drains and Lq its quadrature (HybridBall.reaction_momentum;
+        fmu_src/ballinshell.c's torque_mean, in this operation order)."""
+        sys_ = self._system
+        z0, z1 = sys_.free_state(s0.mode, s0.t, s0.y), sys_.free_state(s1.mode, s1.t, s1.y)
+        K0, K1 = sys_.reaction_momentum(s0.t, z0), sys_.reaction_momentum(s1.t, z1)
+        return float(((z1[-1] - z0[-1]) - (K1 - K0)) / h)
+
+    def _motion_values(self, state, t, h, m_mean):
         """vxC..vzC at t and the force averaged over the step of length h that ends there,
         m (g_vec - (v_C(t) - v_C(t - h)) / h) with v_C(t - h) the published one (h None: the
-        start, where the mean is the instantaneous force Fx..Fz just published)."""
+        start, where the mean is the instantaneous force Fx..Fz just published);
+        M_reaction_mean = m_mean (`_torque_mean`; at the start and with contact_model = 1
+        M_reaction itself)."""
         vc = self._centre_velocity(state, t)
         finite = self.finite
         values = [(name, finite(name, v)) for name, v in zip(("vxC", "vyC", "vzC"), vc)]
@@ -612,6 +627,7 @@ class BallInShell(Slave):
             m, gv, v0 = self.m, (0.0, 0.0, -self.g), (self.vxC, self.vyC, self.vzC)
             mean = tuple(m * (gv[i] - (vc[i] - v0[i]) / h) for i in range(3))
         values += [(name, finite(name, v)) for name, v in zip(("Fx_mean", "Fy_mean", "Fz_mean"), mean)]
+        values.append(("M_reaction_mean", finite("M_reaction_mean", m_mean)))
         return values
 
     def _values(self, out):
@@ -738,7 +754,7 @@ class BallInShell(Slave):
 
 
     def _checked_hybrid(self, d):
-        """contact_model = 2: an _HState from saved data (mode 0, 1, 2; y of 6 numbers rolling, 11
+        """contact_model = 2: an _HState from saved data (mode 0, 1, 2; y of 7 numbers rolling, 12
         otherwise; a unit n while rolling; the bookkeeping HybridBall.set_bookkeeping accepts,
         null for a first slip or flight not yet), or ValueError naming what does not fit."""
         if not isinstance(d, dict) or set(d) != {"t", "mode", "y", "h", "book"}:
@@ -746,7 +762,7 @@ class BallInShell(Slave):
         mode, y, book = d["mode"], d["y"], d["book"]
         if mode not in (FLIGHT, ROLLING, SLIDING) or type(mode) is not int:
             raise ValueError(f"hybrid ball state: mode {mode!r}, expected 0 (flight), 1 (rolling) or 2 (sliding)")
-        n = 6 if mode == ROLLING else 11
+        n = 7 if mode == ROLLING else 12  # the states and the torque's quadrature Lq
         if not (isinstance(y, list) and len(y) == n and all(type(v) in (int, float) and math.isfinite(v) for v in y)):
             raise ValueError(f"hybrid ball state y = {y!r}: expected {n} finite numbers in mode {_MODE_NAMES[mode]}")
         t, h = d["t"], d["h"]
@@ -845,7 +861,7 @@ class _Fit:
 
 class _HState:
     """contact_model = 2: the hybrid ball's state at t: its mode, the mode's state y (rolling:
-    n, omega; sliding and flight: C, v_C, omega, W, E_friction), the integrator's next step
+    n, omega, Lq; sliding and flight: C, v_C, omega, W, E_friction, Lq), the integrator's next step
     h and the bookkeeping (HybridBall.BOOK's 12 floats)."""
 
     __slots__ = ("t", "mode", "y", "h", "book")
@@ -855,8 +871,8 @@ class _HState:
         self.h = None if h is None else float(h)
 
     def rolling(self):
-        """The rolling model's BallState of a rolling state."""
-        return BallState(self.t, self.y, self.h)
+        """The rolling model's BallState of a rolling state (n, omega: without Lq)."""
+        return BallState(self.t, self.y[:6], self.h)
 
     def to_dict(self):
         return {"t": self.t, "mode": self.mode, "y": [float(v) for v in self.y], "h": self.h,

@@ -27,7 +27,9 @@ figures in benchmarks/figures/):
    against the code before the start-up work in the same rounds;
 9. the hybrid ball (bench/hybrid.py): `simulate_hybrid` on the event-driven driver,
    a scene that stays rolling next to `simulate`, and scenes with slip, flight and
-   impacts: cost per simulated second, per event, and of locating the events;
+   impacts: cost per simulated second, per event, and of locating the events; and the
+   BallInShell FMU of each flavour through fmpy on the fast start, contact_model 1
+   against 2, DOP853 and RK45;
 10. design (bench/design.py): `ballmill optimize` (NSGA-II, 40 x 25) and `ballmill
    sensitivity` (Sobol, 5 parameters, N = 1024) as whole processes on the kernel evaluator;
 11. Model Exchange (bench/model_exchange.py): the coupled fast start through
@@ -70,7 +72,8 @@ SECTIONS = {
     "sweep-grid": ("sweep_grid", "the whole sweep command on the 4000-point grid, A/B",
                    lambda m, out, a, root, progress: m.run_section(
                        out, a.repeats or (3 if a.quick else 5), a.baseline, root, progress)),
-    "hybrid": ("hybrid", "the hybrid ball on the event-driven driver, next to the rolling scene",
+    "hybrid": ("hybrid", "the hybrid ball on the event-driven driver, next to the rolling scene, and in "
+               "the BallInShell FMU of each flavour",
                lambda m, out, a, root, progress: m.run_section(out, a.quick, progress)),
     "design": ("design", "NSGA-II 40 x 25 and Sobol N = 1024 over 5 parameters, whole commands",
                lambda m, out, a, root, progress: m.run_section(out, a.repeats or (1 if a.quick else 3),

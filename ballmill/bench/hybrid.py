@@ -16,7 +16,14 @@ it runs while the ball rolls:
    event (the whole run's time over its events), and the time spent locating the events
    (`events._locate`: regula falsi on the method's own steps) and detecting them
    (`events._detect`: the guards on each step's dense output), timed by wrapping those two
-   functions during the run (in Python); and the same run's time in the kernel.
+   functions during the run (in Python); and the same run's time in the kernel;
+3. the BallInShell FMU, native and pythonfmu, through fmpy's FMU2Slave (as
+   bench/flavours.py loads them): the fast start (t0 = 0.5 s, the crank's exact inputs
+   x1O..ay1O at each 2 ms communication point, over its first FMU_SPAN seconds: the slide from
+   t = 0, rolling, the slide from 0.269 s), contact_model 1 (the rolling model, its validity
+   latched at the first slip) against 2 (the hybrid ball), DOP853 at 1e-9 and RK45 at 1e-8
+   (the FMU's default): CPU per simulated second, the ratio of the two contact models and of
+   the two flavours.
 
 Each time is the median of ``repeats`` runs (after one untimed run), in CPU time of this
 process (`time.process_time`; the runs are single-threaded): on a machine shared with other
@@ -84,6 +91,71 @@ class _Clock:
         setattr(self.module, self.name, self.inner)
 
 
+FMU_SPAN = 0.5  # s of the fast start the FMU rows simulate
+FMU_BUDGET = 5.0  # s of CPU: an FMU run longer than this is timed once, not repeated
+FMU_INTEGRATORS = (("DOP853", 1, 1e-9), ("RK45", 2, 1e-8))
+
+
+def _fmu_cpu(path, contact_model: int, integrator: int, tolerance: float) -> float:
+    """CPU seconds of one BallInShell run through fmpy's FMU2Slave: the fast start's exact
+    platform motion set at each 2 ms communication point over FMU_SPAN (instantiation and
+    initialisation not counted); the FMU's log dropped."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import (FMU2Slave, calloc, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                           fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, free)
+
+    from ballmill.physics import CrankStartup
+
+    law, h = CrankStartup(l=0.5, n0=60.0, t0=0.5), 0.002
+    md = read_model_description(str(path))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(path)),
+                    modelIdentifier=md.coSimulation.modelIdentifier, instanceName="bench")
+    callbacks = fmi2CallbackFunctions()
+    callbacks.logger = fmi2CallbackLoggerTYPE(lambda *args: None)  # the rolling model's latch warns
+    callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+    callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+    fmu.instantiate(callbacks=callbacks)
+    try:
+        fmu.setInteger([vr["contact_model"], vr["integrator"]], [contact_model, integrator])
+        fmu.setReal([vr["tolerance"]], [tolerance])
+        refs = [vr[n] for n in ("x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O")]
+        fmu.setReal(refs, list(law.state(0.0)))
+        fmu.setupExperiment(startTime=0.0)
+        fmu.enterInitializationMode()
+        fmu.exitInitializationMode()
+        t, c0 = 0.0, time.process_time()
+        for k in range(int(round(FMU_SPAN / h))):
+            fmu.setReal(refs, list(law.state(t)))
+            fmu.doStep(t, h)
+            t = (k + 1) * h
+        cpu = time.process_time() - c0
+        fmu.terminate()
+    finally:
+        fmu.freeInstance()
+    return cpu
+
+
+def measure_fmus(repeats: int, progress=print) -> list:
+    """[(flavour, method, {contact_model: (CPU s over FMU_SPAN, runs timed)})]: medians of
+    ``repeats`` runs after an untimed one, a run over FMU_BUDGET timed once."""
+    from ballmill.fmi import build
+
+    rows = []
+    for flavour in ("native", "pythonfmu"):
+        (path,) = build.build_all(None, log=progress, flavour=flavour, only=True, names=["BallInShell"])
+        for method, integrator, tol in FMU_INTEGRATORS:
+            cells = {}
+            for cm in (1, 2):
+                progress(f"hybrid: BallInShell FMU ({flavour}), {method}, contact_model = {cm}")
+                first = _fmu_cpu(path, cm, integrator, tol)
+                times = [first] if first > FMU_BUDGET else [_fmu_cpu(path, cm, integrator, tol)
+                                                              for _ in range(repeats)]
+                cells[cm] = (statistics.median(times), len(times))
+            rows.append((flavour, method, cells))
+    return rows
+
+
 def measure(repeats: int, progress=print) -> dict:
     from ballmill.physics import KERNEL_AVAILABLE, Ball, BallModel, CrankStartup, events, simulate
     from ballmill.physics.hybrid import simulate_hybrid
@@ -129,7 +201,8 @@ def measure(repeats: int, progress=print) -> dict:
                            "steps": tr.info.steps, "rejected": tr.info.rejected,
                            "locate": statistics.median(s for s, _ in locs), "locate_calls": locs[0][1],
                            "detect": statistics.median(dets)})
-    return {"t_roll": t_roll, "rolling": roll_rows, "scenes": scene_rows, "repeats": repeats}
+    return {"t_roll": t_roll, "rolling": roll_rows, "scenes": scene_rows, "repeats": repeats,
+            "fmus": measure_fmus(repeats, progress)}
 
 
 def report(data: dict, quick: bool) -> str:
@@ -169,8 +242,33 @@ def report(data: dict, quick: bool) -> str:
     L.append(_table(["scene", "simulated [s]", "events", "steps (rejected)", "CPU [ms]",
                  "per simulated second [ms/s]", "per event [ms]", "location per call [ms] (share)",
                  "detection (share)", "kernel CPU [ms]"], rows))
+    if data.get("fmus"):
+        L.append(_fmu_table(data["fmus"], reps))
     L.append(END)
     return "\n".join(L) + "\n"
+
+
+def _fmu_table(fmus, reps: int) -> str:
+    native = {method: cells for flavour, method, cells in fmus if flavour == "native"}
+    rows = []
+    for flavour, method, cells in fmus:
+        (c1, n1), (c2, n2) = cells[1], cells[2]
+        runs = "" if n1 == n2 == reps else f" ({n1} and {n2} runs)"
+        vs = "-" if flavour == "native" else \
+            f"{c1 / native[method][1][0]:.0f}x, {c2 / native[method][2][0]:.0f}x"
+        rows.append([f"{flavour}{runs}", method, f"{c1 / FMU_SPAN * 1e3:.1f}", f"{c2 / FMU_SPAN * 1e3:.1f}",
+                     f"{c2 / c1:.1f}x", vs])
+    return ("\n**The BallInShell FMU** through fmpy's FMU2Slave, native and pythonfmu: the fast start "
+            f"(t0 = 0.5 s, the crank's exact inputs x1O..ay1O at each 2 ms communication point, its first "
+            f"{FMU_SPAN:g} s: slides from t = 0, rolls from 0.073 s, slides again from 0.269 s), contact_model 1 "
+            "(the rolling model; its validity latches at the first slip, the integration goes on) against 2 "
+            "(the hybrid ball, every event located inside the steps), DOP853 at 1e-9 and RK45 at 1e-8 (the "
+            f"FMU's default); CPU per simulated second, medians of {reps} runs (a run over {FMU_BUDGET:g} s of "
+            "CPU timed once), instantiation and initialisation not counted. RK45 follows a slide that starts "
+            "from zero slip in tiny steps (docs/design.md section 14), which the pythonfmu flavour pays in "
+            "Python.\n\n"
+            + _table(["FMU", "integrator", "contact_model = 1 [ms/s]", "contact_model = 2 [ms/s]",
+                      "2 vs 1", "vs native (1, 2)"], rows))
 
 
 def splice(path: Path, section: str):

@@ -625,7 +625,8 @@ _feed = dict(depends=BALL_ALL_INPUTS, feedthrough=BALL_FEEDTHROUGH_INPUTS)
 # stay). With contact_model = 1 the outputs say what the rolling model knows: mode 1, no slip, no
 # gap, no impacts, no losses, t_first_slip and t_first_flight never (t_invalid dates the latch).
 BALL_HYBRID_OUTPUTS = ("mode", "slip_speed", "gap", "n_impacts", "v_impact_max", "E_friction", "E_impact",
-                       "t_first_slip", "t_first_flight", "vxC", "vyC", "vzC", "Fx_mean", "Fy_mean", "Fz_mean")
+                       "t_first_slip", "t_first_flight", "vxC", "vyC", "vzC", "Fx_mean", "Fy_mean", "Fz_mean",
+                       "M_reaction_mean")
 BALL_HYBRID_ROWS = (
     ("contact_model", "parameter", 1, "Contact: 1 = rolling only (the ball rolls without slip on the wall; "
      "valid latches false at the first slip or loss of contact), 2 = hybrid (rolling, sliding, flight and "
@@ -665,6 +666,13 @@ BALL_HYBRID_ROWS = (
        f"the last communication step with the impulses of its impacts: m (g_vec - (v_C(t) - v_C(t - h)) / "
        f"h)_{c}, from the published v{c}C (the momentum the chamber received over the step, divided by h; "
        f"at the start time: F{c})", dict(unit="N", **_out)) for c in "xyz"],
+    ("M_reaction_mean", "output", 0.0, "M_reaction averaged over the last communication step with the torque "
+     "impulses of its impacts (contact_model = 2): a drive that integrates it over the step receives the "
+     "torque's integral, exact to the integrator's tolerance (an angular-momentum balance, docs/design.md "
+     "section 14: motion = 1 -(K(t) - K(t - h)) / h + the mean of m (v_A x v_C)_z with K = m (A x v_C)_z; "
+     "motion = 2 -(L_z(t) - L_z(t - h)) / h, L_z the ball's angular momentum about z1). At the start time, "
+     "and with contact_model = 1 (the rolling model carries no torque quadrature), M_reaction itself",
+     dict(unit="N.m", **_out)),
 )
 BALL_IN_SHELL = _interface(
     "BallInShell",

@@ -71,7 +71,7 @@
 #define BM_SOURCE_HASH 0ULL /* setup.py defines it: first 60 bits of this file's sha256 */
 #endif
 
-#define BM_ABI 5
+#define BM_ABI 6
 #define BM_NY 6      /* the ball's states, at most: nx, ny, nz, wx, wy, wz (vector); xC, yC, wx, wy, wz (paper) */
 #define BM_NYMAX 25  /* states the integrators carry, at most (the native induction motor FMU: 7;
                         the absorber's coupled state: 4 * BMA_MODES + 9) */
@@ -131,6 +131,9 @@ typedef struct {
      * exactly from O's position and velocity at t0 = mp[0], platform.ReconstructedPlatform): x0, vx0,
      * y0, vy0, then a_j / ((j + 1) (j + 2)) of x and of y, then a_j / (j + 1) of x and of y (j = 0..3) */
     double mp_kin[20];
+    /* the states the error norm and the initial step weigh: the first nerr (0: all ny); the
+     * rest are quadratures riding along (Integrator's n_err) */
+    int nerr;
 } bm_problem;
 
 typedef struct {
@@ -490,7 +493,7 @@ static double bm_error(const bm_problem *P, const bm_tab *T, const double *K, do
                        const double *yn)
 {
     double sc[BM_NYMAX];
-    int ny = P->ny;
+    int ny = P->nerr > 0 ? P->nerr : P->ny; /* the controlled states */
     for (int i = 0; i < ny; i++)
         sc[i] = P->tol * bm_pymax(bm_pymax(fabs(y[i]), fabs(yn[i])), P->scale[i]) + P->tols[i];
     if (!P->has_e3) {
@@ -1050,7 +1053,7 @@ static inline double bm_initial_step_np(const bm_problem *P, bm_rhs_fn rhs, cons
                                         const double *y, const double *f0, double span)
 {
     double sc[BM_NYMAX], q[BM_NYMAX], y1[BM_NYMAX] = {0}, f1[BM_NYMAX];
-    int n = P->ny;
+    int n = P->nerr > 0 ? P->nerr : P->ny; /* the controlled states (the means' length) */
     for (int i = 0; i < n; i++) sc[i] = P->tol * bm_pymax(fabs(y[i]), P->scale[i]) + P->tols[i];
     for (int i = 0; i < n; i++) q[i] = (y[i] / sc[i]) * (y[i] / sc[i]);
     double d0 = sqrt(bm_np_mean(q, n));
@@ -1058,7 +1061,7 @@ static inline double bm_initial_step_np(const bm_problem *P, bm_rhs_fn rhs, cons
     double d1 = sqrt(bm_np_mean(q, n));
     double h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
     h0 = bm_pymin(h0, span);
-    for (int i = 0; i < n; i++) y1[i] = y[i] + h0 * f0[i];
+    for (int i = 0; i < P->ny; i++) y1[i] = y[i] + h0 * f0[i];
     rhs(P, ctx, t + h0, y1, f1);
     for (int i = 0; i < n; i++) q[i] = ((f1[i] - f0[i]) / sc[i]) * ((f1[i] - f0[i]) / sc[i]);
     double d2 = sqrt(bm_np_mean(q, n)) / h0;
@@ -1847,8 +1850,8 @@ BM_EXPORT size_t bma_problem_size(void) { return sizeof(bma_problem); }
  * chamber (hybrid.py HybridBall on events.integrate; docs/design.md section 14). Functions
  * bmh_*, reached through fast.py (`hybrid_run`). Rolling is the vector formulation above
  * (translation) or the general model's bmg_* (turning), state n, omega, and with `energy` the
- * quadratures W, E_friction; sliding and flight carry (C, v_C, omega, W, E_friction) in fixed
- * axes. The modes' right-hand sides, guards and maps are written in hybrid.py's operation
+ * quadratures W, E_friction, then Lq (the torque's quadrature, outside the error norm: nerr);
+ * sliding and flight carry (C, v_C, omega, W, E_friction, Lq) in fixed axes. The modes' right-hand sides, guards and maps are written in hybrid.py's operation
  * order (a translating chamber's Omega = 0 carried through its expressions, as the Python
  * has it), and the grid loop with its events is
  * events.integrate's, on bm_advance_seen's event location: the same floats, events and
@@ -1856,19 +1859,19 @@ BM_EXPORT size_t bma_problem_size(void) { return sizeof(bma_problem); }
  * ====================================================================== */
 enum { BMH_FLIGHT = 0, BMH_ROLLING = 1, BMH_SLIDING = 2 };
 enum { BMH_SLIP = 0, BMH_LEAVE = 1, BMH_STICK = 2, BMH_IMPACT = 3 }; /* event kinds */
-#define BMH_NZ 11   /* a free state: C, v_C, omega, W, E_friction */
-#define BMH_NCOL 25 /* HybridBall.COLUMNS */
+#define BMH_NZ 12   /* a free state: C, v_C, omega, W, E_friction, Lq */
+#define BMH_NCOL 26 /* HybridBall.COLUMNS */
 #define BMH_NEV 18  /* doubles of an event record (hybrid_run's EVENT_FIELDS) */
 #define BMH_NBOOK 12 /* E_impact, n_impacts, v_impact_max, t_first_slip, t_first_flight, Q[2], seed[3], rebound,
                         W_lost */
 
 /* Everything a hybrid run needs; filled by fast.py (ctypes mirror: _HProblem). */
 typedef struct {
-    bm_problem roll; /* the rolling mode: motion, ball, integrator of ny = 6 (8 with energy), form BM_VECTOR
-                        (turning: its integrator part only) */
+    bm_problem roll; /* the rolling mode: motion, ball, integrator of ny = 7 (9 with energy; the last, Lq,
+                        outside the error norm), form BM_VECTOR (turning: its integrator part only) */
     int turning;     /* 0: the translating chamber of roll's motion; 1: gen's turning chamber */
     bmg_problem gen; /* turning: the chamber motion and the general model's constants */
-    bm_problem free; /* sliding and flight: the integrator of ny = 11, form BM_GENERIC */
+    bm_problem free; /* sliding and flight: the integrator of ny = 12 (nerr = 11), form BM_GENERIC */
     double R, r, d, m, g, Ib, lam, /* Ib, not I: <complex.h> makes I a macro */
            mu, mu_k, e_n, v_rest, slip_eps, kt, gap_res;
     int energy;
@@ -1985,6 +1988,22 @@ static double bmh_slide_forces(const bmh_run *run, double t, const double *y, co
     return bmh_slide_forces_at(run->H, A, vA, aA, Om, y, seed ? seed : run->seed, Ft, s_out, n, vW);
 }
 
+/* HybridBall._q_spin: Lq's rate m (v_A x v_C)_z of a translating chamber (0 turning) */
+static double bmh_q_spin(const bmh_problem *H, const double *vA, double vCx, double vCy)
+{
+    if (H->turning) return 0.0;
+    return H->m * (vA[0] * vCy - vA[1] * vCx);
+}
+
+/* HybridBall.reaction_momentum: K of a free state z at t */
+static double bmh_reaction_momentum(const bmh_problem *H, double t, const double *z)
+{
+    if (H->turning) return H->m * (z[0] * z[4] - z[1] * z[3]) + H->Ib * z[8];
+    double A[3], vA[3], aA[3], Om[3];
+    bmh_chamber(H, t, A, vA, aA, Om, NULL);
+    return H->m * (A[0] * z[4] - A[1] * z[3]);
+}
+
 /* the modes' right-hand sides (ctx: the bmh_run) */
 static void bmh_rhs_roll_q(const bm_problem *P, const void *ctx, double t, const double *y, double *f)
 {
@@ -1999,6 +2018,7 @@ static void bmh_rhs_roll_q(const bm_problem *P, const void *ctx, double t, const
         bmg_derivative(H->gen.c, y, kin, f);
         f[6] = go[24];
         f[7] = 0.0;
+        f[8] = 0.0;
         return;
     }
     bm_motion_state(P, t, m);
@@ -2010,23 +2030,43 @@ static void bmh_rhs_roll_q(const bm_problem *P, const void *ctx, double t, const
     double Fy = H->m * (m[5] + dl * (c1[1] + c2[1]));
     f[6] = Fx * m[2] + Fy * m[3];
     f[7] = 0.0;
+    double nw[3];
+    bmh_cross(y, y + 3, nw);
+    f[8] = bmh_q_spin(H, m + 2, m[2] + H->r * nw[0], m[3] + H->r * nw[1]);
 }
 
-/* the rolling model's right-hand side without the quadratures: ChamberModel.rhs (turning) */
-static void bmh_rhs_roll_g(const bm_problem *P, const void *ctx, double t, const double *y, double *f)
+/* HybridBall._rhs_roll_l: the rolling model's right-hand side (BallModel.rhs translating,
+ * ChamberModel.rhs turning) and Lq's rate */
+static void bmh_rhs_roll_l(const bm_problem *P, const void *ctx, double t, const double *y, double *f)
 {
     const bmh_run *run = ctx;
-    (void)P;
-    bmg_rhs(&run->H->gen, t, y, f);
+    const bmh_problem *H = run->H;
+    if (H->turning) {
+        bmg_rhs(&H->gen, t, y, f);
+        f[6] = 0.0;
+        return;
+    }
+    double m[6], nw[3];
+    bm_ball_rhs(P, ctx, t, y, f);
+    bm_motion_state(P, t, m);
+    bmh_cross(y, y + 3, nw);
+    f[6] = bmh_q_spin(H, m + 2, m[2] + H->r * nw[0], m[3] + H->r * nw[1]);
 }
 
 static void bmh_rhs_flight(const bm_problem *P, const void *ctx, double t, const double *y, double *f)
 {
     const bmh_run *run = ctx;
-    (void)P; (void)t;
+    const bmh_problem *H = run->H;
+    (void)P;
     f[0] = y[3]; f[1] = y[4]; f[2] = y[5];
-    f[3] = 0.0; f[4] = 0.0; f[5] = -run->H->g;
-    for (int i = 6; i < BMH_NZ; i++) f[i] = 0.0;
+    f[3] = 0.0; f[4] = 0.0; f[5] = -H->g;
+    for (int i = 6; i < BMH_NZ - 1; i++) f[i] = 0.0;
+    f[BMH_NZ - 1] = 0.0;
+    if (!H->turning) {
+        double A[3], vA[3], aA[3], Om[3];
+        bmh_chamber(H, t, A, vA, aA, Om, NULL);
+        f[BMH_NZ - 1] = bmh_q_spin(H, vA, y[3], y[4]);
+    }
 }
 
 static void bmh_rhs_slide(const bm_problem *P, const void *ctx, double t, const double *y, double *f)
@@ -2044,6 +2084,7 @@ static void bmh_rhs_slide(const bm_problem *P, const void *ctx, double t, const 
     f[6] = c * tq[0]; f[7] = c * tq[1]; f[8] = c * tq[2];
     f[9] = bmh_dot(F, vW);
     f[10] = H->mu_k * N * s;
+    f[11] = bmh_q_spin(H, vW, y[3], y[4]); /* translating: v_W = v_A */
 }
 
 /* the guards (ctx: the bmh_run): rolling (mu N - |F_t|, N), sliding (|u| - slip_eps, N), flight (gap) */
@@ -2090,7 +2131,7 @@ static void bmh_normal_motion(const bmh_problem *H, double t, const double *y, d
     *an = -H->g * n[2] - bmh_dot(aA, n);
 }
 
-/* HybridBall.free_state: (C, v_C, omega, W, E_friction) of any mode's state */
+/* HybridBall.free_state: (C, v_C, omega, W, E_friction, Lq) of any mode's state */
 static void bmh_free_state(const bmh_run *run, int mode, double t, const double *y, double *z)
 {
     const bmh_problem *H = run->H;
@@ -2109,22 +2150,26 @@ static void bmh_free_state(const bmh_run *run, int mode, double t, const double 
     }
     z[9] = H->energy ? y[6] : run->Q[0];
     z[10] = H->energy ? y[7] : run->Q[1];
+    z[11] = y[H->roll.ny - 1];
 }
 
 /* HybridBall._rolling_state: the rolling state of n, omega and the quadratures; its size */
-static int bmh_rolling_state(bmh_run *run, const double *n, const double *w, double W, double Ef, double *y)
+static int bmh_rolling_state(bmh_run *run, const double *n, const double *w, double W, double Ef, double Lq,
+                             double *y)
 {
     memcpy(y, n, 3 * sizeof(double));
     memcpy(y + 3, w, 3 * sizeof(double));
     if (run->H->energy) {
         y[6] = W;
         y[7] = Ef;
-        return 8;
+        y[8] = Lq;
+        return 9;
     }
     run->Q[0] = 0.0; /* W is not followed while rolling (HybridBall._rolling_state) */
     run->Q[1] = Ef;
     run->w_lost = 1;
-    return 6;
+    y[6] = Lq;
+    return 7;
 }
 
 /* HybridBall._impulse: J (on the ball, at P) applied to z in place; the kinetic energy lost in
@@ -2228,7 +2273,7 @@ static int bmh_on_wall(bmh_run *run, double t, const double *z_in, double *y, in
         bmh_roll_out(H, t, nw, &N, &Ft);
         if (N <= 0.0) return BMH_FLIGHT;
         if (Ft <= H->mu * N) {
-            *ny = bmh_rolling_state(run, n, z + 6, z[9], z[10], y);
+            *ny = bmh_rolling_state(run, n, z + 6, z[9], z[10], z[11], y);
             return BMH_ROLLING;
         }
         return bmh_start_sliding(run, t, z, n, rec);
@@ -2382,6 +2427,7 @@ static void bmh_sample(const bmh_run *run, int mode, double t, const double *y, 
     row[19] = z[10];
     row[20] = run->E_impact; row[21] = run->n_impacts; row[22] = run->v_impact_max;
     row[23] = run->t_first_slip; row[24] = run->t_first_flight;
+    row[25] = z[11] - bmh_reaction_momentum(H, t, z);
 }
 
 /* the hybrid ball as a system of bm_drive (events.integrate's HybridBall) */
@@ -2415,7 +2461,7 @@ static void bmh_setup(const bm_system *S, int mode, double t, const double *y, c
     ev->xtol = H->xtol;
     if (mode == BMH_ROLLING) {
         *P = &H->roll; *T = &x->Tr;
-        *rhs = H->energy ? bmh_rhs_roll_q : H->turning ? bmh_rhs_roll_g : bm_ball_rhs;
+        *rhs = H->energy ? bmh_rhs_roll_q : bmh_rhs_roll_l;
         ev->ng = 2; ev->G = bmh_g_rolling;
     } else {
         *P = &H->free; *T = &x->Tf;

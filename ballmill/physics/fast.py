@@ -62,7 +62,7 @@ from .outputs import Outputs
 __all__ = ["KERNEL_AVAILABLE", "KERNEL_REASON", "KERNEL_PATH", "KernelUnavailable", "applicable",
            "simulate"]
 
-ABI = 5
+ABI = 6
 NY = 6
 NYMAX = 25  # BM_NYMAX: the integrators' largest state (the absorber's coupled one)
 NOUT = len(Outputs._fields)
@@ -100,6 +100,7 @@ class _Problem(ctypes.Structure):
         ("scale", ctypes.c_double * NYMAX), ("tols", ctypes.c_double * NYMAX),
         ("form", ctypes.c_int), ("ny", ctypes.c_int), ("pap_d", ctypes.c_double),
         ("pap_margin", ctypes.c_double), ("mp_kin", ctypes.c_double * 20),
+        ("nerr", ctypes.c_int),
     ]
 
 
@@ -368,6 +369,7 @@ def fill_integrator(P: _Problem, integ) -> None:
     P.max_steps = int(min(integ.max_steps, 2 ** 62))
     P.scale[:P.ny] = integ.scale.tolist()
     P.tols[:P.ny] = (integ.tol * integ.scale).tolist()  # as the Python kernel's tol * scale
+    P.nerr = integ.n_err or 0  # the states in the error norm (0: all)
 
 
 def problem(model, motion) -> _Problem:
@@ -748,7 +750,7 @@ def _hproblem_type():
     return _HPROBLEM
 
 
-HYBRID_NCOL = 25  # HybridBall.COLUMNS
+HYBRID_NCOL = 26  # HybridBall.COLUMNS
 HYBRID_NEV = 18  # doubles of an event record: t, kind, modes before/after, width, n, details
 HYBRID_KINDS = ("slip", "leave", "stick", "impact")  # BMH_SLIP.. BMH_IMPACT
 # the details of an event record's fields 8.. (NaN: the map did not set it); flags as bools

@@ -35,6 +35,18 @@ Work and losses ride along as quadratures in every mode's state: W, the work of 
 on the ball (the contact force times v_W, plus J.v_W for every impulse), and E_friction;
 E_impact is summed at the impacts. E + E_friction + E_impact - W is then constant, E the
 ball's mechanical energy in fixed axes (`HybridTrajectory.energy_residual`).
+
+The torque of the ball's force F on the chamber about the vertical axis z through the fixed
+origin O1 (the BallInShell FMU's M_reaction) is integrated exactly, impulses included, by an
+angular-momentum balance (`reaction_momentum`): with K the ball's angular momentum that the
+torque drains and q the rest of its rate, the torque's integral from t_a to t_b is
+-(K(t_b) - K(t_a)) + Lq(t_b) - Lq(t_a), Lq = integral of q, a quadrature in every mode's state
+(last component) outside the error norm (`Integrator` n_err: the other states' steps and floats
+are those of a run without it). Translating chamber (M = (A x F)_z, the crank's torque): K = m (A
+x v_C)_z, q = m (v_A x v_C)_z; turning chamber (M = (P x F)_z, the moment about O1 of the force at
+the contact point P): K = m (C x v_C)_z + I omega_z, the ball's angular momentum about the z axis
+(gravity has no moment about a vertical axis), q = 0. An impulse changes v_C and omega, so K
+carries its torque impulse; Lq is continuous.
 """
 from __future__ import annotations
 
@@ -149,12 +161,18 @@ class HybridBall:
         v_ref = math.sqrt(ball.g * ball.r)
         e_ref = ball.m * ball.g * ball.r
         q = [e_ref, e_ref]  # W, E_friction
-        roll_scale = list(self.rolling.integrator.scale) + q
-        self._int_roll_q = Integrator(method, tol=tol, scale=roll_scale, h_fixed=h_fixed, h_max=h_max,
-                                      max_steps=max_steps, project=project, check=check)
+        lq = [e_ref * math.sqrt(ball.r / ball.g)]  # Lq [N m s] (outside the error norm: its scale only sizes it)
+        roll = self.rolling.integrator
+        roll_scale = list(roll.scale) + q
+        self._int_roll_q = Integrator(method, tol=tol, scale=roll_scale + lq, h_fixed=h_fixed, h_max=h_max,
+                                      max_steps=max_steps, project=project, check=check, n_err=len(roll_scale))
+        # rolling without W, E_friction: the rolling model's own integrator with Lq after its states
+        self._int_roll_l = Integrator(method, tol=roll.tol, scale=list(roll.scale) + lq, h_fixed=roll.h_fixed,
+                                      h_max=h_max, max_steps=roll.max_steps, project=project, check=check,
+                                      n_err=roll.scale.size)
         free = [ball.r] * 3 + [v_ref] * 3 + [v_ref / ball.r] * 3 + q
-        self._int_free = Integrator(method, tol=tol, scale=free, h_fixed=h_fixed, h_max=h_max,
-                                    max_steps=max_steps)
+        self._int_free = Integrator(method, tol=tol, scale=free + lq, h_fixed=h_fixed, h_max=h_max,
+                                    max_steps=max_steps, n_err=len(free))
         self.book = dict(E_impact=0.0, n_impacts=0, v_impact_max=0.0, t_first_slip=math.nan,
                          t_first_flight=math.nan, Q=(0.0, 0.0), W_lost=False)
         self._seed = (0.0, 0.0, 0.0)
@@ -267,31 +285,61 @@ class HybridBall:
         return (vA[0] + R * c[0], vA[1] + R * c[1], vA[2] + R * c[2])
 
     # -- modes: state layout ----------------------------------------------
-    # ROLLING: (n, omega) [+ (W, E_friction) when energy]; FLIGHT, SLIDING:
-    # (C, v_C, omega, W, E_friction).
+    # ROLLING: (n, omega) [+ (W, E_friction) when energy] + Lq; FLIGHT, SLIDING:
+    # (C, v_C, omega, W, E_friction, Lq). Lq (the torque's quadrature, last) is outside the error norm.
     def integrator(self, mode):
         if mode == ROLLING:
-            return self._int_roll_q if self.energy else self.rolling.integrator
+            return self._int_roll_q if self.energy else self._int_roll_l
         return self._int_free
 
     def rhs(self, mode):
         if mode == ROLLING:
-            return self._rhs_roll_q if self.energy else self._f_roll
+            return self._rhs_roll_q if self.energy else self._rhs_roll_l
         return self._rhs_slide if mode == SLIDING else self._rhs_flight
 
     def _quad(self, mode, y):
         if mode == ROLLING and not self.energy:
             return self.book["Q"]
-        return float(y[-2]), float(y[-1])
+        return float(y[-3]), float(y[-2])
+
+    # -- the torque about the vertical axis through O1 (module docstring) ----
+    def _q_spin(self, vA, vC):
+        """q = m (v_A x v_C)_z of a translating chamber, Lq's rate (0 in a turning one)."""
+        if self.turning:
+            return 0.0
+        return self.ball.m * (vA[0] * vC[1] - vA[1] * vC[0])
+
+    def reaction_momentum(self, t, z):
+        """K of a free state z at t: the angular momentum whose loss, with Lq's gain, is the
+        integral of the torque of the ball's force on the chamber about the vertical axis
+        through O1 (module docstring): m (A x v_C)_z translating, m (C x v_C)_z + I omega_z
+        turning [N m s]."""
+        b = self.ball
+        if self.turning:
+            return b.m * (z[0] * z[4] - z[1] * z[3]) + b.I * z[8]
+        A = self.chamber(t)[0]
+        return b.m * (A[0] * z[4] - A[1] * z[3])
 
     # -- right-hand sides -------------------------------------------------
+    def _rhs_roll_l(self, t, y):
+        """The rolling model's right-hand side (the same floats) and Lq's rate, q = m (v_A x v_C)_z
+        with v_C = v_A + r n x omega (translating; 0 turning)."""
+        d = tuple(self._f_roll(t, y[:6]))
+        if self.turning:
+            return d + (0.0,)
+        (_, _, vx, vy, _, _) = self.motion.state(t)
+        y = y.tolist()
+        r = self.ball.r
+        nw = _cross((y[0], y[1], y[2]), (y[3], y[4], y[5]))
+        return d + (self._q_spin((vx, vy), (vx + r * nw[0], vy + r * nw[1])),)
+
     def _rhs_roll_q(self, t, y):
         b = self.ball
         y = y.tolist()
         if self.turning:
             y6 = y[:6]
             o = _turning.evaluate_c(self._oc_roll, y6, self.motion.state(t))
-            return _turning.derivative(self._c_roll, y6, self.motion.accel(t)) + (o.P_ball, 0.0)
+            return _turning.derivative(self._c_roll, y6, self.motion.accel(t)) + (o.P_ball, 0.0, 0.0)
         (x, yy, vx, vy, ax, ay) = self.motion.state(t)
         d = self.rolling.form.derivative((y[0], y[1], y[2], y[3], y[4], y[5]), ax, ay)
         # contact force on the ball m (a_O + d n'' - g_vec), n'' = lambda (n' x w + n x w')
@@ -301,11 +349,14 @@ class HybridBall:
         c1, c2 = _cross(nd, w), _cross(n, wd)
         Fx = b.m * (ax + b.d * lam * (c1[0] + c2[0]))
         Fy = b.m * (ay + b.d * lam * (c1[1] + c2[1]))
-        return d + (Fx * vx + Fy * vy, 0.0)
+        r = b.r
+        nw = _cross(n, w)
+        return d + (Fx * vx + Fy * vy, 0.0, self._q_spin((vx, vy), (vx + r * nw[0], vy + r * nw[1])))
 
     def _rhs_flight(self, t, y):
         y = y.tolist()
-        return (y[3], y[4], y[5], 0.0, 0.0, -self.ball.g, 0.0, 0.0, 0.0, 0.0, 0.0)
+        q = 0.0 if self.turning else self._q_spin(self.chamber(t)[1], (y[3], y[4]))
+        return (y[3], y[4], y[5], 0.0, 0.0, -self.ball.g, 0.0, 0.0, 0.0, 0.0, 0.0, q)
 
     def _slide_forces(self, t, y, seed=None, chamber=None):
         """(N, friction force on the ball F_t, slip speed |u_t|, n, the wall's velocity at P)
@@ -344,7 +395,8 @@ class HybridBall:
         tq = _cross(n, Ft)
         c = b.r / b.I
         return (y[3], y[4], y[5], F[0] / b.m, F[1] / b.m, F[2] / b.m - b.g,
-                c * tq[0], c * tq[1], c * tq[2], _dot(F, vW), self.mu_k * N * s)
+                c * tq[0], c * tq[1], c * tq[2], _dot(F, vW), self.mu_k * N * s,
+                self._q_spin(vW, (y[3], y[4])))  # translating: v_W = v_A
 
     # -- guards ---------------------------------------------------------
     def guards(self, mode):
@@ -409,7 +461,7 @@ class HybridBall:
 
     # -- conversions ----------------------------------------------------
     def free_state(self, mode, t, y):
-        """(C, v_C, omega, W, E_friction) of any mode's state, fixed axes."""
+        """(C, v_C, omega, W, E_friction, Lq) of any mode's state, fixed axes."""
         if mode != ROLLING:
             return np.array(y, dtype=float)
         b = self.ball
@@ -420,17 +472,17 @@ class HybridBall:
         W, Ef = self._quad(mode, y)
         return np.array([A[0] + b.d * n[0], A[1] + b.d * n[1], A[2] + b.d * n[2],
                          vW[0] + b.r * nw[0], vW[1] + b.r * nw[1], vW[2] + b.r * nw[2],
-                         w[0], w[1], w[2], W, Ef])
+                         w[0], w[1], w[2], W, Ef, float(y[-1])])
 
-    def _rolling_state(self, n, w, Q):
+    def _rolling_state(self, n, w, Q, Lq):
         core = [n[0], n[1], n[2], w[0], w[1], w[2]]
         if self.energy:
-            return np.array(core + list(Q))
+            return np.array(core + list(Q) + [Lq])
         # W is not followed while rolling: the sliding or flying state that follows carries it
         # from 0 (a NaN there would stop the integrator) and the outputs show NaN from here on
         self.book["Q"] = (0.0, Q[1])
         self.book["W_lost"] = True
-        return np.array(core)
+        return np.array(core + [Lq])
 
     def _onto_wall(self, t, z):
         """z with C put on the sphere |C - A| = d and the normal velocity relative to the wall
@@ -515,7 +567,7 @@ class HybridBall:
             if o.N <= 0.0:
                 return FLIGHT, z, details
             if o.Ft <= self.mu * o.N:
-                return ROLLING, self._rolling_state(n, w, (z[9], z[10])), details
+                return ROLLING, self._rolling_state(n, w, (z[9], z[10]), z[11]), details
             return self._start_sliding(t, z, n, details)
         N = self._slide_forces(t, z, seed=(0.0, 0.0, 0.0))[0]
         if N <= 0.0:
@@ -542,9 +594,9 @@ class HybridBall:
                                  f"formulation, got shape {y.shape}")
         o = self._roll_out(t, y)
         if o.N > 0.0 and o.Ft <= self.mu * o.N:
-            return ROLLING, self._rolling_state(tuple(y[:3]), tuple(y[3:]), (0.0, 0.0))
+            return ROLLING, self._rolling_state(tuple(y[:3]), tuple(y[3:]), (0.0, 0.0), 0.0)
         mode, z, _ = self.on_wall(t, self.free_state(ROLLING, t, self._rolling_state(
-            tuple(y[:3]), tuple(y[3:]), (0.0, 0.0))))
+            tuple(y[:3]), tuple(y[3:]), (0.0, 0.0), 0.0)))
         return mode, z
 
     def start(self, t, C, v, w):
@@ -553,7 +605,7 @@ class HybridBall:
         with no normal relative velocity, struck at once if it moves into it."""
         b = self.ball
         A, vA, _, _, _ = self.chamber(t)
-        z = np.array(list(C) + list(v) + list(w) + [0.0, 0.0], dtype=float)
+        z = np.array(list(C) + list(v) + list(w) + [0.0, 0.0, 0.0], dtype=float)
         for name, val in zip(("C", "v", "w"), (C, v, w)):
             if len(val) != 3 or not all(math.isfinite(x) for x in val):
                 raise ParameterError(f"{name} must be three finite numbers, got {name} = {val!r}")
@@ -644,14 +696,17 @@ class HybridBall:
     # -- outputs ----------------------------------------------------------
     COLUMNS = ("mode", "nx", "ny", "nz", "xC", "yC", "zC", "vCx", "vCy", "vCz", "wx", "wy", "wz", "N", "Ft",
                "slip_speed", "gap", "E", "W_chamber", "E_friction", "E_impact", "n_impacts",
-               "v_impact_max", "t_first_slip", "t_first_flight")
+               "v_impact_max", "t_first_slip", "t_first_flight", "M_impulse")
 
     def sample(self, mode, t, y):
         """One row of COLUMNS: n = (C - A)/|C - A| (fixed axes); C in the chamber's axes with
         the origin at its lowest point, Q^T (C - A) + (0, 0, R) (translating: C relative to the
         platform point O, as `outputs.evaluate`); v_C and omega in fixed axes; N and |F_t| of
         the contact [N]; the slip speed [m/s] and gap d - |C - A| [m]; the ball's mechanical
-        energy E in fixed axes and the bookkeeping [J]."""
+        energy E in fixed axes and the bookkeeping [J]; M_impulse = Lq - K [N m s], whose change
+        between two samples is the integral of the torque of the ball's force on the chamber about
+        the vertical axis through O1, impulses included (`reaction_momentum`; `simulate_hybrid`
+        counts it from its first sample)."""
         b = self.ball
         z = self.free_state(mode, t, y)
         A = self.chamber(t)[0]
@@ -681,7 +736,8 @@ class HybridBall:
         W = math.nan if bk["W_lost"] else z[9]
         return (mode, n[0], n[1], n[2], c[0], c[1], c[2], z[3], z[4], z[5], z[6], z[7], z[8], N, Ft,
                 slip, b.d - dist, E, W, z[10], bk["E_impact"], bk["n_impacts"],
-                bk["v_impact_max"], bk["t_first_slip"], bk["t_first_flight"])
+                bk["v_impact_max"], bk["t_first_slip"], bk["t_first_flight"],
+                z[11] - self.reaction_momentum(t, z))
 
 
 @dataclass
@@ -767,6 +823,7 @@ def simulate_hybrid(ball: Ball, motion, t_end: float, dt: float, contact: Contac
         run = integrate(system, mode, t0, y, times, burst=burst, max_rate=max_rate)
     arr = np.array(run.rows, dtype=float).reshape(len(run.rows), len(HybridBall.COLUMNS))
     out = {name: arr[:, j] for j, name in enumerate(HybridBall.COLUMNS)}
+    out["M_impulse"] = out["M_impulse"] - out["M_impulse"][0]  # from the first sample
     bk = system.book
     nan_none = lambda v: None if math.isnan(v) else v  # noqa: E731
     return HybridTrajectory(run.t, out, run.events, run.success, run.message, run.stats,

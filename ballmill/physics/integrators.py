@@ -182,15 +182,17 @@ def _as_seq(n):
     return seq
 
 
-def _kernel(method: str, n: int, scaled: bool):
-    """step(f, t, y, h, k0, tol, scale, tols, arr) for `method` on n states.
+def _kernel(method: str, n: int, scaled: bool, n_err: int | None = None):
+    """step(f, t, y, h, k0, tol, scale, tols, arr) for `method` on n states, the error
+    norm over the first ``n_err`` of them (None: all).
 
     Adaptive methods return (y_new, f_new, err, finite); RK4 returns
     (y_new, finite). ``y`` is a list of floats, ``k0`` f(t, y) as a sequence,
     ``arr`` builds the array handed to f; ``scale``/``tols`` are the scale and
     tol * scale tuples (unused when not ``scaled``).
     """
-    key = (method, n, scaled)
+    ne = n if n_err is None else n_err
+    key = (method, n, scaled) if ne == n else (method, n, scaled, ne)
     fn = _KERNELS.get(key)
     if fn is not None:
         return fn
@@ -230,23 +232,24 @@ def _kernel(method: str, n: int, scaled: bool):
             base = f"max(abs({ys[i]}), abs({yn[i]})" + (f", s_{i})" if scaled else ")")
             src.append(f"    sc_{i} = tol * {base} + " + (f"ts_{i}" if scaled else "1e-12"))
         col = [[K[j][i] for j in range(ns + 1)] for i in comps]
+        controlled = range(ne)  # the components in the error norm (the rest: quadratures it ignores)
         if tab.E3 is None:
-            for i in comps:
+            for i in controlled:
                 src.append(f"    e_{i} = {_dot(tab.E, col[i])} * h / sc_{i}")
-            src.append(f"    err = sqrt(({' + '.join(f'e_{i} * e_{i}' for i in comps)}) / {n})")
+            src.append(f"    err = sqrt(({' + '.join(f'e_{i} * e_{i}' for i in controlled)}) / {ne})")
         else:
-            for i in comps:
+            for i in controlled:
                 src.append(f"    e_{i} = {_dot(tab.E, col[i])} / sc_{i}")
                 src.append(f"    g_{i} = {_dot(tab.E3, col[i])} / sc_{i}")
-            src.append(f"    e5n = {' + '.join(f'e_{i} * e_{i}' for i in comps)}")
-            src.append(f"    e3n = {' + '.join(f'g_{i} * g_{i}' for i in comps)}")
+            src.append(f"    e5n = {' + '.join(f'e_{i} * e_{i}' for i in controlled)}")
+            src.append(f"    e3n = {' + '.join(f'g_{i} * g_{i}' for i in controlled)}")
             src += ["    if e5n == 0.0 and e3n == 0.0:",
                     "        err = 0.0",
                     "    else:",
-                    f"        err = abs(h) * e5n / sqrt((e5n + 0.01 * e3n) * {n})"]
+                    f"        err = abs(h) * e5n / sqrt((e5n + 0.01 * e3n) * {ne})"]
         src.append("    return y_new, k, err, finite and isfinite(err)")
     namespace = {"seq": _as_seq(n), "isfinite": math.isfinite, "sqrt": math.sqrt}
-    exec(compile("\n".join(src) + "\n", f"<ballmill {method} kernel, n={n}>", "exec"), namespace)
+    exec(compile("\n".join(src) + "\n", f"<ballmill {method} kernel, n={n}, n_err={ne}>", "exec"), namespace)
     fn = _KERNELS[key] = namespace["step"]
     return fn
 
@@ -259,11 +262,15 @@ class Integrator:
     h_fixed: the step of RK4 (the last step of an interval is shortened to
          land on its end; an interval shorter than h_fixed takes one step).
     h_max: largest internal step of the adaptive methods (None: unbounded).
+    n_err: the number of leading state components the error norm and the initial step
+         weigh (None: all); the components after them are quadratures that ride along on
+         the same stages without steering the step (the states' steps and floats are
+         those of an integration without them).
     """
 
     def __init__(self, method: str = "DOP853", tol: float = 1e-9, scale=None,
                  h_fixed: float = 1e-3, h_max: float | None = None, max_steps: int = 1_000_000,
-                 project=_identity, check=_nothing):
+                 project=_identity, check=_nothing, n_err: int | None = None):
         if method not in TABLEAUS:
             raise ValueError(f"integrator method must be one of {METHODS}, got {method!r}")
         if not (math.isfinite(tol) and 1e-15 <= tol <= 1e-1):
@@ -280,6 +287,7 @@ class Integrator:
         self.max_steps = max_steps
         self.project = project
         self.check = check
+        self.n_err = None if n_err is None else int(n_err)
         self._bT = self.tab.B  # weights
         self._a_rows = [self.tab.A[s, :s] for s in range(self.tab.n_stages)]
 
@@ -292,13 +300,20 @@ class Integrator:
 
     def initial_step(self, f, t, y, f0, span):
         """Hairer-Wanner starting step for the adaptive methods."""
+        ne = self.n_err
         sc = self._scale(y, y)
-        d0 = math.sqrt(np.mean((y / sc) ** 2))
-        d1 = math.sqrt(np.mean((f0 / sc) ** 2))
+        if ne is None:
+            yc, fc, scc = y, f0, sc
+        else:  # the controlled components only (quadratures after them do not steer the step)
+            yc, fc, scc = y[:ne], np.broadcast_to(f0, y.shape)[:ne], sc[:ne]
+        d0 = math.sqrt(np.mean((yc / scc) ** 2))
+        d1 = math.sqrt(np.mean((fc / scc) ** 2))
         h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
         h0 = min(h0, span)
         f1 = np.asarray(f(t + h0, y + h0 * f0))
-        d2 = math.sqrt(np.mean(((f1 - f0) / sc) ** 2)) / h0
+        if ne is not None:
+            f1 = np.broadcast_to(f1, y.shape)[:ne]
+        d2 = math.sqrt(np.mean(((f1 - fc) / scc) ** 2)) / h0
         if d1 <= 1e-15 and d2 <= 1e-15:
             h1 = max(1e-6, h0 * 1e-3)
         else:
@@ -317,6 +332,9 @@ class Integrator:
 
     def _error_norm(self, K, h, y, y_new):
         tab = self.tab
+        ne = self.n_err
+        if ne is not None:
+            K, y, y_new = K[:, :ne], y[:ne], y_new[:ne]
         sc = self._scale(y, y_new)
         if tab.E3 is None:
             err = (tab.E @ K) * h / sc
@@ -373,7 +391,7 @@ class Integrator:
             generated = n <= SMALL_SYSTEM and (not scaled or self.scale.shape == (n,))
             scaled = scaled and generated
             c = self._small = (n, self.tol, self.scale,
-                               _kernel(self.method, n, scaled) if generated else self._numpy_step(),
+                               _kernel(self.method, n, scaled, self.n_err) if generated else self._numpy_step(),
                                tuple(self.scale.tolist()) if scaled else None,
                                tuple((self.tol * self.scale).tolist()) if scaled else None)
         return c[3], c[1], c[4], c[5]
