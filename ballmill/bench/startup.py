@@ -60,8 +60,9 @@ PHASES = (  # (label, mark that ends it); the first starts at the process's laun
 
 
 def _env(tree: Path, **extra) -> dict:
-    env = {k: v for k, v in os.environ.items() if k != "BALLMILL_PHASES"}
-    return {**env, "PYTHONPATH": str(tree), **extra}
+    from .machine import command_env
+
+    return command_env(tree, **extra)
 
 
 def _cpu() -> float:

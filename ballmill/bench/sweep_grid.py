@@ -151,7 +151,7 @@ def measure(repeats: int, baseline: str | None = None, root: Path | None = None,
 
     work = Path(tempfile.mkdtemp(prefix="ballmill-bench-sweep-grid-"))
     here = Path(__file__).resolve().parents[2]
-    env = {**os.environ, "PYTHONPATH": str(here)}
+    env = machine.command_env(here)
     variants = [(label, args, env) for label, args in VARIANTS]
     data = {"repeats": repeats, "load_start": machine.load(), "nproc": os.cpu_count(), "runs": {}, "fixed": {},
             "split": {}}
@@ -161,7 +161,7 @@ def measure(repeats: int, baseline: str | None = None, root: Path | None = None,
             progress(f"sweep-grid: extracting and building {ref}")
             tree, sha = _baseline(root or here, ref.strip(), work)
             shas.append(sha)
-            variants.append((f"revision {sha} (its default)", [], {**env, "PYTHONPATH": str(tree)}))
+            variants.append((f"revision {sha} (its default)", [], machine.command_env(tree)))
         if shas:
             data["baseline"] = ",".join(shas)
         for k in range(repeats):
