@@ -38,6 +38,8 @@ def _balance_ok(tr, ball, rel=1e-8, atol=0.0):
     (dict(e_n=-0.01), r"e_n must lie in \[0, 1\], got e_n = -0.01"),
     (dict(v_rest=0.0), r"v_rest must be positive and finite, got v_rest = 0.0 m/s"),
     (dict(v_rest=-1.0), r"v_rest must be positive and finite, got v_rest = -1.0 m/s"),
+    (dict(creep_eps=-1e-3), r"creep_eps must be non-negative and finite \(0: no creeping slide\), got "
+                            r"creep_eps = -0.001 m/s"),
 ])
 def test_contact_parameters_refused_with_the_value(kw, match):
     with pytest.raises(ParameterError, match=match):
@@ -269,6 +271,43 @@ def test_without_the_work_quadrature_the_ball_slides_on_after_rolling():
     rolled = bare.t > bare.events[0].t
     assert np.all(np.isnan(bare["W_chamber"][rolled])) and np.all(np.isfinite(bare["W_chamber"][~rolled]))
     assert abs(bare["E_friction"][-1] - full["E_friction"][-1]) < 1e-8 * full["E_friction"][-1]
+
+
+def test_a_slide_from_zero_slip_costs_about_what_rolling_costs():
+    """The fast crank start: its two slides start from zero slip (at t = 0, and at the slip
+    after a stick) and creep, the slip below 1e-4 m/s for about a millisecond. Followed with
+    Coulomb's direction u/|u| down to zero slip, that direction is stiff there (it turns at the
+    rate k_t mu_k N / (m |u|)): 1709 steps on DOP853 at 1e-9 and 42618 on RK45 at 1e-8 for the
+    second (RK45's slip also stalled near 6e-7 m/s for 2.5 ms). On the slide's slow manifold
+    below creep_eps (docs/design.md section 14): 230 and 349 steps, within 2.6 times the rolling
+    model's own steps over the same second (100 and 139)."""
+    motion = CrankStartup(t0=0.5)
+    for method, tol in (("DOP853", 1e-9), ("RK45", 1e-8)):
+        rolling = simulate(BallModel(Ball(), method=method, tol=tol), motion, 1.0, 0.01)
+        tr = simulate_hybrid(Ball(), motion, 1.0, 0.01, method=method, tol=tol)
+        assert tr.success and [e.kind for e in tr.events] == ["stick", "slip", "stick", "slip"], tr.message
+        assert tr.info.steps < 3 * rolling.info.steps, (method, tr.info.steps, rolling.info.steps)
+
+
+@pytest.mark.parametrize("scene", ["fast crank start", "Fig. 1 machine"])
+def test_the_creeping_slide_agrees_with_the_unreduced_model(scene):
+    """The slow manifold below creep_eps = 1e-3 m/s against the unreduced model (creep_eps = 0,
+    Coulomb's u/|u| at every slip) at tol = 1e-11, over the fast crank start's 1 s and the
+    Fig. 1 machine's first 3.2 s (slip, flight, two impacts, stick, slip, stick): the same
+    events, their times within 1e-7 s (measured 1.8e-8 and 1e-9 s), v_C within 1e-6 m/s
+    (4.5e-8 and 1.4e-7) and the friction loss within 1e-7 J (6.8e-9 and 3.6e-10) at every
+    sample: closer than the unreduced model's own run at tol = 1e-9 (2.9e-7 and 3.9e-7 m/s)."""
+    from ballmill.physics import Fig1Machine
+
+    motion, t_end = (CrankStartup(t0=0.5), 1.0) if scene == "fast crank start" else (Fig1Machine(), 3.2)
+    ref = simulate_hybrid(Ball(), motion, t_end, 0.01, Contact(creep_eps=0.0), tol=1e-11)
+    tr = simulate_hybrid(Ball(), motion, t_end, 0.01)
+    assert ref.success and tr.success
+    assert [e.kind for e in tr.events] == [e.kind for e in ref.events] and len(tr.events) >= 4
+    assert max(abs(a.t - b.t) for a, b in zip(tr.events, ref.events)) < 1e-7
+    assert max(np.abs(tr[k] - ref[k]).max() for k in ("vCx", "vCy", "vCz")) < 1e-6
+    assert np.abs(tr["E_friction"] - ref["E_friction"]).max() < 1e-7
+    _balance_ok(tr, Ball())
 
 
 @pytest.mark.parametrize("mu", [0.1, 1.0])
