@@ -788,7 +788,7 @@ static void hybrid_start(ball_in_shell *b, ball_state *s, const fit *f)
     bmh_rolling_state(&run, y, y + 3, 0.0, 0.0, s->y);
     if (!(N > 0.0 && Ft <= H->mu * N)) {
         bmh_free_state(&run, BMH_ROLLING, s->t, s->y, z);
-        s->mode = bmh_on_wall(&run, s->t, z, s->y, &ny, rec);
+        s->mode = bmh_on_wall(&run, s->t, z, s->y, &ny, rec, 0);
     }
     if (s->mode == BMH_FLIGHT && isnan(run.t_first_flight)) run.t_first_flight = s->t;
     double book[BMH_NBOOK] = {run.E_impact, run.n_impacts, run.v_impact_max, run.t_first_slip, run.t_first_flight,

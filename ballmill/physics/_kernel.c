@@ -2255,8 +2255,9 @@ static int bmh_start_sliding(bmh_run *run, double t, const double *z, const doub
 }
 
 /* HybridBall.on_wall: the mode and state (y, *ny) of a ball on the wall with no normal
- * relative velocity (free state z), its slip removed if below slip_eps, then the stick test */
-static int bmh_on_wall(bmh_run *run, double t, const double *z_in, double *y, int *ny, double *rec)
+ * relative velocity (free state z), its slip removed if below slip_eps (or stuck: at a stick
+ * event, whatever its speed), then the stick test */
+static int bmh_on_wall(bmh_run *run, double t, const double *z_in, double *y, int *ny, double *rec, int stuck)
 {
     const bmh_problem *H = run->H;
     double A[3], vA[3], aA[3], Om[3], z[BMH_NZ], rho[3], n[3], ut[3];
@@ -2270,7 +2271,7 @@ static int bmh_on_wall(bmh_run *run, double t, const double *z_in, double *y, in
     double s = sqrt(bmh_dot(ut, ut));
     memcpy(y, z, sizeof z);
     *ny = BMH_NZ;
-    if (s <= H->slip_eps) {
+    if (s <= H->slip_eps || stuck) {
         double J[3], nw[6], N, Ft;
         for (int i = 0; i < 3; i++) J[i] = -H->m * ut[i] / H->kt;
         double loss = bmh_impulse(H, t, z, J, n);
@@ -2355,7 +2356,7 @@ static int bmh_impact(bmh_run *run, double t, const double *z_in, double *y, int
         run->E_impact += loss;
         rec[BMH_D_ELOSS] = loss;
         rec[BMH_D_REST] = 1.0;
-        return bmh_on_wall(run, t, z, y, ny, rec);
+        return bmh_on_wall(run, t, z, y, ny, rec, 0);
     }
     run->E_impact += loss;
     run->rebound = 1;
@@ -2385,7 +2386,7 @@ static int bmh_jump(bmh_run *run, int mode, int kind, double t, const double *y_
         *ny = BMH_NZ;
         new_mode = bmh_start_sliding(run, t, z, n, rec);
     } else {
-        new_mode = bmh_on_wall(run, t, z, y, ny, rec);
+        new_mode = bmh_on_wall(run, t, z, y, ny, rec, 1);
     }
     if (new_mode == BMH_FLIGHT && isnan(run->t_first_flight)) run->t_first_flight = t;
     for (int i = 0; i < 3; i++) rho[i] = z[i] - A[i];

@@ -563,10 +563,13 @@ class HybridBall:
         an = _dot(a, n)
         return (a[0] - an * n[0], a[1] - an * n[1], a[2] - an * n[2])
 
-    def on_wall(self, t, z):
+    def on_wall(self, t, z, stuck=False):
         """Mode and state of a ball on the wall with no normal relative velocity (free
         state z): its slip removed if below slip_eps (booked as friction), then the stick
-        test. Returns (mode, y, details)."""
+        test. ``stuck``: the slip is removed whatever its speed here: the stick guard found
+        it at slip_eps, and putting C back on the sphere may move the speed recomputed here
+        above slip_eps by rounding (going on sliding from there, a slide the guard cannot
+        see start above slip_eps, would chatter at zero slip). Returns (mode, y, details)."""
         b = self.ball
         A = self.chamber(t)[0]
         z = np.array(z, dtype=float)
@@ -576,7 +579,7 @@ class HybridBall:
         details = {}
         ut = self._slip(t, z, n)
         s = math.sqrt(_dot(ut, ut))
-        if s <= self.slip_eps:
+        if s <= self.slip_eps or stuck:
             J = (-b.m * ut[0] / self.kt, -b.m * ut[1] / self.kt, -b.m * ut[2] / self.kt)
             loss = self._impulse(t, z, J, n)
             z[10] += loss
@@ -661,7 +664,7 @@ class HybridBall:
             n = tuple((z[:3] - np.array(A)) / self.ball.d)
             new, y2, details = self._start_sliding(t, z, n, {})
         elif kind == "stick":
-            new, y2, details = self.on_wall(t, z)
+            new, y2, details = self.on_wall(t, z, stuck=True)
         else:  # pragma: no cover - the guards name only these
             raise ValueError(f"unknown event kind {kind!r}")
         if new == FLIGHT and math.isnan(self.book["t_first_flight"]):
