@@ -52,12 +52,14 @@
 #define GAIN_POSITIONS 187.0 /* max sum |l_i''| of the 6-node quintic (unit spacing) */
 #define NEVER 1e300         /* t_invalid while the model is valid */
 #define Z_HYSTERESIS 1e-10  /* event indicators' hysteresis, relative to the ball's weight m max(g, 1 m/s2) */
-/* contact_model = 2: the hybrid ball's event driver (events.integrate's defaults, hybrid.Contact's slip_eps) */
+/* contact_model = 2: the hybrid ball's event driver (events.integrate's defaults, hybrid.Contact's slip_eps
+ * and creep_eps) */
 #define HYB_BURST 100       /* Zeno guard: more than HYB_BURST events within HYB_BURST / HYB_MAX_RATE s */
 #define HYB_MAX_RATE 1e4    /* events/s */
 #define HYB_SCAN 3          /* interior points of the guards' Hermite scan */
 #define HYB_XTOL 1e-11      /* s: the event's bracket */
 #define HYB_SLIP_EPS 1e-6   /* m/s: sliding ends below this slip speed */
+#define HYB_CREEP_EPS 1e-3  /* m/s: below this slip speed a slide's friction takes its slow manifold's direction */
 #define HYB_HOP_MIN_ULPS 1e4 /* hybrid.HOP_MIN_ULPS: a rebound whose hop the gap cannot resolve is rest */
 #define HYB_MAX_STEPS 1000000 /* internal steps of one interval, at most (integrators.Integrator's default) */
 
@@ -786,7 +788,7 @@ static void hybrid_start(ball_in_shell *b, ball_state *s, const fit *f)
     bmh_rolling_state(&run, y, y + 3, 0.0, 0.0, 0.0, s->y);
     if (!(N > 0.0 && Ft <= H->mu * N)) {
         bmh_free_state(&run, BMH_ROLLING, s->t, s->y, z);
-        s->mode = bmh_on_wall(&run, s->t, z, s->y, &ny, rec);
+        s->mode = bmh_on_wall(&run, s->t, z, s->y, &ny, rec, 0);
     }
     if (s->mode == BMH_FLIGHT && isnan(run.t_first_flight)) run.t_first_flight = s->t;
     double book[BMH_NBOOK] = {run.E_impact, run.n_impacts, run.v_impact_max, run.t_first_slip, run.t_first_flight,
@@ -914,7 +916,7 @@ static void free_outputs(const ball_in_shell *b, const ball_state *s, const doub
     for (int i = 0; i < 3; i++) n[i] = rho[i] / dist;
     if (s->mode == BMH_SLIDING) {
         double nn[3], vW[3];
-        N = bmh_slide_forces_at(H, A, vA, aA, Om, z, s->book + 7, Ftv, &slip, nn, vW);
+        N = bmh_slide_forces_at(H, A, vA, aA, Om, cs + 12, z, s->book + 7, Ftv, &slip, nn, vW, NULL);
     }
     double Ft = sqrt(bmh_dot(Ftv, Ftv));
     double sx = N * n[0] - Ftv[0], sy = N * n[1] - Ftv[1], sz = N * n[2] - Ftv[2];
@@ -1282,6 +1284,7 @@ static void hybrid_setup(ball_in_shell *b, const double *v, double inertia)
     H->R = R; H->r = r; H->d = R - r; H->m = m; H->g = g; H->Ib = inertia * m * bm_sq(r); H->lam = r / (R - r);
     H->mu = mu; H->mu_k = mu_k == -1.0 ? mu : mu_k; H->e_n = v[VR_e_n]; H->v_rest = v[VR_v_rest];
     H->slip_eps = HYB_SLIP_EPS;
+    H->creep_eps = HYB_CREEP_EPS;
     H->kt = 1.0 + 1.0 / inertia;
     H->energy = 0;
     H->scan = HYB_SCAN; H->xtol = HYB_XTOL; H->burst = HYB_BURST; H->max_rate = HYB_MAX_RATE;

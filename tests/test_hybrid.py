@@ -38,6 +38,8 @@ def _balance_ok(tr, ball, rel=1e-8, atol=0.0):
     (dict(e_n=-0.01), r"e_n must lie in \[0, 1\], got e_n = -0.01"),
     (dict(v_rest=0.0), r"v_rest must be positive and finite, got v_rest = 0.0 m/s"),
     (dict(v_rest=-1.0), r"v_rest must be positive and finite, got v_rest = -1.0 m/s"),
+    (dict(creep_eps=-1e-3), r"creep_eps must be non-negative and finite \(0: no creeping slide\), got "
+                            r"creep_eps = -0.001 m/s"),
 ])
 def test_contact_parameters_refused_with_the_value(kw, match):
     with pytest.raises(ParameterError, match=match):
@@ -342,6 +344,43 @@ def test_without_the_work_quadrature_the_ball_slides_on_after_rolling():
     assert abs(bare["E_friction"][-1] - full["E_friction"][-1]) < 1e-8 * full["E_friction"][-1]
 
 
+def test_a_slide_from_zero_slip_costs_about_what_rolling_costs():
+    """The fast crank start: its two slides start from zero slip (at t = 0, and at the slip
+    after a stick) and creep, the slip below 1e-4 m/s for about a millisecond. Followed with
+    Coulomb's direction u/|u| down to zero slip, that direction is stiff there (it turns at the
+    rate k_t mu_k N / (m |u|)): 1709 steps on DOP853 at 1e-9 and 42618 on RK45 at 1e-8 for the
+    second (RK45's slip also stalled near 6e-7 m/s for 2.5 ms). On the slide's slow manifold
+    below creep_eps (docs/design.md section 14): 230 and 349 steps, within 2.6 times the rolling
+    model's own steps over the same second (100 and 139)."""
+    motion = CrankStartup(t0=0.5)
+    for method, tol in (("DOP853", 1e-9), ("RK45", 1e-8)):
+        rolling = simulate(BallModel(Ball(), method=method, tol=tol), motion, 1.0, 0.01)
+        tr = simulate_hybrid(Ball(), motion, 1.0, 0.01, method=method, tol=tol)
+        assert tr.success and [e.kind for e in tr.events] == ["stick", "slip", "stick", "slip"], tr.message
+        assert tr.info.steps < 3 * rolling.info.steps, (method, tr.info.steps, rolling.info.steps)
+
+
+@pytest.mark.parametrize("scene", ["fast crank start", "Fig. 1 machine"])
+def test_the_creeping_slide_agrees_with_the_unreduced_model(scene):
+    """The slow manifold below creep_eps = 1e-3 m/s against the unreduced model (creep_eps = 0,
+    Coulomb's u/|u| at every slip) at tol = 1e-11, over the fast crank start's 1 s and the
+    Fig. 1 machine's first 3.2 s (slip, flight, two impacts, stick, slip, stick): the same
+    events, their times within 1e-7 s (measured 1.8e-8 and 1e-9 s), v_C within 1e-6 m/s
+    (4.5e-8 and 1.4e-7) and the friction loss within 1e-7 J (6.8e-9 and 3.6e-10) at every
+    sample: closer than the unreduced model's own run at tol = 1e-9 (2.9e-7 and 3.9e-7 m/s)."""
+    from ballmill.physics import Fig1Machine
+
+    motion, t_end = (CrankStartup(t0=0.5), 1.0) if scene == "fast crank start" else (Fig1Machine(), 3.2)
+    ref = simulate_hybrid(Ball(), motion, t_end, 0.01, Contact(creep_eps=0.0), tol=1e-11)
+    tr = simulate_hybrid(Ball(), motion, t_end, 0.01)
+    assert ref.success and tr.success
+    assert [e.kind for e in tr.events] == [e.kind for e in ref.events] and len(tr.events) >= 4
+    assert max(abs(a.t - b.t) for a, b in zip(tr.events, ref.events)) < 1e-7
+    assert max(np.abs(tr[k] - ref[k]).max() for k in ("vCx", "vCy", "vCz")) < 1e-6
+    assert np.abs(tr["E_friction"] - ref["E_friction"]).max() < 1e-7
+    _balance_ok(tr, Ball())
+
+
 @pytest.mark.parametrize("mu", [0.1, 1.0])
 def test_impact_with_slip_slides_or_sticks(mu):
     """A ball dropped from h0 with horizontal speed u0 and no spin strikes a flat bottom
@@ -379,6 +418,49 @@ def test_impacts_on_a_moving_chamber_book_its_work():
     assert tr.success and len(tr.of_kind("impact")) >= 5 and tr.of_kind("impact")[-1].details["rest"]
     assert abs(tr["W_chamber"][-1]) > 1e-3
     _balance_ok(tr, b)
+
+
+class _PulledDown:
+    """A chamber (turning model, no rotation) pulled straight down by az = -3 g sin^2(pi tau/T)
+    for tau = t - 0.1 s in [0, T], T = 0.1 s, then moving on at the speed reached."""
+
+    rotates = False
+    t1, T, a = 0.1, 0.1, 3.0 * G
+
+    def state(self, t):
+        from ballmill.physics.turning.motions import _I3, ChamberState
+
+        w = math.pi / self.T
+        tau = min(max(t - self.t1, 0.0), self.T)
+        az = -self.a * math.sin(w * tau) ** 2 if 0.0 < t - self.t1 < self.T else 0.0
+        vz = -self.a * (tau / 2 - math.sin(2 * w * tau) / (4 * w))
+        z = 0.25 - self.a * (tau * tau / 4 + (math.cos(2 * w * tau) - 1) / (8 * w * w)) + vz * max(t - self.t1 - self.T, 0.0)
+        d = (0.0,) * 7
+        return ChamberState(0.0, 0.0, z, 0.0, 0.0, vz, 0.0, 0.0, az, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, *_I3, *d, *d)
+
+    def accel(self, t):
+        return self.state(t)[6:15]
+
+
+@pytest.mark.parametrize("theta", [0.0, 1e-6])
+def test_a_chamber_pulled_down_faster_than_g_leaves_the_ball_in_flight(theta):
+    """The ball at rest at (or 1e-6 rad off) the bottom of a chamber pulled straight down: the wall
+    stops pressing where the chamber's acceleration reaches -g, sin^2(pi tau/T) = 1/3, at
+    t = 0.1 + T asin(1/sqrt 3)/pi = 0.119591 s. There rolling's slip guard mu N - |F_t| (F_t = 0)
+    reaches 0 with N: off the bottom the slip guard is located first, at N <= 0, and the ball must
+    fly all the same, not slide on with the wall pulling it (N < 0) and never a leave guard armed."""
+    from ballmill.physics.turning.motions import ChamberMotion
+
+    b = Ball()
+    motion = type("PulledDown", (_PulledDown, ChamberMotion), {})()
+    C = (b.d * math.sin(theta), 0.0, 0.25 - b.d * math.cos(theta))
+    tr = simulate_hybrid(b, motion, 0.3, 0.01, Contact(e_n=0.5), initial=(C, (0, 0, 0), (0, 0, 0)))
+    t_off = 0.1 + 0.1 * math.asin(1 / math.sqrt(3)) / math.pi
+    assert tr.success and tr.t_first_flight == pytest.approx(t_off, abs=1e-9)
+    assert tr.events[0].kind in ("leave", "slip") and tr.events[0].mode_after == FLIGHT
+    assert tr.t_first_slip is None or math.isnan(tr.t_first_slip)
+    assert tr["N"].min() >= 0.0 and tr["gap"].max() > 0.05
+    assert set(tr["mode"][tr.t > t_off]) == {FLIGHT}
 
 
 # ------------------------------------------------------------------ the driver

@@ -11,7 +11,8 @@ it runs while the ball rolls:
    quadrature (the same driver; the hybrid evaluates its guards on each step's dense output),
    in Python and in the kernel;
 2. scenes with events: a ball dropped on the bottom of a chamber at rest (flight and impacts
-   to rest), the fast crank start with t0 = 0.5 s (slip at once, sliding, sticking), the
+   to rest), the fast crank start with t0 = 0.5 s (slip at once, sliding, sticking; also on
+   RK45 at 1e-8, and on the unreduced model without the creeping slide), the
    Fig. 1 machine's first 3 s (slip, flight, impacts): time per simulated second, per
    event (the whole run's time over its events), and the time spent locating the events
    (`events._locate`: regula falsi on the method's own steps) and detecting them
@@ -53,6 +54,12 @@ def _scenes():
         ("ball dropped 5 cm, e_n = 0.5, chamber at rest", Fixed(), 0.5,
          {"contact": Contact(e_n=0.5), "initial": drop}),
         ("fast crank start, t0 = 0.5 s", CrankStartup(l=0.5, n0=60.0, t0=0.5), 1.0, {}),
+        # a slide from zero slip on RK45 (the FMU's default), and on the unreduced model (no
+        # creeping slide: Coulomb's stiff u/|u| down to zero slip), for comparison
+        ("fast crank start, t0 = 0.5 s, RK45 at 1e-8", CrankStartup(l=0.5, n0=60.0, t0=0.5), 1.0,
+         {"method": "RK45", "tol": 1e-8}),
+        ("fast crank start, t0 = 0.5 s, unreduced (`creep_eps = 0`)", CrankStartup(l=0.5, n0=60.0, t0=0.5), 1.0,
+         {"contact": Contact(creep_eps=0.0)}),
         ("Fig. 1 machine, first 3 s", Fig1Machine(), 3.0, {}),
     ]
 
@@ -221,7 +228,7 @@ def report(data: dict, quick: bool) -> str:
     L.append(_table(["run", "CPU [ms]", "per simulated second [ms/s]", "vs `simulate`, Python"],
                 [[label, f"{w * 1e3:.1f}", f"{w / t_roll * 1e3:.1f}", f"{w / base:.2f}x"]
                  for label, w in data["rolling"]]))
-    L.append("\n**Scenes with events** (DOP853 at 1e-9, dt = 10 ms). Per event: the run's time "
+    L.append("\n**Scenes with events** (DOP853 at 1e-9 unless the scene names another method, dt = 10 ms). Per event: the run's time "
              "over its events. Location: the time inside the root finder (`events._locate`, "
              "regula falsi on the method's own step from the step's start), per call (one per "
              "bracketed guard crossing) and its share of the run; detection: the guards on each "

@@ -1873,7 +1873,7 @@ typedef struct {
     bmg_problem gen; /* turning: the chamber motion and the general model's constants */
     bm_problem free; /* sliding and flight: the integrator of ny = 12 (nerr = 11), form BM_GENERIC */
     double R, r, d, m, g, Ib, lam, /* Ib, not I: <complex.h> makes I a macro */
-           mu, mu_k, e_n, v_rest, slip_eps, kt, gap_res;
+           mu, mu_k, e_n, v_rest, slip_eps, kt, gap_res, creep_eps;
     int energy;
     int scan, burst;
     double xtol, max_rate;
@@ -1949,13 +1949,60 @@ static void bmh_roll_out(const bmh_problem *H, double t, const double *y, double
     *Ft = o[17];
 }
 
-/* HybridBall._slide_forces at the chamber state A, v_A, a_A, Omega: N, the friction force Ft, the
- * slip speed, n, v_W (seed: the direction kept while the slip is below 1e-3 slip_eps) */
-static double bmh_slide_forces_at(const bmh_problem *H, const double *A, const double *vA, const double *aA,
-                                  const double *Om, const double *y, const double *seed, double *Ft, double *s_out,
-                                  double *n, double *vW)
+/* HybridBall._ff_accel: the friction-free relative tangential acceleration of P of the free
+ * state z at n, the chamber at A, v_A, a_A, Omega, Omega' */
+static void bmh_ff_accel_at(const bmh_problem *H, const double *vA, const double *aA, const double *Om,
+                            const double *Omd, const double *z, const double *n, double *out)
 {
-    double rho[3], vrel[3], wr[3], on[3], u[3], ut[3], e[3];
+    double vrel[3], aC[3], nd[3], wnd[3], c1[3], c2[3], aW[3], a[3];
+    for (int i = 0; i < 3; i++) vrel[i] = z[3 + i] - vA[i];
+    double N = H->m * (-H->g * n[2] - bmh_dot(n, aA) + bmh_dot(vrel, vrel) / H->d);
+    aC[0] = -N * n[0] / H->m;
+    aC[1] = -N * n[1] / H->m;
+    aC[2] = -H->g - N * n[2] / H->m;
+    double vn = bmh_dot(vrel, n);
+    for (int i = 0; i < 3; i++) nd[i] = (vrel[i] - vn * n[i]) / H->d;
+    bmh_cross(z + 6, nd, wnd);
+    bmh_cross(Omd, n, c1);
+    bmh_cross(Om, nd, c2);
+    for (int i = 0; i < 3; i++) aW[i] = aA[i] + H->R * (c1[i] + c2[i]);
+    for (int i = 0; i < 3; i++) a[i] = aC[i] - aW[i] + H->r * wnd[i];
+    double an = bmh_dot(a, n);
+    for (int i = 0; i < 3; i++) out[i] = a[i] - an * n[i];
+}
+
+/* hybrid._smooth: 0 for x <= 0, 1 for x >= 1, 3 x^2 - 2 x^3 between */
+static double bmh_smooth(double x)
+{
+    if (x <= 0.0) return 0.0;
+    if (x >= 1.0) return 1.0;
+    return x * x * (3.0 - 2.0 * x);
+}
+
+/* hybrid.CREEP_COS */
+#define BMH_CREEP_COS0 0.9
+#define BMH_CREEP_COS1 0.99
+
+/* hybrid._creep_weight: the weight of a0's direction in the sliding friction's direction at the
+ * slip ut of speed s < eps */
+static double bmh_creep_weight(const double *a, const double *ut, double s, double eps)
+{
+    double sa2 = bmh_dot(a, a);
+    if (sa2 == 0.0) return 0.0;
+    if (s == 0.0) return 1.0;
+    double c = bmh_dot(a, ut) / (sqrt(sa2) * s);
+    return bmh_smooth((eps - s) / (0.5 * eps)) * bmh_smooth((c - BMH_CREEP_COS0) / (BMH_CREEP_COS1 - BMH_CREEP_COS0));
+}
+
+/* HybridBall._slide at the chamber state A, v_A, a_A, Omega, Omega': N, the friction force Ft, the
+ * slip speed, n, v_W and (p: NULL when not needed) the friction's power -Ft.u_t; the friction's
+ * direction u_t/|u_t|, blended below creep_eps towards a0's (the creeping slide), from zero slip
+ * seed when a0 = 0 */
+static double bmh_slide_forces_at(const bmh_problem *H, const double *A, const double *vA, const double *aA,
+                                  const double *Om, const double *Omd, const double *y, const double *seed,
+                                  double *Ft, double *s_out, double *n, double *vW, double *p)
+{
+    double rho[3], vrel[3], wr[3], on[3], u[3], ut[3], e[3], a[3];
     for (int i = 0; i < 3; i++) rho[i] = y[i] - A[i];
     double dist = sqrt(bmh_dot(rho, rho));
     for (int i = 0; i < 3; i++) n[i] = rho[i] / dist;
@@ -1967,25 +2014,45 @@ static double bmh_slide_forces_at(const bmh_problem *H, const double *A, const d
     double un = bmh_dot(u, n);
     for (int i = 0; i < 3; i++) ut[i] = u[i] - un * n[i];
     double s = sqrt(bmh_dot(ut, ut));
-    if (s > 1e-3 * H->slip_eps) {
-        for (int i = 0; i < 3; i++) e[i] = ut[i] / s;
-    } else {
-        for (int i = 0; i < 3; i++) e[i] = seed[i];
+    double f = -H->mu_k * N, w = 0.0, pw;
+    if (s < H->creep_eps) {
+        bmh_ff_accel_at(H, vA, aA, Om, Omd, y, n, a);
+        w = bmh_creep_weight(a, ut, s, H->creep_eps);
     }
-    double f = -H->mu_k * N;
+    if (w == 0.0) {
+        if (s > 1e-3 * H->slip_eps) {
+            for (int i = 0; i < 3; i++) e[i] = ut[i] / s;
+        } else {
+            for (int i = 0; i < 3; i++) e[i] = seed[i];
+        }
+        pw = H->mu_k * N * s;
+    } else {
+        double sa = sqrt(bmh_dot(a, a));
+        if (w == 1.0) {
+            for (int i = 0; i < 3; i++) e[i] = a[i] / sa;
+        } else {
+            double c = (1.0 - w) / s, d = w / sa, v[3];
+            for (int i = 0; i < 3; i++) v[i] = c * ut[i] + d * a[i];
+            double sv = sqrt(bmh_dot(v, v));
+            for (int i = 0; i < 3; i++) e[i] = v[i] / sv;
+        }
+        pw = -f * bmh_dot(e, ut);
+    }
     for (int i = 0; i < 3; i++) Ft[i] = f * e[i];
     for (int i = 0; i < 3; i++) vW[i] = vA[i] + H->R * on[i];
     *s_out = s;
+    if (p) *p = pw;
     return N;
 }
 
-/* HybridBall._slide_forces: N, the friction force Ft, the slip speed, n, v_W (seed NULL: the run's) */
+/* HybridBall._slide: N, the friction force Ft, the slip speed, n, v_W, the friction's power (seed
+ * NULL: the run's; p NULL: not needed) */
 static double bmh_slide_forces(const bmh_run *run, double t, const double *y, const double *seed, double *Ft,
-                               double *s_out, double *n, double *vW)
+                               double *s_out, double *n, double *vW, double *p)
 {
-    double A[3], vA[3], aA[3], Om[3];
-    bmh_chamber(run->H, t, A, vA, aA, Om, NULL);
-    return bmh_slide_forces_at(run->H, A, vA, aA, Om, y, seed ? seed : run->seed, Ft, s_out, n, vW);
+    double A[3], vA[3], aA[3], Om[3], Omd[3];
+    bmh_chamber(run->H, t, A, vA, aA, Om, Omd);
+    return bmh_slide_forces_at(run->H, A, vA, aA, Om, Omd, y, seed ? seed : run->seed, Ft, s_out, n, vW, p);
 }
 
 /* HybridBall._q_spin: Lq's rate m (v_A x v_C)_z of a translating chamber (0 turning) */
@@ -2073,9 +2140,9 @@ static void bmh_rhs_slide(const bm_problem *P, const void *ctx, double t, const 
 {
     const bmh_run *run = ctx;
     const bmh_problem *H = run->H;
-    double Ft[3], n[3], vW[3], F[3], tq[3], s;
+    double Ft[3], n[3], vW[3], F[3], tq[3], s, p;
     (void)P;
-    double N = bmh_slide_forces(run, t, y, NULL, Ft, &s, n, vW);
+    double N = bmh_slide_forces(run, t, y, NULL, Ft, &s, n, vW, &p);
     for (int i = 0; i < 3; i++) F[i] = Ft[i] - N * n[i];
     bmh_cross(n, Ft, tq);
     double c = H->r / H->Ib;
@@ -2083,7 +2150,7 @@ static void bmh_rhs_slide(const bm_problem *P, const void *ctx, double t, const 
     f[3] = F[0] / H->m; f[4] = F[1] / H->m; f[5] = F[2] / H->m - H->g;
     f[6] = c * tq[0]; f[7] = c * tq[1]; f[8] = c * tq[2];
     f[9] = bmh_dot(F, vW);
-    f[10] = H->mu_k * N * s;
+    f[10] = p;
     f[11] = bmh_q_spin(H, vW, y[3], y[4]); /* translating: v_W = v_A */
 }
 
@@ -2101,7 +2168,7 @@ static void bmh_g_sliding(const void *ctx, double t, const double *y, double *g)
 {
     const bmh_run *run = ctx;
     double Ft[3], n[3], vW[3], s;
-    double N = bmh_slide_forces(run, t, y, NULL, Ft, &s, n, vW);
+    double N = bmh_slide_forces(run, t, y, NULL, Ft, &s, n, vW, NULL);
     g[0] = s - run->H->slip_eps;
     g[1] = N;
 }
@@ -2211,22 +2278,9 @@ static void bmh_slip(const bmh_problem *H, double t, const double *z, const doub
 /* HybridBall._friction_free_slip_accel */
 static void bmh_ff_slip_accel(const bmh_problem *H, double t, const double *z, const double *n, double *out)
 {
-    double A[3], vA[3], aA[3], Om[3], Omd[3], vrel[3], aC[3], nd[3], wnd[3], c1[3], c2[3], aW[3], a[3];
+    double A[3], vA[3], aA[3], Om[3], Omd[3];
     bmh_chamber(H, t, A, vA, aA, Om, Omd);
-    for (int i = 0; i < 3; i++) vrel[i] = z[3 + i] - vA[i];
-    double N = H->m * (-H->g * n[2] - bmh_dot(n, aA) + bmh_dot(vrel, vrel) / H->d);
-    aC[0] = -N * n[0] / H->m;
-    aC[1] = -N * n[1] / H->m;
-    aC[2] = -H->g - N * n[2] / H->m;
-    double vn = bmh_dot(vrel, n);
-    for (int i = 0; i < 3; i++) nd[i] = (vrel[i] - vn * n[i]) / H->d;
-    bmh_cross(z + 6, nd, wnd);
-    bmh_cross(Omd, n, c1);
-    bmh_cross(Om, nd, c2);
-    for (int i = 0; i < 3; i++) aW[i] = aA[i] + H->R * (c1[i] + c2[i]);
-    for (int i = 0; i < 3; i++) a[i] = aC[i] - aW[i] + H->r * wnd[i];
-    double an = bmh_dot(a, n);
-    for (int i = 0; i < 3; i++) out[i] = a[i] - an * n[i];
+    bmh_ff_accel_at(H, vA, aA, Om, Omd, z, n, out);
 }
 
 /* details of an event (an event record's fields 8..17; NAN: absent) */
@@ -2246,8 +2300,9 @@ static int bmh_start_sliding(bmh_run *run, double t, const double *z, const doub
 }
 
 /* HybridBall.on_wall: the mode and state (y, *ny) of a ball on the wall with no normal
- * relative velocity (free state z), its slip removed if below slip_eps, then the stick test */
-static int bmh_on_wall(bmh_run *run, double t, const double *z_in, double *y, int *ny, double *rec)
+ * relative velocity (free state z), its slip removed if below slip_eps (or stuck: at a stick
+ * event, whatever its speed), then the stick test */
+static int bmh_on_wall(bmh_run *run, double t, const double *z_in, double *y, int *ny, double *rec, int stuck)
 {
     const bmh_problem *H = run->H;
     double A[3], vA[3], aA[3], Om[3], z[BMH_NZ], rho[3], n[3], ut[3];
@@ -2261,7 +2316,7 @@ static int bmh_on_wall(bmh_run *run, double t, const double *z_in, double *y, in
     double s = sqrt(bmh_dot(ut, ut));
     memcpy(y, z, sizeof z);
     *ny = BMH_NZ;
-    if (s <= H->slip_eps) {
+    if (s <= H->slip_eps || stuck) {
         double J[3], nw[6], N, Ft;
         for (int i = 0; i < 3; i++) J[i] = -H->m * ut[i] / H->kt;
         double loss = bmh_impulse(H, t, z, J, n);
@@ -2279,7 +2334,7 @@ static int bmh_on_wall(bmh_run *run, double t, const double *z_in, double *y, in
         return bmh_start_sliding(run, t, z, n, rec);
     }
     double zero[3] = {0.0, 0.0, 0.0}, Ftv[3], nn[3], vW[3], ss;
-    double N = bmh_slide_forces(run, t, z, zero, Ftv, &ss, nn, vW);
+    double N = bmh_slide_forces(run, t, z, zero, Ftv, &ss, nn, vW, NULL);
     if (N <= 0.0) return BMH_FLIGHT;
     if (isnan(run->t_first_slip)) run->t_first_slip = t;
     return BMH_SLIDING;
@@ -2346,7 +2401,7 @@ static int bmh_impact(bmh_run *run, double t, const double *z_in, double *y, int
         run->E_impact += loss;
         rec[BMH_D_ELOSS] = loss;
         rec[BMH_D_REST] = 1.0;
-        return bmh_on_wall(run, t, z, y, ny, rec);
+        return bmh_on_wall(run, t, z, y, ny, rec, 0);
     }
     run->E_impact += loss;
     run->rebound = 1;
@@ -2371,12 +2426,19 @@ static int bmh_jump(bmh_run *run, int mode, int kind, double t, const double *y_
         *ny = BMH_NZ;
         new_mode = BMH_FLIGHT;
     } else if (kind == BMH_SLIP) {
-        for (int i = 0; i < 3; i++) n[i] = (z[i] - A[i]) / H->d;
+        double zero[3] = {0.0, 0.0, 0.0}, Ftv[3], nn[3], vW[3], ss;
         memcpy(y, z, sizeof z);
         *ny = BMH_NZ;
-        new_mode = bmh_start_sliding(run, t, z, n, rec);
+        if (bmh_slide_forces(run, t, z, zero, Ftv, &ss, nn, vW, NULL) <= 0.0) {
+            /* rolling's two guards met at N = 0: the wall no longer presses (HybridBall.jump) */
+            bmh_onto_wall(H, t, y);
+            new_mode = BMH_FLIGHT;
+        } else {
+            for (int i = 0; i < 3; i++) n[i] = (z[i] - A[i]) / H->d;
+            new_mode = bmh_start_sliding(run, t, z, n, rec);
+        }
     } else {
-        new_mode = bmh_on_wall(run, t, z, y, ny, rec);
+        new_mode = bmh_on_wall(run, t, z, y, ny, rec, 1);
     }
     if (new_mode == BMH_FLIGHT && isnan(run->t_first_flight)) run->t_first_flight = t;
     for (int i = 0; i < 3; i++) rho[i] = z[i] - A[i];
@@ -2401,7 +2463,7 @@ static void bmh_sample(const bmh_run *run, int mode, double t, const double *y, 
         slip = 0.0;
     } else if (mode == BMH_SLIDING) {
         double Ftv[3], nn[3], vW[3];
-        N = bmh_slide_forces(run, t, z, NULL, Ftv, &slip, nn, vW);
+        N = bmh_slide_forces(run, t, z, NULL, Ftv, &slip, nn, vW, NULL);
         Ft = sqrt(bmh_dot(Ftv, Ftv));
     } else {
         double ut[3];

@@ -743,7 +743,8 @@ def _hproblem_type():
         class _HProblem(ctypes.Structure):
             _fields_ = [("roll", _Problem), ("turning", ctypes.c_int), ("gen", _GProblem), ("free", _Problem)] + [
                 (name, ctypes.c_double) for name in ("R", "r", "d", "m", "g", "Ib", "lam", "mu", "mu_k", "e_n",
-                                                     "v_rest", "slip_eps", "kt", "gap_res")] + [
+                                                     "v_rest", "slip_eps", "kt", "gap_res",
+                                                     "creep_eps")] + [
                 ("energy", ctypes.c_int), ("scan", ctypes.c_int), ("burst", ctypes.c_int),
                 ("xtol", ctypes.c_double), ("max_rate", ctypes.c_double)]
         _HPROBLEM = _HProblem
@@ -812,6 +813,7 @@ def _hybrid_problem(system, scan: int, xtol: float, burst: int, max_rate: float)
     H.R, H.r, H.d, H.m, H.g, H.Ib, H.lam = b.R, b.r, b.d, b.m, b.g, b.I, b.lam
     H.mu, H.mu_k, H.e_n, H.v_rest, H.slip_eps = system.mu, system.mu_k, system.e_n, system.v_rest, system.slip_eps
     H.kt, H.gap_res, H.energy = system.kt, system._gap_res, int(system.energy)
+    H.creep_eps = system.creep_eps
     H.scan, H.xtol, H.burst, H.max_rate = scan, xtol, burst, max_rate
     return H
 

@@ -89,12 +89,18 @@ class Contact:
     slip_eps [m/s]: sliding ends when the slip speed falls to it, > 0; above the
         integrator's error in the slip (about tol times the velocity scale, 1e-9 m/s at the
         defaults), else sticking would chatter; small enough that the rolling onset it
-        advances, slip_eps / |du/dt|, is negligible (1e-7 s for mu_k g = 3 m/s2)."""
+        advances, slip_eps / |du/dt|, is negligible (1e-7 s for mu_k g = 3 m/s2).
+    creep_eps [m/s]: below this slip speed the sliding friction's direction is taken on the
+        slide's slow manifold, the direction of the friction-free relative tangential
+        acceleration of P, where the slip is aligned with it (docs/design.md section 14: a
+        slide whose slip stays small is otherwise stiff, u/|u| turning at the rate
+        k_t mu_k N / (m |u|)), >= 0; 0: Coulomb's u/|u| at every slip (the unreduced model)."""
 
     mu_k: float | None = None
     e_n: float = 0.5
     v_rest: float = 0.01
     slip_eps: float = 1e-6
+    creep_eps: float = 1e-3
 
     def __post_init__(self):
         if self.mu_k is not None:
@@ -107,6 +113,10 @@ class Contact:
             if not (math.isfinite(v) and v > 0.0):
                 raise ParameterError(f"{name} must be positive and finite, got {name} = "
                                      f"{getattr(self, name)!r} m/s")
+        v = float(self.creep_eps)
+        if not (math.isfinite(v) and v >= 0.0):
+            raise ParameterError(f"creep_eps must be non-negative and finite (0: no creeping slide), got "
+                                 f"creep_eps = {self.creep_eps!r} m/s")
 
     def kinetic(self, ball: Ball) -> float:
         """mu_k for this ball, checked against its static mu."""
@@ -125,6 +135,37 @@ def _dot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
+# The creeping slide (docs/design.md section 14): below Contact.creep_eps the friction's
+# direction blends from u_t/|u_t| towards a0/|a0| (a0 the friction-free relative tangential
+# acceleration of P) where the slip lies within acos(CREEP_COS[0]) of a0, fully on a0 where
+# |u_t| <= creep_eps / 2 and the angle is below acos(CREEP_COS[1]).
+CREEP_COS = (0.9, 0.99)
+
+
+def _smooth(x):
+    """0 for x <= 0, 1 for x >= 1, 3 x^2 - 2 x^3 between (continuous slope)."""
+    if x <= 0.0:
+        return 0.0
+    if x >= 1.0:
+        return 1.0
+    return x * x * (3.0 - 2.0 * x)
+
+
+def _creep_weight(a, ut, s, eps):
+    """The weight [0, 1] of the direction of a0 = ``a`` in the sliding friction's direction, at
+    the slip ut of speed s < eps: 1 at zero slip (a0 != 0), else the product of a radial factor
+    (1 up to eps / 2, 0 from eps) and an alignment factor (1 where the angle between u_t and a0
+    has cosine >= CREEP_COS[1], 0 where <= CREEP_COS[0]); 0 when a0 = 0."""
+    sa2 = _dot(a, a)
+    if sa2 == 0.0:
+        return 0.0
+    if s == 0.0:
+        return 1.0
+    c = _dot(a, ut) / (math.sqrt(sa2) * s)
+    c0, c1 = CREEP_COS
+    return _smooth((eps - s) / (0.5 * eps)) * _smooth((c - c0) / (c1 - c0))
+
+
 class HybridBall:
     """The system `events.integrate` runs (its interface in events.py): the ball in a
     translating or turning chamber with its three modes. Holds the run's bookkeeping (impacts, impact
@@ -141,6 +182,7 @@ class HybridBall:
         self.ball, self.motion, self.contact = ball, motion, contact
         self.mu, self.mu_k = ball.mu, contact.kinetic(ball)
         self.e_n, self.v_rest, self.slip_eps = contact.e_n, contact.v_rest, contact.slip_eps
+        self.creep_eps = contact.creep_eps
         self.kt = 1.0 + 1.0 / ball.inertia_factor
         self.energy = energy
         # rolling: today's models, their integrators and right-hand sides: a platform motion
@@ -362,10 +404,19 @@ class HybridBall:
         """(N, friction force on the ball F_t, slip speed |u_t|, n, the wall's velocity at P)
         of a sliding state; ``chamber``: (A, v_A, a_A, Omega, Omega') to use instead of the
         motion's at t (an FMU's outputs with the inputs just set)."""
+        return self._slide(t, y, seed, chamber)[:5]
+
+    def _slide(self, t, y, seed=None, chamber=None):
+        """`_slide_forces`' five values and the friction's power -F_t.u_t [W] (mu_k N |u_t|
+        where the friction opposes the slip). The friction's direction e: u_t/|u_t| (Coulomb),
+        blended below ``creep_eps`` towards the direction of the friction-free relative
+        tangential acceleration a0 of P (`_creep_weight`; the slow manifold of a slide whose
+        slip is small, where u_t/|u_t| is stiff); from zero slip the seed when a0 = 0."""
         b = self.ball
         if type(y) is not list:
             y = y.tolist()  # Python floats: faster than numpy scalars here
-        A, vA, aA, Om, _ = self.chamber(t) if chamber is None else chamber
+        ch = self.chamber(t) if chamber is None else chamber
+        A, vA, aA, Om, _ = ch
         rho = (y[0] - A[0], y[1] - A[1], y[2] - A[2])
         dist = math.sqrt(_dot(rho, rho))
         n = (rho[0] / dist, rho[1] / dist, rho[2] / dist)
@@ -379,23 +430,39 @@ class HybridBall:
         un = _dot(u, n)
         ut = (u[0] - un * n[0], u[1] - un * n[1], u[2] - un * n[2])
         s = math.sqrt(_dot(ut, ut))
-        if s > 1e-3 * self.slip_eps:
-            e = (ut[0] / s, ut[1] / s, ut[2] / s)
-        else:
-            e = self._seed if seed is None else seed
         f = -self.mu_k * N
+        w, a = 0.0, None
+        if s < self.creep_eps:
+            a = self._ff_accel(ch, y, n)
+            w = _creep_weight(a, ut, s, self.creep_eps)
+        if w == 0.0:
+            if s > 1e-3 * self.slip_eps:
+                e = (ut[0] / s, ut[1] / s, ut[2] / s)
+            else:
+                e = self._seed if seed is None else seed
+            p = self.mu_k * N * s
+        else:
+            sa = math.sqrt(_dot(a, a))
+            if w == 1.0:
+                e = (a[0] / sa, a[1] / sa, a[2] / sa)
+            else:
+                c, d = (1.0 - w) / s, w / sa
+                v = (c * ut[0] + d * a[0], c * ut[1] + d * a[1], c * ut[2] + d * a[2])
+                sv = math.sqrt(_dot(v, v))
+                e = (v[0] / sv, v[1] / sv, v[2] / sv)
+            p = -f * _dot(e, ut)
         vW = (vA[0] + R * on[0], vA[1] + R * on[1], vA[2] + R * on[2])
-        return N, (f * e[0], f * e[1], f * e[2]), s, n, vW
+        return N, (f * e[0], f * e[1], f * e[2]), s, n, vW, p
 
     def _rhs_slide(self, t, y):
         b = self.ball
         y = y.tolist()
-        N, Ft, s, n, vW = self._slide_forces(t, y)
+        N, Ft, s, n, vW, p = self._slide(t, y)
         F = (Ft[0] - N * n[0], Ft[1] - N * n[1], Ft[2] - N * n[2])
         tq = _cross(n, Ft)
         c = b.r / b.I
         return (y[3], y[4], y[5], F[0] / b.m, F[1] / b.m, F[2] / b.m - b.g,
-                c * tq[0], c * tq[1], c * tq[2], _dot(F, vW), self.mu_k * N * s,
+                c * tq[0], c * tq[1], c * tq[2], _dot(F, vW), p,
                 self._q_spin(vW, (y[3], y[4])))  # translating: v_W = v_A
 
     # -- guards ---------------------------------------------------------
@@ -529,8 +596,12 @@ class HybridBall:
     def _friction_free_slip_accel(self, t, z, n):
         """Tangential acceleration of P relative to the wall without friction (the direction
         friction opposes when sliding starts from zero slip)."""
+        return self._ff_accel(self.chamber(t), z, n)
+
+    def _ff_accel(self, chamber, z, n):
+        """`_friction_free_slip_accel` with the chamber's (A, v_A, a_A, Omega, Omega')."""
         b = self.ball
-        A, vA, aA, Om, Omd = self.chamber(t)
+        A, vA, aA, Om, Omd = chamber
         vrel = (z[3] - vA[0], z[4] - vA[1], z[5] - vA[2])
         N = b.m * (-b.g * n[2] - _dot(n, aA) + _dot(vrel, vrel) / b.d)
         aC = (-N * n[0] / b.m, -N * n[1] / b.m, -b.g - N * n[2] / b.m)
@@ -544,10 +615,13 @@ class HybridBall:
         an = _dot(a, n)
         return (a[0] - an * n[0], a[1] - an * n[1], a[2] - an * n[2])
 
-    def on_wall(self, t, z):
+    def on_wall(self, t, z, stuck=False):
         """Mode and state of a ball on the wall with no normal relative velocity (free
         state z): its slip removed if below slip_eps (booked as friction), then the stick
-        test. Returns (mode, y, details)."""
+        test. ``stuck``: the slip is removed whatever its speed here: the stick guard found
+        it at slip_eps, and putting C back on the sphere may move the speed recomputed here
+        above slip_eps by rounding (going on sliding from there, a slide the guard cannot
+        see start above slip_eps, would chatter at zero slip). Returns (mode, y, details)."""
         b = self.ball
         A = self.chamber(t)[0]
         z = np.array(z, dtype=float)
@@ -557,7 +631,7 @@ class HybridBall:
         details = {}
         ut = self._slip(t, z, n)
         s = math.sqrt(_dot(ut, ut))
-        if s <= self.slip_eps:
+        if s <= self.slip_eps or stuck:
             J = (-b.m * ut[0] / self.kt, -b.m * ut[1] / self.kt, -b.m * ut[2] / self.kt)
             loss = self._impulse(t, z, J, n)
             z[10] += loss
@@ -637,12 +711,17 @@ class HybridBall:
             new, y2, details = self._impact(t, z)
         elif kind == "leave":
             new, y2, details = FLIGHT, self._onto_wall(t, z), {}
+        elif kind == "slip" and self._slide_forces(t, z, seed=(0.0, 0.0, 0.0))[0] <= 0.0:
+            # rolling's two guards met at N = 0 (mu N - |F_t| reaches 0 with N when F_t does not
+            # hold the ball, as under a chamber pulled down faster than g): the wall no longer
+            # presses, and a slide that never sees N > 0 could not arm its leave guard
+            new, y2, details = FLIGHT, self._onto_wall(t, z), {}
         elif kind == "slip":
             A = self.chamber(t)[0]
             n = tuple((z[:3] - np.array(A)) / self.ball.d)
             new, y2, details = self._start_sliding(t, z, n, {})
         elif kind == "stick":
-            new, y2, details = self.on_wall(t, z)
+            new, y2, details = self.on_wall(t, z, stuck=True)
         else:  # pragma: no cover - the guards name only these
             raise ValueError(f"unknown event kind {kind!r}")
         if new == FLIGHT and math.isnan(self.book["t_first_flight"]):
