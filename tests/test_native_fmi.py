@@ -495,6 +495,7 @@ def test_a_state_whose_newest_input_sample_is_at_its_time_is_refused(opened, fmu
     for k in range(6):  # consistent inputs (x = 1.5 t^2 m): the history keeps every sample
         ball.set(x1O=1.5 * t * t, vx1O=3.0 * t, ax1O=3.0)
         ball.fmu.doStep(t, H)
+        newest = t  # the newest sample's time: the last step's start
         t += H
     assert ball.get("valid")
     good = ball.fmu.getFMUstate()
@@ -503,6 +504,8 @@ def test_a_state_whose_newest_input_sample_is_at_its_time_is_refused(opened, fmu
     found = _refusals_of_forged_states(ball, blob, good, "<d", t)
     reason = "its newest input sample is not before its time (only a history of one sample may end there)"
     assert reason in found, found
+    # the field refused for it is the newest sample's time, not another double of the data
+    assert [struct.unpack_from("<d", blob, at)[0] for at in found[reason]] == [newest], found[reason]
     assert ball.reals(("xC", "yC", "N")) == before
     ball.set(x1O=1.5 * t * t, vx1O=3.0 * t, ax1O=3.0)
     ball.fmu.doStep(t, H)  # and it carries on
