@@ -166,3 +166,36 @@ def test_fmi3_returns_early_at_the_slip_the_hybrid_driver_located(fmus_of, fmu_b
     assert early == "early" and times, second
     assert 0.17 < t_slip < 0.19 and abs(float(times[0]) - t_slip) < 1e-9, (times, t_slip)
     assert float(first.split()[0]) == pytest.approx(t_slip, abs=1e-9)
+
+
+def test_a_zeno_sequence_refuses_the_step_with_the_whole_message(opened, fmus_of):
+    """Bounces that accumulate (e_n = 0.97, v_rest = 1e-12 m/s: the ball thrown up the fixed
+    chamber falls back and hops ever lower) pass the event-rate guard's 100 events within
+    100 / (1e4 events/s) = 10 ms in flight at 13.666 s: that step is refused (fmi2Discard) with
+    the whole message (the mode, the time, the count and window, the last event, the allowed
+    rate), and the instance keeps the last good state."""
+    import re
+
+    from fmpy.fmi1 import FMICallException
+
+    inst = opened(fmus_of("native")["BallInShell"], "zeno", **dict(UP, e_n=0.97, v_rest=1e-12))
+    inst.initialize()
+    t = 0.0
+    with pytest.raises(FMICallException) as info:
+        while t < 20.0:
+            inst.fmu.doStep(t, H)
+            t += H
+    assert info.value.status == 2 and 13.0 < t < 14.5, (t, info.value)  # fmi2Discard
+    said = inst.messages[-1][1]
+    m = re.fullmatch(r"BallInShell 'zeno': step from t = (\S+) s refused, last good state kept: the hybrid ball could "
+                     r"not be followed from t = (\S+) s in mode flight: stopped at t = (\S+) s: Zeno sequence: 100 "
+                     r"events within (\S+) s before t = (\S+) s \(the last: 'impact'\), more than the allowed rate "
+                     r"10000 events/s", said)
+    assert m, said
+    t_from, t_from2, t_stop, window, t_last = (float(x) for x in m.groups())
+    assert t_from == t_from2 == t_stop == pytest.approx(t, abs=1e-9)
+    assert 0.0 < window <= 0.01 and t <= t_last <= t + H
+    kept = _outputs(inst)
+    with pytest.raises(FMICallException):
+        inst.fmu.doStep(t, H)
+    assert _outputs(inst) == kept
