@@ -483,12 +483,57 @@ def test_a_zeno_sequence_is_refused_at_its_communication_point_with_the_last_goo
     assert status == 2, (status, t_before, text)  # fmi2Discard
     assert t_after == t_before and after == before and before["valid"] and before["n_impacts"] > 10
     assert (again, t_again, after_again) == (2, t_before, before)
-    assert f"step from t = {t_before:.9g} s refused, last good state kept" in text
-    found = re.search(r"in mode flight: stopped at t = ([0-9.e-]+) s: Zeno sequence: 100 events within "
-                      r"([0-9.e-]+) s before t = ([0-9.e-]+) s \(the last: 'impact'\)", text)
+    found = re.fullmatch(rf"BallInShell 'ball': step from t = {t_before:.9g} s refused, last good state kept: the "
+                         rf"hybrid ball could not be followed from t = {t_before:.9g} s in mode flight: stopped at "
+                         r"t = ([0-9.e-]+) s: Zeno sequence: 100 events within ([0-9.e-]+) s before t = ([0-9.e-]+) s "
+                         r"\(the last: 'impact'\), more than the allowed rate 10000 events/s", text)
     assert found, text
     stop, within, last = (float(v) for v in found.groups())
     assert stop == last and t_before < stop <= t_before + 0.04 and within < 0.01
     if flavour == "pythonfmu":
         native = _zeno_refusal(fmus_of, "native")
         assert (native[1], native[2]) == (t_before, text)
+
+
+def test_a_sliding_balls_outputs_after_inputs_set_between_steps_are_the_flavours_same(fmus_of):
+    """Direct feedthrough off rolling, every output: sliding (the fast start at 0.05 s), the
+    platform moved 1 mm in x and its acceleration set 1 m/s2 higher in y without a step. The
+    force and moments are recomputed (N changes); the force in the chamber's axes equals the
+    force (with motion = 1 the chamber does not turn), and every native output equals the
+    pythonfmu flavour's bit for bit."""
+    after, before = {}, {}
+    for flavour in ("native", "pythonfmu"):
+        out, fmu = run_scene(fmus_of, flavour, FAST, 0.05, keep=True, **HYBRID)
+        try:
+            assert fmu.get("mode") == 2
+            x, y, vx, vy, ax, ay = FAST.state(fmu.time)
+            before[flavour] = fmu.outputs()
+            assert fmu.set(x1O=x + 1e-3, y1O=y, vx1O=vx, vy1O=vy, ax1O=ax, ay1O=ay + 1.0) == 0
+            after[flavour] = fmu.outputs()
+        finally:
+            fmu.free()
+    assert before["native"] == before["pythonfmu"]
+    assert after["native"]["N"] != before["native"]["N"]
+    for f in ("x", "y", "z"):
+        assert after["native"][f"F{f}_ch"] == after["native"][f"F{f}"] != before["native"][f"F{f}"], f
+    differ = {n: (after["native"][n], after["pythonfmu"][n]) for n in after["native"]
+              if after["native"][n] != after["pythonfmu"][n]}
+    assert not differ, differ
+
+
+def test_a_ball_that_slides_from_the_start_is_the_pythonfmu_flavours_bit_for_bit(fmus_of):
+    """A ball set down at rest on the fixed chamber's wall off the bottom (xC0 = 0.1 m, where the
+    slope 0.49 exceeds mu = 0.05) cannot roll: it starts sliding, its friction along the
+    direction the start chose, into the state's bookkeeping. Every output of the native flavour over 20 steps equals the pythonfmu
+    flavour's bit for bit."""
+
+    class Fixed:
+        @staticmethod
+        def state(t):
+            return (0.0,) * 6
+
+    runs = {f: run_scene(fmus_of, f, Fixed, 0.04, contact_model=2, integrator=1, tolerance=1e-9, xC0=0.1, mu=0.05)
+            for f in ("native", "pythonfmu")}
+    assert runs["native"]["mode"][1] == 2 and runs["native"]["xC"][-1] < 0.1  # sliding down
+    differ = [n for n in runs["native"] if not np.array_equal(runs["native"][n], runs["pythonfmu"][n], equal_nan=True)]
+    assert not differ, differ

@@ -437,6 +437,54 @@ def test_impossible_dynamic_states_are_refused_and_a_missing_step_size_is_chosen
     assert runs[0] == runs[1]
 
 
+
+def test_a_hybrid_state_with_impossible_bookkeeping_is_refused(opened, fmus_of):
+    """contact_model = 2 keeps the run's bookkeeping in the state: the impact energy (J), the
+    impact count and the largest impact speed (m/s), each >= 0 and the count whole, and the first
+    slip and first flight times (s), each NaN (not yet) or finite. A ball rolled up the fixed
+    chamber (wx0 = 96 rad/s, mu = 0.3) slips at 0.18 s and is sliding at 0.2 s, not yet flown: its
+    state with the energy -1 J, the count 0.5, the speed -1 m/s, or either time +inf or -inf (in
+    every copy the state holds, found as t_first_slip's bytes followed by a NaN; checksum made
+    right) is refused naming the bookkeeping, and the instance keeps its state and steps on."""
+    ball = opened(fmus_of("native")["BallInShell"], "hybrid", contact_model=2, wx0=96.0, mu=0.3)
+    ball.initialize()
+    for k in range(100):
+        ball.fmu.doStep(k * H, H)
+    t_slip = ball.get("t_first_slip")
+    assert ball.get("mode") == 2 and 0.1 < t_slip < 0.19 and ball.get("t_first_flight") == 1e300  # never (yet)
+    good = ball.fmu.getFMUstate()
+    blob = bytes(ball.fmu.serializeFMUstate(good))
+    data = HEADER_BYTES + 8 * len(ball.vars)  # the model's data, after the header and the values
+    slots = [at for at in range(data, len(blob) - 4 - 16 + 1)
+             if struct.unpack_from("<d", blob, at)[0] == t_slip and math.isnan(struct.unpack_from("<d", blob, at + 8)[0])]
+    assert slots
+    before = ball.reals(("xC", "yC", "zC", "N"))
+    # the state at the instance's time names the bookkeeping; a copy in the corrector's history
+    # is refused as a corrected state
+    book = "FMU state refused: its hybrid bookkeeping (impacts, losses, first times, seed, flags) is not valid"
+    reasons = {book, "FMU state refused: a corrected state is not one it can continue from"}
+    # (offset from t_first_slip, value): E_impact, n_impacts, v_impact_max, t_first_slip, t_first_flight
+    forgeries = [(-24, -1.0), (-16, 0.5), (-8, -1.0), (0, math.inf), (0, -math.inf), (8, math.inf), (8, -math.inf)]
+    said = {}
+    for at in slots:
+        for field, value in forgeries:
+            forged = bytearray(blob)
+            struct.pack_into("<d", forged, at + field, value)
+            state = ball.fmu.deSerializeFMUstate(_sealed(forged))
+            n = len(ball.messages)
+            with pytest.raises(FMICallException) as info:
+                ball.fmu.setFMUstate(state)
+            assert info.value.status == ERROR
+            why = [m.split("': ", 1)[1] for s, m in ball.messages[n:] if s == ERROR and "FMU state refused: " in m]
+            assert len(why) == 1 and why[0] in reasons, (field, value, ball.messages[n:])
+            said.setdefault((field, value), set()).add(why[0])
+            ball.fmu.freeFMUstate(state)
+    assert len(said) == len(forgeries) and all(book in r for r in said.values()), said  # named for each
+    assert ball.reals(("xC", "yC", "zC", "N")) == before
+    ball.fmu.doStep(100 * H, H)  # and it carries on
+    assert ball.get("mode") == 2
+
+
 def test_a_state_whose_newest_input_sample_is_at_its_time_is_refused(opened, fmus_of):
     """A step pushes the inputs at its start and ends later, so in every state BallInShell
     writes after a step the newest input sample is older than the state's time (only
@@ -450,6 +498,7 @@ def test_a_state_whose_newest_input_sample_is_at_its_time_is_refused(opened, fmu
     for k in range(6):  # consistent inputs (x = 1.5 t^2 m): the history keeps every sample
         ball.set(x1O=1.5 * t * t, vx1O=3.0 * t, ax1O=3.0)
         ball.fmu.doStep(t, H)
+        newest = t  # the newest sample's time: the last step's start
         t += H
     assert ball.get("valid")
     good = ball.fmu.getFMUstate()
@@ -458,6 +507,8 @@ def test_a_state_whose_newest_input_sample_is_at_its_time_is_refused(opened, fmu
     found = _refusals_of_forged_states(ball, blob, good, "<d", t)
     reason = "its newest input sample is not before its time (only a history of one sample may end there)"
     assert reason in found, found
+    # the field refused for it is the newest sample's time, not another double of the data
+    assert [struct.unpack_from("<d", blob, at)[0] for at in found[reason]] == [newest], found[reason]
     assert ball.reals(("xC", "yC", "N")) == before
     ball.set(x1O=1.5 * t * t, vx1O=3.0 * t, ax1O=3.0)
     ball.fmu.doStep(t, H)  # and it carries on

@@ -129,6 +129,28 @@ def test_the_positions_are_fit_down_to_their_resolution_bound(open_fmu, factor, 
         assert said == [], fmu.messages()
 
 
+def test_the_positions_resolution_is_that_of_the_largest_position_of_the_fit(open_fmu):
+    """The positions' resolution is judged on the largest |x1O|, |y1O| of the fit's nodes, not on
+    one node's: a chamber moving away from the origin at 50 m/s from x1O = 3000 m, stepped with
+    h = 1 ms (half the bound's 2.0 ms there). At the first fit of two nodes (t = h) the warning
+    names the newer node's x1O, 3000.05 m (printed to 6 digits), not the older one's 3000 m."""
+    X0, v, h = 3000.0, 50.0, 1e-3
+    fmu = open_fmu("BallInShell", input_mode=1)
+    fmu.set(x1O=X0, y1O=0.0, vx1O=v, vy1O=0.0, ax1O=0.0, ay1O=0.0)
+    assert fmu.init() == OK, fmu.messages()
+    for k in range(3):
+        assert fmu.step(h, k * h) == OK, fmu.messages()
+        fmu.set(x1O=X0 + v * (k + 1) * h)
+    said = re.findall(r"at t = (\S+) s the positions \(\|x1O\|, \|y1O\| up to (\S+) m, resolution (\S+) m\)",
+                      fmu.messages())
+    assert len(said) == 1, fmu.messages()
+    t, x, resolution = (float(s) for s in said[0])
+    assert t == pytest.approx(h, rel=1e-9)
+    assert x == float(f"{X0 + v * h:.6g}") == 3000.05
+    assert resolution == pytest.approx(x * 2.0 ** -52, rel=1e-2)
+    assert fmu.get("valid")
+
+
 def test_fit_nodes_closer_than_the_fit_resolves_refuse_the_step_state_intact(open_fmu):
     """input_mode 2 fits the positions of up to 6 samples at least half a step apart, their
     offsets in units of the newest spacing rounded to 12 decimals: after a 1e-15 s step, a 2 ms

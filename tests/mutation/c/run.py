@@ -4,6 +4,7 @@
                                    [--scratch DIR] [--gen DIR] [--shard K/N]
     python tests/mutation/c/run.py --score R.jsonl [--survivors]
     python tests/mutation/c/run.py --full R.jsonl          # survivors of the subset on the full files
+    python tests/mutation/c/run.py --since REV ...         # only mutants of lines changed since REV
 
 Mutants are made by universalmutator (PyPI; ``mutate FILE c --noCheck``: every rule of its
 C and generic rule sets, one change per mutant) for the files of config.toml. A run draws a
@@ -191,6 +192,22 @@ def generate(rel: str, gen: Path) -> list[dict]:
     part.write_text(json.dumps(mutants))
     part.replace(listing)
     return mutants
+
+
+def changed_lines(rel: str, since: str, root: Path = ROOT) -> set[int]:
+    """The lines (1-based, of HEAD's file `rel`) that HEAD adds or rewrites since revision `since`:
+    the new side of every hunk of ``git diff -U0 since HEAD -- rel``. A file that did not exist at
+    `since` (or was renamed since: the diff is limited to the path) counts as new in full; lines
+    only deleted leave nothing to mutate."""
+    proc = subprocess.run(["git", "-C", str(root), "diff", "--no-ext-diff", "--no-color", "-U0", since, "HEAD",
+                           "--", rel], capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise SystemExit(f"git diff {since} HEAD -- {rel} failed: {proc.stderr.strip()}")
+    lines: set[int] = set()
+    for hunk in re.finditer(r"^@@ -\d+(?:,\d+)? \+(\d+)(?:,(\d+))? @@", proc.stdout, re.M):
+        start, count = int(hunk.group(1)), int(hunk.group(2) or 1)
+        lines.update(range(start, start + count))
+    return lines
 
 
 def stratified(files: list[str], gen: Path, seed: int) -> list[dict]:
@@ -591,6 +608,8 @@ def main(argv=None) -> int:
     ap.add_argument("--full", type=Path, metavar="RESULTS",
                     help="run the survivors of RESULTS (equivalent ones included) on the full test files")
     ap.add_argument("--ids", nargs="+", help="judge these mutants (FILE:N) only")
+    ap.add_argument("--since", metavar="REV",
+                    help="only the mutants of lines HEAD adds or rewrites since revision REV (git diff REV HEAD)")
     ap.add_argument("--gen", type=Path, default=None,
                     help="where the generated mutants are cached (default scratch/gen; shards share it)")
     ap.add_argument("--shard", default="0/1", metavar="K/N",
@@ -607,6 +626,9 @@ def main(argv=None) -> int:
     scratch.setup(files_all)
     scratch.keep_originals(files_all)
     order = stratified(args.files, args.gen or args.scratch / "gen", args.seed)
+    if args.since:  # a subsequence of the seed's order: still stratified, the same mutant numbers
+        changed = {rel: changed_lines(rel, args.since) for rel in args.files}
+        order = [m for m in order if m["line"] in changed[m["file"]]]
     k, n = (int(x) for x in args.shard.split("/"))
     order = order[k::n]
     full = bool(args.full)
