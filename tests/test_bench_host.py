@@ -13,11 +13,11 @@ from ballmill.scenario import runner
 pytestmark = pytest.mark.skipif(shutil.which("cc") is None, reason="no C compiler (cc)")
 
 
-def test_c_master_runs_the_fast_start_as_ballmill_run():
+def test_c_master_runs_the_fast_start_as_ballmill_run(fmu_build_dir):
     stop = 3.0  # past t0 = 2.5 s, where the start-up law's jerk jumps
-    host = flavours.fmus_in_c_host(1, stop)
+    host = flavours.fmus_in_c_host(1, stop, build_dir=fmu_build_dir)
     assert host is not None and host["steps"] == 1500 and host["cycles"] == 1
-    sc, models, paths = runner.prepare("fast_start", [], log=lambda m: None)
+    sc, models, paths = runner.prepare("fast_start", [], fmu_build_dir, log=lambda m: None)
     sc.step, sc.stop = flavours.H, stop
     sc.record = [("ball", "zP")]
     res = runner.run(sc, models, paths, progress=False, echo=False)
