@@ -271,9 +271,10 @@ def _fmu_table(fmus, reps: int) -> str:
             "(the rolling model; its validity latches at the first slip, the integration goes on) against 2 "
             "(the hybrid ball, every event located inside the steps), DOP853 at 1e-9 and RK45 at 1e-8 (the "
             f"FMU's default); CPU per simulated second, medians of {reps} runs (a run over {FMU_BUDGET:g} s of "
-            "CPU timed once), instantiation and initialisation not counted. RK45 follows a slide that starts "
-            "from zero slip in tiny steps (docs/design.md section 14), which the pythonfmu flavour pays in "
-            "Python.\n\n"
+            "CPU timed once), instantiation and initialisation not counted. A slide that starts from zero "
+            "slip follows its slow manifold (the creeping slide, docs/design.md section 14), so neither "
+            "method is held to tiny steps there; what the hybrid adds is its guards and event location, "
+            "which the pythonfmu flavour pays in Python.\n\n"
             + _table(["FMU", "integrator", "contact_model = 1 [ms/s]", "contact_model = 2 [ms/s]",
                       "2 vs 1", "vs native (1, 2)"], rows))
 
