@@ -541,7 +541,7 @@ class BallInShell(Slave):
         n = (rho[0] / dist, rho[1] / dist, rho[2] / dist)
         if state.mode == SLIDING:
             self._system.set_bookkeeping(state.book)  # the sliding direction's seed
-            N, Ftv, slip, _, _ = self._system._slide_forces(t, zl, chamber=(A, vA, aA, Om, Omd))
+            N, Ftv, slip, _, _, _ = self._system._slide_forces(t, zl, chamber=(A, vA, aA, Om, Omd))
             F = (N * n[0] - Ftv[0], N * n[1] - Ftv[1], N * n[2] - Ftv[2])
             Ft = math.sqrt(Ftv[0] * Ftv[0] + Ftv[1] * Ftv[1] + Ftv[2] * Ftv[2])
             gap = 0.0

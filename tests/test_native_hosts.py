@@ -95,6 +95,17 @@ def unpacked(fmus_of, tmp_path_factory):
     return out
 
 
+VALGRIND = ("valgrind", "--error-exitcode=99", "--leak-check=full", "--errors-for-leak-kinds=definite")
+
+
+def _assert_valgrind_clean(proc):
+    """The host under VALGRIND left with status 0, valgrind found no error and no definitely lost block."""
+    assert proc.returncode == 0, proc.stdout + proc.stderr[-3000:]
+    assert "ERROR SUMMARY: 0 errors" in proc.stderr
+    lost = re.search(r"definitely lost: ([\d,]+) bytes", proc.stderr)
+    assert lost is None or lost.group(1) == "0", proc.stderr[-2000:]
+
+
 def _run(host, binary, guid, vr, steps, cycles, prefix=(), settings=()):
     cmd = [*prefix, str(host), str(binary), guid, binary.parent.parent.parent.as_uri() + "/resources",
            str(steps), "0.002", str(cycles), str(vr), *settings]
@@ -134,13 +145,9 @@ def test_valgrind_finds_no_invalid_access_and_no_leak(host, unpacked, model):
     if shutil.which("valgrind") is None:
         pytest.skip("valgrind not installed (apt-get install valgrind)")
     binary, guid, vr = unpacked[model]
-    proc = _run(host, binary, guid, vr, 20, 3, prefix=("valgrind", "--error-exitcode=99", "--leak-check=full",
-                                                        "--errors-for-leak-kinds=definite"))
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    assert "ERROR SUMMARY: 0 errors" in proc.stderr
+    proc = _run(host, binary, guid, vr, 20, 3, prefix=VALGRIND)
+    _assert_valgrind_clean(proc)
     assert "Invalid read" not in proc.stderr and "Invalid write" not in proc.stderr
-    lost = re.search(r"definitely lost: ([\d,]+) bytes", proc.stderr)
-    assert lost is None or lost.group(1) == "0", proc.stderr[-2000:]
 
 
 def test_valgrind_on_ball_in_a_spinning_bowl(host, unpacked):
@@ -156,11 +163,8 @@ def test_valgrind_on_ball_in_a_spinning_bowl(host, unpacked):
     settings = (f"I{B.value_reference('motion')}=2", f"R{B.value_reference('Omega_z')}=3.0",
                 f"R{B.value_reference('xC0')}=0.05")
     proc = _run(host, binary, guid, vr, 50, 2, settings=settings,
-                prefix=("valgrind", "--error-exitcode=99", "--leak-check=full", "--errors-for-leak-kinds=definite"))
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    assert "ERROR SUMMARY: 0 errors" in proc.stderr
-    lost = re.search(r"definitely lost: ([\d,]+) bytes", proc.stderr)
-    assert lost is None or lost.group(1) == "0", proc.stderr[-2000:]
+                prefix=VALGRIND)
+    _assert_valgrind_clean(proc)
     assert 0.0 < float(proc.stdout.split()[0]) < 10.0  # N [N] of the ball pressed on the bowl
 
 
@@ -178,11 +182,8 @@ def test_valgrind_on_the_hybrid_ball(host, unpacked):
     settings = (f"I{B.value_reference('contact_model')}=2", f"R{B.value_reference('wx0')}=96.0",
                 f"R{B.value_reference('mu')}=0.3")
     proc = _run(host, binary, guid, vr, 150, 2, settings=settings,
-                prefix=("valgrind", "--error-exitcode=99", "--leak-check=full", "--errors-for-leak-kinds=definite"))
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    assert "ERROR SUMMARY: 0 errors" in proc.stderr
-    lost = re.search(r"definitely lost: ([\d,]+) bytes", proc.stderr)
-    assert lost is None or lost.group(1) == "0", proc.stderr[-2000:]
+                prefix=VALGRIND)
+    _assert_valgrind_clean(proc)
     assert float(proc.stdout.split()[0]) == 0.0  # N [N] of the ball in flight
 
 
@@ -259,14 +260,10 @@ def test_valgrind_on_fmi3_early_return_and_event_mode(host3, tmp_path_factory, f
     zipfile.ZipFile(path).extractall(d)
     binary = d / "binaries" / native.platform_dir_fmi3() / f"{model}{native.shared_suffix()}"
     vr = INTERFACES[model].value_reference
-    cmd = ["valgrind", "--error-exitcode=99", "--leak-check=full", "--errors-for-leak-kinds=definite",
-           str(host3), str(binary), md.guid, str(d / "resources") + "/", str(steps),
+    cmd = [*VALGRIND, str(host3), str(binary), md.guid, str(d / "resources") + "/", str(steps),
            "0.002", "2", str(vr(output)), *(f"R{vr(name)}={value!r}" for name, value in settings.items())]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
-    assert proc.returncode == 0, proc.stdout + proc.stderr[-3000:]
-    assert "ERROR SUMMARY: 0 errors" in proc.stderr
-    lost = re.search(r"definitely lost: ([\d,]+) bytes", proc.stderr)
-    assert lost is None or lost.group(1) == "0", proc.stderr[-2000:]
+    _assert_valgrind_clean(proc)
     first, second = proc.stdout.splitlines()
     value = float(first.split()[0])
     events, n, early, *times = second.split()
@@ -291,7 +288,7 @@ def test_valgrind_on_model_exchange_in_a_c_host(unpacked, fmus_of, tmp_path):
     md = read_model_description(str(fmus_of("native")["BallInShell"]))
     vr = {v.name: v.valueReference for v in md.modelVariables}
     binary, guid, _ = unpacked["BallInShell"]
-    cmd = ["valgrind", "--error-exitcode=99", "--leak-check=full", "--errors-for-leak-kinds=definite", str(exe),
+    cmd = [*VALGRIND, str(exe),
            str(binary), guid, "3", str(md.numberOfContinuousStates), str(md.numberOfEventIndicators),
            str(vr["valid"]), str(vr["wy0"]), "-20", str(vr["mu"]), "0.1"]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600)

@@ -351,6 +351,12 @@ class HybridBall:
             return 0.0
         return self.ball.m * (vA[0] * vC[1] - vA[1] * vC[0])
 
+    def _q_rolling(self, vA, n, w):
+        """q of a rolling ball, whose centre moves at v_C = v_A + r n x omega (translating)."""
+        r = self.ball.r
+        nw = _cross(n, w)
+        return self._q_spin(vA, (vA[0] + r * nw[0], vA[1] + r * nw[1]))
+
     def reaction_momentum(self, t, z):
         """K of a free state z at t: the angular momentum whose loss, with Lq's gain, is the
         integral of the torque of the ball's force on the chamber about the vertical axis
@@ -371,9 +377,7 @@ class HybridBall:
             return d + (0.0,)
         (_, _, vx, vy, _, _) = self.motion.state(t)
         y = y.tolist()
-        r = self.ball.r
-        nw = _cross((y[0], y[1], y[2]), (y[3], y[4], y[5]))
-        return d + (self._q_spin((vx, vy), (vx + r * nw[0], vy + r * nw[1])),)
+        return d + (self._q_rolling((vx, vy), (y[0], y[1], y[2]), (y[3], y[4], y[5])),)
 
     def _rhs_roll_q(self, t, y):
         b = self.ball
@@ -391,9 +395,7 @@ class HybridBall:
         c1, c2 = _cross(nd, w), _cross(n, wd)
         Fx = b.m * (ax + b.d * lam * (c1[0] + c2[0]))
         Fy = b.m * (ay + b.d * lam * (c1[1] + c2[1]))
-        r = b.r
-        nw = _cross(n, w)
-        return d + (Fx * vx + Fy * vy, 0.0, self._q_spin((vx, vy), (vx + r * nw[0], vy + r * nw[1])))
+        return d + (Fx * vx + Fy * vy, 0.0, self._q_rolling((vx, vy), n, w))
 
     def _rhs_flight(self, t, y):
         y = y.tolist()
@@ -401,14 +403,10 @@ class HybridBall:
         return (y[3], y[4], y[5], 0.0, 0.0, -self.ball.g, 0.0, 0.0, 0.0, 0.0, 0.0, q)
 
     def _slide_forces(self, t, y, seed=None, chamber=None):
-        """(N, friction force on the ball F_t, slip speed |u_t|, n, the wall's velocity at P)
-        of a sliding state; ``chamber``: (A, v_A, a_A, Omega, Omega') to use instead of the
-        motion's at t (an FMU's outputs with the inputs just set)."""
-        return self._slide(t, y, seed, chamber)[:5]
-
-    def _slide(self, t, y, seed=None, chamber=None):
-        """`_slide_forces`' five values and the friction's power -F_t.u_t [W] (mu_k N |u_t|
-        where the friction opposes the slip). The friction's direction e: u_t/|u_t| (Coulomb),
+        """(N, friction force on the ball F_t, slip speed |u_t|, n, the wall's velocity at P, the
+        friction's power -F_t.u_t [W] (mu_k N |u_t| where the friction opposes the slip)) of a
+        sliding state; ``chamber``: (A, v_A, a_A, Omega, Omega') to use instead of the motion's
+        at t (an FMU's outputs with the inputs just set). The friction's direction e: u_t/|u_t| (Coulomb),
         blended below ``creep_eps`` towards the direction of the friction-free relative
         tangential acceleration a0 of P (`_creep_weight`; the slow manifold of a slide whose
         slip is small, where u_t/|u_t| is stiff); from zero slip the seed when a0 = 0."""
@@ -433,7 +431,7 @@ class HybridBall:
         f = -self.mu_k * N
         w, a = 0.0, None
         if s < self.creep_eps:
-            a = self._ff_accel(ch, y, n)
+            a = self._friction_free_slip_accel(ch, y, n)
             w = _creep_weight(a, ut, s, self.creep_eps)
         if w == 0.0:
             if s > 1e-3 * self.slip_eps:
@@ -457,7 +455,7 @@ class HybridBall:
     def _rhs_slide(self, t, y):
         b = self.ball
         y = y.tolist()
-        N, Ft, s, n, vW, p = self._slide(t, y)
+        N, Ft, s, n, vW, p = self._slide_forces(t, y)
         F = (Ft[0] - N * n[0], Ft[1] - N * n[1], Ft[2] - N * n[2])
         tq = _cross(n, Ft)
         c = b.r / b.I
@@ -488,7 +486,7 @@ class HybridBall:
 
     def _g_sliding(self, t, y):
         """(|u| - slip_eps, N) of the sliding ball."""
-        N, _, s, _, _ = self._slide_forces(t, y)
+        N, _, s, _, _, _ = self._slide_forces(t, y)
         return s - self.slip_eps, N
 
     def _g_flight(self, t, y):
@@ -593,13 +591,10 @@ class HybridBall:
         un = _dot(u, n)
         return (u[0] - un * n[0], u[1] - un * n[1], u[2] - un * n[2])
 
-    def _friction_free_slip_accel(self, t, z, n):
+    def _friction_free_slip_accel(self, chamber, z, n):
         """Tangential acceleration of P relative to the wall without friction (the direction
-        friction opposes when sliding starts from zero slip)."""
-        return self._ff_accel(self.chamber(t), z, n)
-
-    def _ff_accel(self, chamber, z, n):
-        """`_friction_free_slip_accel` with the chamber's (A, v_A, a_A, Omega, Omega')."""
+        friction opposes when sliding starts from zero slip), in the chamber's (A, v_A, a_A,
+        Omega, Omega')."""
         b = self.ball
         A, vA, aA, Om, Omd = chamber
         vrel = (z[3] - vA[0], z[4] - vA[1], z[5] - vA[2])
@@ -651,7 +646,7 @@ class HybridBall:
         return SLIDING, z, details
 
     def _start_sliding(self, t, z, n, details):
-        a = self._friction_free_slip_accel(t, z, n)
+        a = self._friction_free_slip_accel(self.chamber(t), z, n)
         s = math.sqrt(_dot(a, a))
         self._seed = (a[0] / s, a[1] / s, a[2] / s) if s > 0.0 else (0.0, 0.0, 0.0)
         if math.isnan(self.book["t_first_slip"]):
@@ -797,7 +792,7 @@ class HybridBall:
             o = self._roll_out(t, y)
             N, Ft, slip = o.N, o.Ft, 0.0
         elif mode == SLIDING:
-            N, Ftv, slip, _, _ = self._slide_forces(t, z)
+            N, Ftv, slip, _, _, _ = self._slide_forces(t, z)
             Ft = math.sqrt(_dot(Ftv, Ftv))
         else:
             N, Ft = 0.0, 0.0
