@@ -30,7 +30,10 @@ judged it, so that a run stopped at any point gives a score. A re-run with the s
 file skips the mutants it already has. ``--score`` counts them, with the mutants of
 equivalent.toml (each with its reason) apart; ``--full`` runs the subset's survivors (the equivalent ones too) on
 the file's full list of test files (config.toml) and records that verdict too; ``--ids``
-judges the given mutants again (after new tests: the newest verdict counts).
+judges the given mutants again (after new tests: the newest verdict counts). A mutant's
+number counts the file's mutants as the file is now (a change above it can renumber it): a
+run refuses a results file that records a mutant it would judge or skip with another change
+(drawn on other C: judge it from a checkout of that C).
 """
 from __future__ import annotations
 
@@ -220,6 +223,20 @@ def stratified(files: list[str], gen: Path, seed: int) -> list[dict]:
         keyed += [((k + 0.5) / len(ms), rel, m) for k, m in enumerate(ms)]
     keyed.sort(key=lambda x: (x[0], x[1]))
     return [m for _, _, m in keyed]
+
+
+def drawn_elsewhere(order: list[dict], done: dict) -> list[str]:
+    """The mutants of `order` that the results file `done` records with another change (the text
+    before and after; a line that only moved is the same change): the file was drawn on other
+    C. A mutant's number counts the universalmutator mutants of the file as it is now, so a
+    change above it can shift the numbers and the same id then names another change."""
+    out = []
+    for m in order:
+        r = done.get(m["id"])
+        if r and (r.get("before"), r.get("after")) != (m["before"], m["after"]):
+            out.append(f"{m['id']} is recorded as {str(r.get('after')).strip()!r} (line {r.get('line')}), "
+                       f"here {m['after'].strip()!r} (line {m['line']})")
+    return out
 
 
 # ----------------------------------------------------------------------------- the scratch tree
@@ -623,20 +640,29 @@ def main(argv=None) -> int:
     scratch = Scratch(args.scratch)
     results_path = args.full or args.results or args.scratch / f"results-seed{args.seed}.jsonl"
     done = load_results(results_path)
-    scratch.setup(files_all)
-    scratch.keep_originals(files_all)
     order = stratified(args.files, args.gen or args.scratch / "gen", args.seed)
     if args.since:  # a subsequence of the seed's order: still stratified, the same mutant numbers
         changed = {rel: changed_lines(rel, args.since) for rel in args.files}
         order = [m for m in order if m["line"] in changed[m["file"]]]
-    k, n = (int(x) for x in args.shard.split("/"))
-    order = order[k::n]
     full = bool(args.full)
     if args.ids:
+        missing = sorted(set(args.ids) - {m["id"] for m in order})
+        if missing:
+            raise SystemExit(f"--ids: no mutant {', '.join(missing)} among those of this run's files"
+                             f"{' and lines (--since)' if args.since else ''}")
         order = [m for m in order if m["id"] in set(args.ids)]
     elif full:  # the equivalent ones too: the full files must not kill them either
         order = [m for m in order if m["id"] in done and done[m["id"]].get("verdict") == "survived"
                  and "full_verdict" not in done[m["id"]]]
+    stale = drawn_elsewhere(order, done)
+    if stale:
+        raise SystemExit(f"{results_path} was drawn on other C than this checkout's: {len(stale)} of the mutants "
+                         f"this run would judge or skip name other changes here ({stale[0]}). Judge them from a "
+                         "checkout whose C is the one they were drawn on, or give a new --results")
+    scratch.setup(files_all)
+    scratch.keep_originals(files_all)
+    k, n = (int(x) for x in args.shard.split("/"))
+    order = order[k::n]
     judged = sum(1 for r in done.values() if r.get("verdict") in ("killed", "survived"))
     print(f"{len(order)} mutants in order; {judged} already judged in {results_path}", flush=True)
     for m in order:
