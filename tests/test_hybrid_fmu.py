@@ -522,7 +522,6 @@ def test_a_zeno_sequence_holds_the_ball_on_the_wall_and_latches_valid_in_both_fl
         nz = (r["zC"] - ball.R) / ball.d
         N = ball.m * (-ball.g * nz + sum(v * v for v in vrel) / ball.d)
         assert r["N"] == pytest.approx(N, rel=1e-9) and r["N"] > 0.0
-    assert rows[-1]["E_impact"] > rows[k - 1]["E_impact"]  # the hold took the normal speed left
 
     def energy(r):  # in the frame of the chamber, which moves at vz from 40 ms on
         v2 = r["vxC"] ** 2 + r["vyC"] ** 2 + (r["vzC"] - vz) ** 2
