@@ -90,7 +90,7 @@ def test_resuming_a_run_step_by_step_is_the_run_bit_for_bit():
     h, book = None, system.bookkeeping()
     rows, events = [system.sample(mode, t, y)], []
     for k in range(1, len(ref.t)):
-        system.set_bookkeeping((1.0, 7.0, 3.0, 0.5, 0.5, 2.0, 2.0, 1.0, 0.0, 0.0, 1.0, 0.0))  # scrambled
+        system.set_bookkeeping((1.0, 7.0, 3.0, 0.5, 0.5, 2.0, 2.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.3, 0.01))  # scrambled, held
         run = system.resume(mode, t, y, h, book, float(ref.t[k]))
         assert run.success, run.message
         mode, t, y, h, book = run.mode, run.t_last, run.y, run.h, system.bookkeeping()
