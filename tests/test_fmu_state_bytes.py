@@ -154,7 +154,7 @@ def _python_reason(bad: bytes, i: int, line: int) -> str:
         return f"it begins with {bad[:len(magic)]!r}, expected {magic!r}: not a ballmill FMU state"
     if i < line:
         head = bad.split(b"\n", 1)[0][len(magic):]
-        return f"format version {head[:20].decode('ascii', 'replace')}, expected 5"
+        return f"format version {head[:20].decode('ascii', 'replace')}, expected 6"
     return _checksum_text(bad)
 
 
