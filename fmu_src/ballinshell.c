@@ -1206,8 +1206,8 @@ static int corrected_history(ball_in_shell *b, const fit *f, double t_now, ball_
     for (int i = 0; i < b->n_hist; i++)
         if (b->hist[i].t == t_first) first = &b->hist[i];
     /* a state held on the wall (bmh_hold) is not redone from one before the hold: the hold is final */
-    int corrected = b->correct && n_window >= 2 && first &&
-                    !(b->contact == 2 && !isnan(b->state.book[12]) && isnan(first->book[12]));
+    int held = b->contact == 2 && !isnan(b->state.book[BMH_BOOK_T_HELD]);
+    int corrected = b->correct && n_window >= 2 && first && !(held && isnan(first->book[BMH_BOOK_T_HELD]));
     ball_state window[MAX_SAMPLES];
     if (corrected) {
         window[0] = *first;
@@ -1631,8 +1631,8 @@ static const char *held_reason(const ball_state *s, char *why, size_t size)
 {
     snprintf(why, size, "Zeno sequence: %d events within %.3g s before t = %.9g s, more than the allowed rate %g "
              "events/s: the ball is held on the wall from there, rolling only (as contact_model = 1 after its "
-             "latch; a larger v_rest ends a bounce sequence sooner)", HYB_BURST, s->book[13], s->book[12],
-             HYB_MAX_RATE);
+             "latch; a larger v_rest ends a bounce sequence sooner)", HYB_BURST, s->book[BMH_BOOK_HELD_WINDOW],
+             s->book[BMH_BOOK_T_HELD], HYB_MAX_RATE);
     return why;
 }
 
@@ -1651,7 +1651,8 @@ static void n_pair(ball_in_shell *b, const ball_state *ps, const ball_state *qs,
     double *out[2] = {p, q};
     hybrid_chamber(b, f);
     for (int k = 0; k < 2; k++) {
-        bmh_run run = {&b->H, 0.0, 0.0, 0.0, NAN, NAN, {st[k]->book[5], st[k]->book[6]}, {0.0, 0.0, 0.0}, 0, 0, NAN, NAN};
+        bmh_run run = {&b->H, 0.0, 0.0, 0.0, NAN, NAN, {st[k]->book[5], st[k]->book[6]}, {0.0, 0.0, 0.0}, 0, 0,
+                       NAN, NAN};
         double z[BMH_NZ];
         bmh_free_state(&run, st[k]->mode, st[k]->t, st[k]->y, z);
         for (int i = 0; i < 3; i++) out[k][i] = z[i] / b->H.d;
@@ -1774,7 +1775,8 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
                 fmu_instance_name(fi), t, f.X, f.X * ldexp(1.0, -52), f.w);
     }
     if (b->contact == 2) { /* slip, flight and impacts are the model's: valid stays, unless the ball is held */
-        if (!isnan(predicted.book[12])) invalidate(fi, v, predicted.book[12], held_reason(&predicted, why, sizeof why));
+        if (!isnan(predicted.book[BMH_BOOK_T_HELD]))
+            invalidate(fi, v, predicted.book[BMH_BOOK_T_HELD], held_reason(&predicted, why, sizeof why));
         b->t_prev = t;
         b->has_t_prev = 1;
         return fmi2OK;
@@ -1809,7 +1811,8 @@ static const char *state_problem(const ball_in_shell *b, const ball_state *s)
         const double *k = s->book;
         if (!(bm_all_finite(k, 3) && k[0] >= 0.0 && k[1] >= 0.0 && k[1] == floor(k[1]) && k[2] >= 0.0 &&
               !isinf(k[3]) && !isinf(k[4]) && bm_all_finite(k + 5, 5) && (k[10] == 0.0 || k[10] == 1.0) &&
-              (k[11] == 0.0 || k[11] == 1.0) && !isinf(k[12]) && !isinf(k[13]) && isnan(k[12]) == isnan(k[13])))
+              (k[11] == 0.0 || k[11] == 1.0) && !isinf(k[BMH_BOOK_T_HELD]) && !isinf(k[BMH_BOOK_HELD_WINDOW]) &&
+              isnan(k[BMH_BOOK_T_HELD]) == isnan(k[BMH_BOOK_HELD_WINDOW])))
             return "its hybrid bookkeeping (impacts, losses, first times, seed, flags, hold) is not valid";
     }
     if (s->mode == BMH_ROLLING && b->P.form == BM_VECTOR) {

@@ -90,7 +90,7 @@ def test_resuming_a_run_step_by_step_is_the_run_bit_for_bit():
     h, book = None, system.bookkeeping()
     rows, events = [system.sample(mode, t, y)], []
     for k in range(1, len(ref.t)):
-        system.set_bookkeeping((1.0, 7.0, 3.0, 0.5, 0.5, 2.0, 2.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.3, 0.01))  # scrambled, held
+        system.set_bookkeeping((1.0, 7.0, 3.0, 0.5, 0.5, 2.0, 2.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.3, 0.01))  # scrambled
         run = system.resume(mode, t, y, h, book, float(ref.t[k]))
         assert run.success, run.message
         mode, t, y, h, book = run.mode, run.t_last, run.y, run.h, system.bookkeeping()
@@ -489,8 +489,8 @@ def test_a_zeno_sequence_holds_the_ball_on_the_wall_and_latches_valid_in_both_fl
     counts and losses frozen; E + E_friction + E_impact in the chamber's frame (it moves at
     constant speed from 40 ms on: no work) constant through the bounces, the hold and the rolling
     after it, from 0.12 s (the first step whose fit is the constant speed) to 1e-9 of the energy
-    the losses took (measured 4e-15 J of 5e-4 J); the pythonfmu flavour's outputs and messages the native one's bit for bit; a state
-    got after the hold steps on bit for bit."""
+    the losses took (measured 4e-15 J of 5e-4 J); the pythonfmu flavour's outputs and messages the
+    native one's bit for bit; a state got after the hold steps on bit for bit."""
     import re
 
     from ballmill.physics import Ball

@@ -1864,6 +1864,8 @@ enum { BMH_SLIP = 0, BMH_LEAVE = 1, BMH_STICK = 2, BMH_IMPACT = 3 }; /* event ki
 #define BMH_NEV 18  /* doubles of an event record (hybrid_run's EVENT_FIELDS) */
 #define BMH_NBOOK 14 /* E_impact, n_impacts, v_impact_max, t_first_slip, t_first_flight, Q[2], seed[3], rebound,
                         W_lost, t_held, held_window (HybridBall.BOOK) */
+#define BMH_BOOK_T_HELD 12      /* the book's t_held (NAN: not held) and held_window */
+#define BMH_BOOK_HELD_WINDOW 13
 
 /* Everything a hybrid run needs; filled by fast.py (ctypes mirror: _HProblem). */
 typedef struct {
@@ -2644,7 +2646,8 @@ static long long bmh_run_grid(const bmh_problem *H, const double *times, long lo
     x.sys.jump = bmh_sys_jump;
     x.sys.record = bmh_record;
     bmh_run run = {H, book[0], book[1], book[2], book[3], book[4], {book[5], book[6]},
-                   {book[7], book[8], book[9]}, book[10] != 0.0, book[11] != 0.0, book[12], book[13]};
+                   {book[7], book[8], book[9]}, book[10] != 0.0, book[11] != 0.0, book[BMH_BOOK_T_HELD],
+                   book[BMH_BOOK_HELD_WINDOW]};
     x.run = run;
     bm_tab_make(&H->roll, &x.Tr);
     bm_tab_make(&H->free, &x.Tf);
@@ -2689,8 +2692,8 @@ static long long bmh_run_grid(const bmh_problem *H, const double *times, long lo
     memcpy(book + 7, x.run.seed, sizeof x.run.seed);
     book[10] = x.run.rebound;
     book[11] = x.run.w_lost;
-    book[12] = x.run.t_held;
-    book[13] = x.run.held_window;
+    book[BMH_BOOK_T_HELD] = x.run.t_held;
+    book[BMH_BOOK_HELD_WINDOW] = x.run.held_window;
     return last;
 }
 
