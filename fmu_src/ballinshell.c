@@ -705,15 +705,12 @@ static void to_n(const ball_in_shell *b, const double *y, double n[3])
     }
 }
 
-/* why the hybrid ball's driver stopped (contact_model = 2): bmh_interval's status (1 a step failed,
- * 2 a Zeno sequence) and, for a Zeno sequence, the last event's time and kind and the time of the
- * event HYB_BURST before it */
+/* why the hybrid ball's driver stopped (contact_model = 2): bmh_interval's status (1 a step failed;
+ * a Zeno sequence does not stop it: the ball is held on the wall, bmh_hold) */
 typedef struct {
     int status;
     double t_from, t_to; /* the interval it could not do */
     int mode;            /* the mode it started in */
-    double t_last, t_first;
-    int kind;
 } hyb_stop;
 
 /* the hybrid ball's chamber along the fit (translation: the kernel's BM_POLY with its position and
@@ -764,12 +761,6 @@ static int hybrid_advance(ball_in_shell *b, const ball_state *in, double t_end, 
     stop->t_from = in->t;
     stop->t_to = t_end;
     stop->mode = in->mode;
-    if (status == 2) {
-        const double *last = ring + BMH_NEV * ((n_ev - 1) % HYB_BURST);
-        stop->t_last = last[0];
-        stop->kind = (int)last[1];
-        stop->t_first = ring[BMH_NEV * ((n_ev - HYB_BURST) % HYB_BURST)];
-    }
     return 0;
 }
 
@@ -778,7 +769,7 @@ static int hybrid_advance(ball_in_shell *b, const ball_state *in, double t_end, 
 static void hybrid_start(ball_in_shell *b, ball_state *s, const fit *f)
 {
     const bmh_problem *H = &b->H;
-    bmh_run run = {H, 0.0, 0.0, 0.0, NAN, NAN, {0.0, 0.0}, {0.0, 0.0, 0.0}, 0, 0};
+    bmh_run run = {H, 0.0, 0.0, 0.0, NAN, NAN, {0.0, 0.0}, {0.0, 0.0, 0.0}, 0, 0, NAN, NAN};
     double N, Ft, y[BMH_NZ], z[BMH_NZ], rec[BMH_NEV];
     int ny;
     hybrid_chamber(b, f);
@@ -792,7 +783,8 @@ static void hybrid_start(ball_in_shell *b, ball_state *s, const fit *f)
     }
     if (s->mode == BMH_FLIGHT && isnan(run.t_first_flight)) run.t_first_flight = s->t;
     double book[BMH_NBOOK] = {run.E_impact, run.n_impacts, run.v_impact_max, run.t_first_slip, run.t_first_flight,
-                              run.Q[0], run.Q[1], run.seed[0], run.seed[1], run.seed[2], run.rebound, run.w_lost};
+                              run.Q[0], run.Q[1], run.seed[0], run.seed[1], run.seed[2], run.rebound, run.w_lost,
+                              run.t_held, run.held_window};
     memcpy(s->book, book, sizeof book);
 }
 
@@ -996,7 +988,7 @@ static void outputs_at(ball_in_shell *b, const ball_state *s, const fit *f, doub
  * and its torque quadrature *Lq */
 static double reaction_momentum(ball_in_shell *b, const ball_state *s, const fit *f, double *Lq)
 {
-    bmh_run run = {&b->H, 0.0, 0.0, 0.0, NAN, NAN, {0.0, 0.0}, {0.0, 0.0, 0.0}, 0, 0};
+    bmh_run run = {&b->H, 0.0, 0.0, 0.0, NAN, NAN, {0.0, 0.0}, {0.0, 0.0, 0.0}, 0, 0, NAN, NAN};
     double z[BMH_NZ];
     hybrid_chamber(b, f);
     bmh_free_state(&run, s->mode, s->t, s->y, z);
@@ -1213,7 +1205,9 @@ static int corrected_history(ball_in_shell *b, const fit *f, double t_now, ball_
     const ball_state *first = NULL;
     for (int i = 0; i < b->n_hist; i++)
         if (b->hist[i].t == t_first) first = &b->hist[i];
-    int corrected = b->correct && n_window >= 2 && first;
+    /* a state held on the wall (bmh_hold) is not redone from one before the hold: the hold is final */
+    int held = b->contact == 2 && !isnan(b->state.book[BMH_BOOK_T_HELD]);
+    int corrected = b->correct && n_window >= 2 && first && !(held && isnan(first->book[BMH_BOOK_T_HELD]));
     ball_state window[MAX_SAMPLES];
     if (corrected) {
         window[0] = *first;
@@ -1288,6 +1282,7 @@ static void hybrid_setup(ball_in_shell *b, const double *v, double inertia)
     H->kt = 1.0 + 1.0 / inertia;
     H->energy = 0;
     H->scan = HYB_SCAN; H->xtol = HYB_XTOL; H->burst = HYB_BURST; H->max_rate = HYB_MAX_RATE;
+    H->zeno_hold = 1; /* a Zeno sequence holds the ball on the wall (bmh_hold) and latches valid (step) */
     H->turning = b->motion == 2;
     if (H->turning) {
         H->gen = b->G;
@@ -1620,24 +1615,24 @@ static fmi2Status refuse_step(fmu_instance *fi, double t, const char *why)
     return fmi2Discard;
 }
 
-/* events.zeno's message for the Zeno guard's stop */
-/* why the hybrid ball's driver stopped (ballinshell_fmu.py's message; a Zeno sequence as events.zeno says it) */
+/* why the hybrid ball's driver stopped (ballinshell_fmu.py's message) */
 static const char *hybrid_stop_text(const hyb_stop *s, char *why, size_t size)
 {
-    static const char *const kinds[4] = {"slip", "leave", "stick", "impact"};
     static const char *const modes[3] = {"flight", "rolling", "sliding"};
-    /* where the driver stopped: a Zeno sequence at its last event (events.integrate's message) */
-    int n = snprintf(why, size, "the hybrid ball could not be followed from t = %.9g s in mode %s: stopped at t = %.9g "
-                     "s: ", s->t_from, modes[s->mode >= 0 && s->mode < 3 ? s->mode : 1],
-                     s->status == 2 ? s->t_last : s->t_from);
-    if (n < 0 || (size_t)n >= size) return why;
-    if (s->status == 2)
-        snprintf(why + n, size - (size_t)n, "Zeno sequence: %d events within %.3g s before t = %.9g s (the last: "
-                 "'%s'), more than the allowed rate %g events/s", HYB_BURST, s->t_last - s->t_first, s->t_last,
-                 kinds[s->kind >= 0 && s->kind < 4 ? s->kind : 0], HYB_MAX_RATE);
-    else
-        snprintf(why + n, size - (size_t)n, "the integrator could not reach t = %.9g s (non-finite values, step "
-                 "size underflow or more than %d internal steps)", s->t_to, HYB_MAX_STEPS);
+    snprintf(why, size, "the hybrid ball could not be followed from t = %.9g s in mode %s: stopped at t = %.9g s: the "
+             "integrator could not reach t = %.9g s (non-finite values, step size underflow or more than %d internal "
+             "steps)", s->t_from, modes[s->mode >= 0 && s->mode < 3 ? s->mode : 1], s->t_from, s->t_to, HYB_MAX_STEPS);
+    return why;
+}
+
+/* contact_model = 2: the ball held on the wall from a Zeno stop (bmh_hold; its time and the burst's
+ * span in the bookkeeping): what valid's latch says (ballinshell_fmu.BallInShell._held_reason) */
+static const char *held_reason(const ball_state *s, char *why, size_t size)
+{
+    snprintf(why, size, "Zeno sequence: %d events within %.3g s before t = %.9g s, more than the allowed rate %g "
+             "events/s: the ball is held on the wall from there, rolling only (as contact_model = 1 after its "
+             "latch; a larger v_rest ends a bounce sequence sooner)", HYB_BURST, s->book[BMH_BOOK_HELD_WINDOW],
+             s->book[BMH_BOOK_T_HELD], HYB_MAX_RATE);
     return why;
 }
 
@@ -1656,7 +1651,8 @@ static void n_pair(ball_in_shell *b, const ball_state *ps, const ball_state *qs,
     double *out[2] = {p, q};
     hybrid_chamber(b, f);
     for (int k = 0; k < 2; k++) {
-        bmh_run run = {&b->H, 0.0, 0.0, 0.0, NAN, NAN, {st[k]->book[5], st[k]->book[6]}, {0.0, 0.0, 0.0}, 0, 0};
+        bmh_run run = {&b->H, 0.0, 0.0, 0.0, NAN, NAN, {st[k]->book[5], st[k]->book[6]}, {0.0, 0.0, 0.0}, 0, 0,
+                       NAN, NAN};
         double z[BMH_NZ];
         bmh_free_state(&run, st[k]->mode, st[k]->t, st[k]->y, z);
         for (int i = 0; i < 3; i++) out[k][i] = z[i] / b->H.d;
@@ -1685,7 +1681,7 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
         return refuse_step(fi, t, "the input samples do not determine the reconstruction (two samples at the same time?)");
     ball_state hist[MAX_SAMPLES + 1], predicted;
     int n_hist;
-    hyb_stop stop = {0, 0.0, 0.0, 0, 0.0, 0.0, 0};
+    hyb_stop stop = {0, 0.0, 0.0, 0};
     int corrected = corrected_history(b, &f, t, hist, &n_hist, &stop);
     if (corrected < 0) {
         if (stop.status) return refuse_step(fi, t, hybrid_stop_text(&stop, why, sizeof why));
@@ -1778,7 +1774,9 @@ static fmi2Status step(fmu_instance *fi, void *data, double *v, double t, double
                 "reconstruction uses the velocity and acceleration inputs there (warned once)",
                 fmu_instance_name(fi), t, f.X, f.X * ldexp(1.0, -52), f.w);
     }
-    if (b->contact == 2) { /* slip, flight and impacts are the model's: valid stays */
+    if (b->contact == 2) { /* slip, flight and impacts are the model's: valid stays, unless the ball is held */
+        if (!isnan(predicted.book[BMH_BOOK_T_HELD]))
+            invalidate(fi, v, predicted.book[BMH_BOOK_T_HELD], held_reason(&predicted, why, sizeof why));
         b->t_prev = t;
         b->has_t_prev = 1;
         return fmi2OK;
@@ -1813,8 +1811,9 @@ static const char *state_problem(const ball_in_shell *b, const ball_state *s)
         const double *k = s->book;
         if (!(bm_all_finite(k, 3) && k[0] >= 0.0 && k[1] >= 0.0 && k[1] == floor(k[1]) && k[2] >= 0.0 &&
               !isinf(k[3]) && !isinf(k[4]) && bm_all_finite(k + 5, 5) && (k[10] == 0.0 || k[10] == 1.0) &&
-              (k[11] == 0.0 || k[11] == 1.0)))
-            return "its hybrid bookkeeping (impacts, losses, first times, seed, flags) is not valid";
+              (k[11] == 0.0 || k[11] == 1.0) && !isinf(k[BMH_BOOK_T_HELD]) && !isinf(k[BMH_BOOK_HELD_WINDOW]) &&
+              isnan(k[BMH_BOOK_T_HELD]) == isnan(k[BMH_BOOK_HELD_WINDOW])))
+            return "its hybrid bookkeeping (impacts, losses, first times, seed, flags, hold) is not valid";
     }
     if (s->mode == BMH_ROLLING && b->P.form == BM_VECTOR) {
         double n2 = s->y[0] * s->y[0] + s->y[1] * s->y[1] + s->y[2] * s->y[2];

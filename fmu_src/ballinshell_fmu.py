@@ -66,6 +66,10 @@ OUTPUTS = BALL_OUTPUTS
 INPUTS = BALL_INPUTS
 MOTIONS = {1: "translation", 2: "general"}
 CONTACT_MODELS = {1: "rolling", 2: "hybrid"}
+# contact_model = 2: the driver's Zeno guard (events.integrate's defaults; fmu_src/ballinshell.c's HYB_BURST,
+# HYB_MAX_RATE): more than HYB_BURST events within HYB_BURST / HYB_MAX_RATE s hold the ball on the wall
+HYB_BURST, HYB_MAX_RATE = 100, 1e4
+_T_HELD, _HELD_WINDOW = HybridBall.BOOK.index("t_held"), HybridBall.BOOK.index("held_window")  # NaN: not held
 GENERAL_MODES = {1: "derivatives", 3: "hold"}  # input modes of motion = 2
 _UNITS = {v.name: v.unit for v in BALL_IN_SHELL.variables}
 _MOTION_VALUES = operator.attrgetter(*BALL_MOTION_INPUTS)
@@ -338,8 +342,9 @@ class BallInShell(Slave):
                       f"above 1e-6 m/s2: the reconstruction uses the velocity and acceleration inputs "
                       f"there (warned once)")
         self._report(t, self._t_prev, confirmed, self._confirmed)
-        if self._hybrid:
-            pass  # slip, flight and impacts are the model's: valid stays true
+        if self._hybrid:  # slip, flight and impacts are the model's: valid stays true, unless the ball is held
+            if not math.isnan(predicted.book[_T_HELD]):
+                self.invalidate(predicted.book[_T_HELD], self._held_reason(predicted))
         elif not out.contact:
             self.invalidate(t_end, f"contact lost (N = {out.N:.6g} N) at the end of the step")
         elif not out.rolling:
@@ -347,6 +352,14 @@ class BallInShell(Slave):
                                    f"of the step")
         self._t_prev = t
         return True
+
+    @staticmethod
+    def _held_reason(state):
+        """contact_model = 2: why valid latched when the ball is held on the wall from a Zeno stop
+        (HybridBall.hold: its time and the burst's span in the bookkeeping)."""
+        return (f"Zeno sequence: {HYB_BURST} events within {state.book[_HELD_WINDOW]:.3g} s before t = "
+                f"{state.book[_T_HELD]:.9g} s, more than the allowed rate {HYB_MAX_RATE:g} events/s: the ball is held on the wall from there, "
+                f"rolling only (as contact_model = 1 after its latch; a larger v_rest ends a bounce sequence sooner)")
 
     _t_prev = None
     _general = False
@@ -372,6 +385,8 @@ class BallInShell(Slave):
         uncorrected = [st for st in self._history if st.t in keep and st.t < self._state.t] + [self._state]
         if not self._correct or len(times) < 2 or times[0] not in by_time:
             return uncorrected
+        if self._hybrid and not math.isnan(self._state.book[_T_HELD]) and math.isnan(by_time[times[0]].book[_T_HELD]):
+            return uncorrected  # a state held on the wall (HybridBall.hold) is not redone from one before the hold
         out = [by_time[times[0]]]
         for t in times[1:]:
             out.append(self._advance(out[-1], t, accel))
@@ -384,7 +399,8 @@ class BallInShell(Slave):
     # -- outputs -------------------------------------------------------------
     def _advance(self, state, t_end, accel):
         if self._hybrid:  # accel: the step's _Fit
-            run = self._system.resume(state.mode, state.t, state.y, state.h, state.book, t_end, accel.motion)
+            run = self._system.resume(state.mode, state.t, state.y, state.h, state.book, t_end, accel.motion,
+                                      burst=HYB_BURST, max_rate=HYB_MAX_RATE, on_zeno="hold")
             if not run.success:
                 raise ValueError(f"the hybrid ball could not be followed from t = {state.t:.9g} s in mode "
                                  f"{_MODE_NAMES[state.mode]}: {run.message}")
@@ -862,7 +878,7 @@ class _Fit:
 class _HState:
     """contact_model = 2: the hybrid ball's state at t: its mode, the mode's state y (rolling:
     n, omega, Lq; sliding and flight: C, v_C, omega, W, E_friction, Lq), the integrator's next step
-    h and the bookkeeping (HybridBall.BOOK's 12 floats)."""
+    h and the bookkeeping (HybridBall.BOOK's 14 floats)."""
 
     __slots__ = ("t", "mode", "y", "h", "book")
 

@@ -58,7 +58,7 @@ def _native_reason(blob: bytes, bad: bytes, i: int) -> str:
         shown = "".join(chr(c) if 0x20 <= c < 0x7F else "?" for c in bad[:8])
         return f"magic '{shown}', expected 'ballmill': not a ballmill FMU state"
     if i < 12:
-        return f"format version {int.from_bytes(bad[8:12], 'little')}, expected 4"
+        return f"format version {int.from_bytes(bad[8:12], 'little')}, expected 5"
     if i < 16:
         return f"written by the FMI {int.from_bytes(bad[12:16], 'little')} plumbing, expected FMI 2"
     if 32 <= i < 40:
@@ -154,7 +154,7 @@ def _python_reason(bad: bytes, i: int, line: int) -> str:
         return f"it begins with {bad[:len(magic)]!r}, expected {magic!r}: not a ballmill FMU state"
     if i < line:
         head = bad.split(b"\n", 1)[0][len(magic):]
-        return f"format version {head[:20].decode('ascii', 'replace')}, expected 5"
+        return f"format version {head[:20].decode('ascii', 'replace')}, expected 6"
     return _checksum_text(bad)
 
 
@@ -164,7 +164,7 @@ def test_every_changed_byte_of_a_pythonfmu_state_is_refused_named_and_the_instan
     ref = _python_started(model)
     blob = fmu.serialize(fmu.get_state())
     line = blob.index(b"\n") + 1
-    assert blob[:line] == b"ballmill FMU state, format 5\n"
+    assert blob[:line] == b"ballmill FMU state, format 6\n"
     assert blob[-4:] == zlib.crc32(blob[:-4]).to_bytes(4, "little")
     before = fmu.outputs()
     prefix = f"{model}: fmi2DeSerializeFMUstate: FMU state refused, the instance keeps its state: "

@@ -190,3 +190,26 @@ def test_the_interval_entry_chained_over_the_grid_gives_the_run_bit_for_bit(name
     from ballmill.physics.hybrid import HybridBall
     for j, col in enumerate(HybridBall.COLUMNS):
         assert np.array_equal(rows[:, j], ref.out[col], equal_nan=True), col
+
+
+def test_a_zeno_sequence_can_hold_the_ball_on_the_wall_instead_bit_for_bit():
+    """on_zeno = "hold" (what the BallInShell FMU does): the same drop, off-centre onto a wall
+    with mu = 0.02, holds the ball on the wall at the event that made the Zeno stop (the 'stop'
+    run's last event, its message named in the run's) and goes on to the end with success: rolling
+    only (mode 1, slip 0, gap 0 to round-off, no event after the hold), although rolling's |F_t|/N exceeds mu
+    there (the slip guard is off while held; measured 0.0208); the energy balance holds through
+    the hold (measured 1.6e-15 J); the kernel's run is the library's bit for bit."""
+    b = Ball(mu=0.02)
+    args = (b, Fixed(), 2.5, 0.01, Contact(e_n=0.9, v_rest=1e-300))
+    kw = dict(initial=((0.03, 0, b.R - b.d + 0.05), (0, 0, 0), (0, 0, 0)), burst=20, max_rate=1e3)
+    a, c = _both(*args, **kw, on_zeno="hold")
+    _identical(a, c)
+    stop = simulate_hybrid(*args, **kw, kernel="python")
+    t_held = stop.events[-1].t
+    assert not stop.success and a.success and a.t[-1] == 2.5 and a.events == stop.events
+    assert a.message == f"held on the wall, rolling only, from t = {t_held:.9g} s: " + stop.message.split(": ", 1)[1]
+    after = a.t > t_held
+    assert np.all(a["mode"][after] == ROLLING) and np.all(a["slip_speed"][after] == 0.0)
+    assert np.max(np.abs(a["gap"][after])) < 1e-15  # |C - A| = R - r to round-off
+    assert np.max(a["Ft"][after] / a["N"][after]) > 0.02
+    assert np.max(np.abs(a.energy_residual)) < 1e-12

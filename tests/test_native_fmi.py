@@ -445,7 +445,8 @@ def test_a_hybrid_state_with_impossible_bookkeeping_is_refused(opened, fmus_of):
     chamber (wx0 = 96 rad/s, mu = 0.3) slips at 0.18 s and is sliding at 0.2 s, not yet flown: its
     state with the energy -1 J, the count 0.5, the speed -1 m/s, or either time +inf or -inf (in
     every copy the state holds, found as t_first_slip's bytes followed by a NaN; checksum made
-    right) is refused naming the bookkeeping, and the instance keeps its state and steps on."""
+    right), or the Zeno hold's time (NaN: not held) infinite or finite without its window, is refused
+    naming the bookkeeping, and the instance keeps its state and steps on."""
     ball = opened(fmus_of("native")["BallInShell"], "hybrid", contact_model=2, wx0=96.0, mu=0.3)
     ball.initialize()
     for k in range(100):
@@ -461,10 +462,12 @@ def test_a_hybrid_state_with_impossible_bookkeeping_is_refused(opened, fmus_of):
     before = ball.reals(("xC", "yC", "zC", "N"))
     # the state at the instance's time names the bookkeeping; a copy in the corrector's history
     # is refused as a corrected state
-    book = "FMU state refused: its hybrid bookkeeping (impacts, losses, first times, seed, flags) is not valid"
+    book = "FMU state refused: its hybrid bookkeeping (impacts, losses, first times, seed, flags, hold) is not valid"
     reasons = {book, "FMU state refused: a corrected state is not one it can continue from"}
-    # (offset from t_first_slip, value): E_impact, n_impacts, v_impact_max, t_first_slip, t_first_flight
-    forgeries = [(-24, -1.0), (-16, 0.5), (-8, -1.0), (0, math.inf), (0, -math.inf), (8, math.inf), (8, -math.inf)]
+    # (offset from t_first_slip, value): E_impact, n_impacts, v_impact_max, t_first_slip, t_first_flight; the
+    # Zeno hold's time t_held infinite, or finite without its window (NaN: not held)
+    forgeries = [(-24, -1.0), (-16, 0.5), (-8, -1.0), (0, math.inf), (0, -math.inf), (8, math.inf), (8, -math.inf),
+                 (72, math.inf), (72, 0.1)]
     said = {}
     for at in slots:
         for field, value in forgeries:

@@ -639,7 +639,8 @@ BALL_HYBRID_ROWS = (
     ("v_rest", "parameter", 0.01, "Rest speed (contact_model = 2): a rebound slower than this (e_n v_n < "
      "v_rest) ends a bounce sequence, the ball stays on the wall (no Zeno chattering)",
      dict(unit="m/s", min=0.0, max=1e3)),
-    ("mode", "output", 1, "Contact mode: 0 = flight, 1 = rolling, 2 = sliding (contact_model = 1: always 1)",
+    ("mode", "output", 1, "Contact mode: 0 = flight, 1 = rolling, 2 = sliding (contact_model = 1, and "
+     "contact_model = 2 once a Zeno sequence has latched valid: always 1)",
      _out),
     ("slip_speed", "output", 0.0, "Slip speed |u| of the ball's point at P on the wall (0 while rolling and in "
      "flight; contact_model = 1: 0)", dict(unit="m/s", min=0.0, **_out)),
@@ -750,9 +751,9 @@ BALL_IN_SHELL = _interface(
          "(valid = false, warning) and the reconstruction restarts at the newer point",
          dict(unit="m/s2", min=1e-9, max=1e3)),
         ("valid", "output", True, "False from the first loss of contact, onset of slip (contact_model = 1) or "
-         "flagged input inconsistency (or, contact_model = 2, a step the hybrid ball cannot follow: a "
-         "Zeno sequence, a failed integration) until reset (latched): outputs after t_invalid are "
-         "not those of the model's physics", _out),
+         "flagged input inconsistency (or, contact_model = 2, a Zeno sequence the hybrid ball cannot "
+         "resolve: from there the ball is held on the wall, rolling only, mode 1) until reset (latched): "
+         "outputs after t_invalid are not those of the model's physics", _out),
         ("t_invalid", "output", NEVER, "Time at which valid became false (1e300 while valid)",
          dict(unit="s", **_out)),
         # the chamber's motion in 3-D (motion = 2; declared last: earlier value references stay)

@@ -54,14 +54,14 @@ _TYPES = {float: Real, int: Integer, bool: Boolean}
 # the FMU's time t_c and a doStep's currentCommunicationPoint agree when they differ
 # by at most T_REL max(1 s, |t_c|) (a master's own time arithmetic)
 T_REL = 1e-13
-STATE_FORMAT = 5  # version of the FMU-state layout (`Slave._get_fmu_state`, `state_to_bytes`)
+STATE_FORMAT = 6  # version of the FMU-state layout (`Slave._get_fmu_state`, `state_to_bytes`)
 STATE_MAGIC = b"ballmill FMU state, format "  # a serialised state's first line: this, the format, LF
 BIG = 1e300  # stands for +-infinity in outputs (FMI tools choke on inf); see `Slave.finite`
 NEVER = 1e300  # t_invalid while the model is valid
 
 
 def state_to_bytes(state: dict) -> bytes:
-    """A serialised FMU state: the line ``ballmill FMU state, format 5`` (LF), the state as
+    """A serialised FMU state: the line ``ballmill FMU state, format 6`` (LF), the state as
     JSON, and the CRC-32 (zlib.crc32) of every byte before it, 4 bytes little-endian."""
     body = STATE_MAGIC + str(STATE_FORMAT).encode() + b"\n" + json.dumps(state).encode()
     return body + zlib.crc32(body).to_bytes(4, "little")

@@ -1862,8 +1862,10 @@ enum { BMH_SLIP = 0, BMH_LEAVE = 1, BMH_STICK = 2, BMH_IMPACT = 3 }; /* event ki
 #define BMH_NZ 12   /* a free state: C, v_C, omega, W, E_friction, Lq */
 #define BMH_NCOL 26 /* HybridBall.COLUMNS */
 #define BMH_NEV 18  /* doubles of an event record (hybrid_run's EVENT_FIELDS) */
-#define BMH_NBOOK 12 /* E_impact, n_impacts, v_impact_max, t_first_slip, t_first_flight, Q[2], seed[3], rebound,
-                        W_lost */
+#define BMH_NBOOK 14 /* E_impact, n_impacts, v_impact_max, t_first_slip, t_first_flight, Q[2], seed[3], rebound,
+                        W_lost, t_held, held_window (HybridBall.BOOK) */
+#define BMH_BOOK_T_HELD 12      /* the book's t_held (NAN: not held) and held_window */
+#define BMH_BOOK_HELD_WINDOW 13
 
 /* Everything a hybrid run needs; filled by fast.py (ctypes mirror: _HProblem). */
 typedef struct {
@@ -1877,6 +1879,7 @@ typedef struct {
     int energy;
     int scan, burst;
     double xtol, max_rate;
+    int zeno_hold; /* the Zeno guard: 0 stops the run (status 2), 1 holds the ball on the wall (bmh_hold) */
 } bmh_problem;
 
 /* the run's bookkeeping (HybridBall.book, _seed, _rebound) */
@@ -1886,6 +1889,7 @@ typedef struct {
     double seed[3];
     int rebound;
     int w_lost; /* rolling without the work quadrature happened: W_chamber is NaN from there on */
+    double t_held, held_window; /* HybridBall.hold: the Zeno stop the ball is held from, the burst's span; NAN: not */
 } bmh_run;
 
 static void bmh_cross(const double *a, const double *b, double *c)
@@ -2299,6 +2303,25 @@ static int bmh_start_sliding(bmh_run *run, double t, const double *z, const doub
     return BMH_SLIDING;
 }
 
+/* HybridBall._remove_slip: the slip ut of the free state z on the wall removed (in place) by the
+ * tangential impulse -m ut / k_t at P, its energy booked as friction loss */
+static void bmh_remove_slip(const bmh_problem *H, double t, double *z, const double *n, const double *ut)
+{
+    double J[3];
+    for (int i = 0; i < 3; i++) J[i] = -H->m * ut[i] / H->kt;
+    double loss = bmh_impulse(H, t, z, J, n);
+    z[10] += loss;
+}
+
+/* HybridBall._remove_normal: the normal velocity of z relative to the wall (the chamber's centre
+ * at vA) removed (in place) by a normal impulse at P; returns the energy it takes */
+static double bmh_remove_normal(const bmh_problem *H, double t, double *z, const double *n, const double *vA)
+{
+    double vn = (z[3] - vA[0]) * n[0] + (z[4] - vA[1]) * n[1] + (z[5] - vA[2]) * n[2], J[3];
+    for (int i = 0; i < 3; i++) J[i] = -H->m * vn * n[i];
+    return bmh_impulse(H, t, z, J, n);
+}
+
 /* HybridBall.on_wall: the mode and state (y, *ny) of a ball on the wall with no normal
  * relative velocity (free state z), its slip removed if below slip_eps (or stuck: at a stick
  * event, whatever its speed), then the stick test */
@@ -2317,10 +2340,8 @@ static int bmh_on_wall(bmh_run *run, double t, const double *z_in, double *y, in
     memcpy(y, z, sizeof z);
     *ny = BMH_NZ;
     if (s <= H->slip_eps || stuck) {
-        double J[3], nw[6], N, Ft;
-        for (int i = 0; i < 3; i++) J[i] = -H->m * ut[i] / H->kt;
-        double loss = bmh_impulse(H, t, z, J, n);
-        z[10] += loss;
+        double nw[6], N, Ft;
+        bmh_remove_slip(H, t, z, n, ut);
         rec[BMH_D_REMOVED] = s;
         memcpy(y, z, sizeof z);
         memcpy(nw, n, sizeof n);
@@ -2395,9 +2416,7 @@ static int bmh_impact(bmh_run *run, double t, const double *z_in, double *y, int
     double hop = an > 0.0 ? bm_sq(H->e_n * vn) / (2.0 * an) : INFINITY;
     memcpy(y, z, sizeof z);
     if (H->e_n * vn < H->v_rest || hop < H->gap_res) {
-        double vn2 = (z[3] - vA[0]) * n[0] + (z[4] - vA[1]) * n[1] + (z[5] - vA[2]) * n[2], Jr[3];
-        for (int i = 0; i < 3; i++) Jr[i] = -H->m * vn2 * n[i];
-        loss += bmh_impulse(H, t, z, Jr, n);
+        loss += bmh_remove_normal(H, t, z, n, vA);
         run->E_impact += loss;
         rec[BMH_D_ELOSS] = loss;
         rec[BMH_D_REST] = 1.0;
@@ -2406,6 +2425,29 @@ static int bmh_impact(bmh_run *run, double t, const double *z_in, double *y, int
     run->E_impact += loss;
     run->rebound = 1;
     return BMH_FLIGHT;
+}
+
+/* HybridBall.hold: at a Zeno stop at t (window: the burst's span), the ball put on the wall and held
+ * there, rolling only from now on: C onto the sphere, its normal velocity relative to the wall removed
+ * (impact loss), then its slip (friction loss); the hold booked. The rolling state in y; its size. */
+static int bmh_hold(bmh_run *run, int mode, double t, const double *y_in, double *y, double window)
+{
+    const bmh_problem *H = run->H;
+    double A[3], vA[3], aA[3], Om[3], z[BMH_NZ], rho[3], n[3], ut[3];
+    bmh_chamber(H, t, A, vA, aA, Om, NULL);
+    bmh_free_state(run, mode, t, y_in, z);
+    for (int i = 0; i < 3; i++) rho[i] = z[i] - A[i];
+    double q = sqrt(bmh_dot(rho, rho));
+    for (int i = 0; i < 3; i++) n[i] = rho[i] / q;
+    for (int i = 0; i < 3; i++) z[i] = A[i] + H->d * n[i];
+    double loss = bmh_remove_normal(H, t, z, n, vA);
+    run->E_impact += loss;
+    bmh_slip(H, t, z, n, ut);
+    bmh_remove_slip(H, t, z, n, ut);
+    run->t_held = t;
+    run->held_window = window;
+    run->rebound = 0;
+    return bmh_rolling_state(run, n, z + 6, z[9], z[10], z[11], y);
 }
 
 /* HybridBall.jump: the new mode and state (y, *ny) at an event of `kind`; rec: the event record */
@@ -2524,7 +2566,8 @@ static void bmh_setup(const bm_system *S, int mode, double t, const double *y, c
     if (mode == BMH_ROLLING) {
         *P = &H->roll; *T = &x->Tr;
         *rhs = H->energy ? bmh_rhs_roll_q : bmh_rhs_roll_l;
-        ev->ng = 2; ev->G = bmh_g_rolling;
+        ev->ng = isnan(x->run.t_held) ? 2 : 0; /* held on the wall (bmh_hold): the rolling model only */
+        ev->G = bmh_g_rolling;
     } else {
         *P = &H->free; *T = &x->Tf;
         *rhs = mode == BMH_SLIDING ? bmh_rhs_slide : bmh_rhs_flight;
@@ -2561,8 +2604,14 @@ static int bmh_sys_jump(bm_system *S, int *mode, double *t, double *y, double *h
         if (vn < 0.0 && an > 0.0) *h = bm_pymin(*h, bm_pymax(0.5 * -vn / an, 1e-12));
     }
     if (x->ne >= H->burst && *t - bmh_event(x, x->ne - H->burst)[0] < H->burst / H->max_rate) {
-        *status = 2;
-        return 0;
+        if (!H->zeno_hold) {
+            *status = 2;
+            return 0;
+        }
+        double yh[BMH_NZ];
+        memcpy(yh, y, sizeof yh);
+        bmh_hold(&x->run, new_mode, *t, yh, y, *t - bmh_event(x, x->ne - H->burst)[0]);
+        *mode = BMH_ROLLING;
     }
     return 1;
 }
@@ -2597,7 +2646,8 @@ static long long bmh_run_grid(const bmh_problem *H, const double *times, long lo
     x.sys.jump = bmh_sys_jump;
     x.sys.record = bmh_record;
     bmh_run run = {H, book[0], book[1], book[2], book[3], book[4], {book[5], book[6]},
-                   {book[7], book[8], book[9]}, book[10] != 0.0, book[11] != 0.0};
+                   {book[7], book[8], book[9]}, book[10] != 0.0, book[11] != 0.0, book[BMH_BOOK_T_HELD],
+                   book[BMH_BOOK_HELD_WINDOW]};
     x.run = run;
     bm_tab_make(&H->roll, &x.Tr);
     bm_tab_make(&H->free, &x.Tf);
@@ -2642,6 +2692,8 @@ static long long bmh_run_grid(const bmh_problem *H, const double *times, long lo
     memcpy(book + 7, x.run.seed, sizeof x.run.seed);
     book[10] = x.run.rebound;
     book[11] = x.run.w_lost;
+    book[BMH_BOOK_T_HELD] = x.run.t_held;
+    book[BMH_BOOK_HELD_WINDOW] = x.run.held_window;
     return last;
 }
 

@@ -41,7 +41,10 @@ Locating an event (docs/design.md section 14):
 
 Zeno guard: a run that makes more than ``burst`` events within ``burst / max_rate`` seconds
 (an accumulation of events the system's own rules, e.g. a rest speed, did not resolve)
-stops with ``success = False`` and a message naming the time, never a hang.
+stops with ``success = False`` and a message naming the time, never a hang; or, with
+``on_zeno="hold"``, the system's ``hold`` map is applied there (a state from which it makes no
+more events: the hybrid ball held on the wall, rolling only) and the run goes on
+(``EventRun.held`` names the stop).
 
 The system's interface (duck-typed):
 
@@ -58,6 +61,8 @@ The system's interface (duck-typed):
   they are not positive there (a gap of 0 that is opening: the flight after a rebound)
 - optional ``first_step(mode, t, y) -> float | None``: the longest first step after an event
   (a short hop must not fit inside one step, where no guard value would see it)
+- ``hold(mode, t, y, window) -> (mode, y)``, for ``on_zeno="hold"`` only: the map at a Zeno stop
+  at t (window: the span of the burst of events [s]), to a state without further events
 """
 from __future__ import annotations
 
@@ -103,6 +108,7 @@ class EventRun:
     h: float | None = None
     t_last: float = math.nan
     error: Exception | None = None  # what stopped the run (None: it completed)
+    held: Exception | None = None  # on_zeno="hold": the Zeno guard's error where the system's hold map applied
 
 
 def illinois(phi, a: float, fa: float, b: float, fb: float, xtol: float, max_iter: int = 200):
@@ -205,10 +211,14 @@ def _detect(step, f, G, levels, armed, scan):
 
 def integrate(system, mode: int, t: float, y, times, *, h: float | None = None, stops=(),
               scan: int = 3, xtol: float = 1e-11, burst: int = 100,
-              max_rate: float = 1e4) -> EventRun:
+              max_rate: float = 1e4, on_zeno: str = "stop") -> EventRun:
     """Integrate ``system`` from (t, mode, y) over the grid ``times`` (times[0] == t is
     sampled as it is), handling every event on the way (module docstring). Returns an
     `EventRun`; a step failure or a Zeno sequence ends it early with success False.
+
+    on_zeno: what the Zeno guard does: "stop" the run (success False), or "hold": apply the
+        system's ``hold`` map at the stop and go on (success True, ``EventRun.held`` the
+        guard's error).
 
     h: the integrator's step to try first (None: its own starting step), as
         `Integrator.advance` takes it; the run's last one comes back in ``EventRun.h``.
@@ -220,9 +230,12 @@ def integrate(system, mode: int, t: float, y, times, *, h: float | None = None, 
     The work of an interval is added to ``EventRun.stats`` when the interval is complete:
     a failing interval's is not counted (as `Integrator.advance`, which raises, reports
     none)."""
+    if on_zeno not in ("stop", "hold"):
+        raise ValueError(f"on_zeno must be 'stop' or 'hold', got on_zeno = {on_zeno!r}")
     times = np.asarray(times, dtype=float)
     y = np.array(y, dtype=float)
     t = float(t)
+    held = None
     stats = StepStats()
     events: list[Event] = []
     rows = []
@@ -274,7 +287,11 @@ def integrate(system, mode: int, t: float, y, times, *, h: float | None = None, 
                 if bound is not None:
                     h = min(h, bound)
                 if len(events) >= burst and t_e - events[-burst].t < burst / max_rate:
-                    raise zeno(events, burst, max_rate)
+                    if on_zeno == "stop":
+                        raise zeno(events, burst, max_rate)
+                    held = zeno(events, burst, max_rate)
+                    mode, y = system.hold(mode, t, y, t_e - events[-burst].t)
+                    y = np.array(y, dtype=float)
         except (_Zeno, StepFailure, ArithmeticError) as e:
             success, error = False, e
             message = f"stopped at t = {t:.9g} s: {e}"
@@ -286,7 +303,7 @@ def integrate(system, mode: int, t: float, y, times, *, h: float | None = None, 
         last = (mode, t, y, h)
     mode, t_last, y, h = last
     return EventRun(times[:len(rows)], rows, events, success, message, stats, mode, y, h,
-                    t_last, error)
+                    t_last, error, held)
 
 
 class Plain:

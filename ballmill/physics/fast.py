@@ -746,7 +746,7 @@ def _hproblem_type():
                                                      "v_rest", "slip_eps", "kt", "gap_res",
                                                      "creep_eps")] + [
                 ("energy", ctypes.c_int), ("scan", ctypes.c_int), ("burst", ctypes.c_int),
-                ("xtol", ctypes.c_double), ("max_rate", ctypes.c_double)]
+                ("xtol", ctypes.c_double), ("max_rate", ctypes.c_double), ("zeno_hold", ctypes.c_int)]
         _HPROBLEM = _HProblem
     return _HPROBLEM
 
@@ -793,7 +793,7 @@ def hybrid_reason(system) -> str:
     return ""
 
 
-def _hybrid_problem(system, scan: int, xtol: float, burst: int, max_rate: float):
+def _hybrid_problem(system, scan: int, xtol: float, burst: int, max_rate: float, on_zeno: str = "stop"):
     b = system.ball
     H = _hproblem_type()()
     if system.turning:
@@ -815,11 +815,14 @@ def _hybrid_problem(system, scan: int, xtol: float, burst: int, max_rate: float)
     H.kt, H.gap_res, H.energy = system.kt, system._gap_res, int(system.energy)
     H.creep_eps = system.creep_eps
     H.scan, H.xtol, H.burst, H.max_rate = scan, xtol, burst, max_rate
+    if on_zeno not in ("stop", "hold"):
+        raise ValueError(f"on_zeno must be 'stop' or 'hold', got on_zeno = {on_zeno!r}")
+    H.zeno_hold = int(on_zeno == "hold")
     return H
 
 
 def hybrid_run(system, mode: int, t: float, y, times, *, burst: int = 100, max_rate: float = 1e4,
-               scan: int = 3, xtol: float = 1e-11):
+               scan: int = 3, xtol: float = 1e-11, on_zeno: str = "stop"):
     """`events.integrate(system, mode, t, y, times, ...)` for a `hybrid.HybridBall` (checked
     with `hybrid_reason`) in the kernel: the same rows, events, bookkeeping (written back to
     the system) and work, bit for bit. Returns the `events.EventRun`, or None when a step
@@ -827,7 +830,7 @@ def hybrid_run(system, mode: int, t: float, y, times, *, burst: int = 100, max_r
     from .events import Event, EventRun, zeno
 
     lib, _ = _hybrid_lib()
-    H = _hybrid_problem(system, scan, xtol, burst, max_rate)
+    H = _hybrid_problem(system, scan, xtol, burst, max_rate, on_zeno)
     times = np.ascontiguousarray(times, dtype=float)
     n = len(times)
     if not (n and times[0] == t):
@@ -845,9 +848,8 @@ def hybrid_run(system, mode: int, t: float, y, times, *, burst: int = 100, max_r
         if all(map(math.isfinite, f0)):
             h = integ.initial_step(f, t, y, np.asarray(f0, dtype=float), float(times[1]) - t)
             stats.nfev += 1
-    bk = system.book
-    book0 = [bk["E_impact"], bk["n_impacts"], bk["v_impact_max"], bk["t_first_slip"], bk["t_first_flight"],
-             bk["Q"][0], bk["Q"][1], *system._seed, float(system._rebound), float(bk["W_lost"])]
+    book0 = system.bookkeeping()
+    was_held = system.held
     cap = 4096
     while True:
         book = np.array(book0, dtype=float)
@@ -865,11 +867,7 @@ def hybrid_run(system, mode: int, t: float, y, times, *, burst: int = 100, max_r
         cap *= 8
     if status.value == 1:
         return None
-    bk.update(E_impact=float(book[0]), n_impacts=int(book[1]), v_impact_max=float(book[2]),
-              t_first_slip=float(book[3]), t_first_flight=float(book[4]), Q=(float(book[5]), float(book[6])),
-              W_lost=bool(book[11]))
-    system._seed = tuple(float(v) for v in book[7:10])
-    system._rebound = bool(book[10])
+    system._set_book(book.tolist())
     evs = []
     for rec in events[:n_ev.value]:
         details = {}
@@ -885,15 +883,10 @@ def hybrid_run(system, mode: int, t: float, y, times, *, burst: int = 100, max_r
     if status.value == 2:
         error = zeno(evs, burst, max_rate)
         success, message = False, f"stopped at t = {evs[-1].t:.9g} s: {error}"
+    held = zeno(evs, burst, max_rate) if system.held and not was_held else None  # no event after the hold
     ny = system.integrator(c_mode.value).scale.size
     return EventRun(times[:reached], out_rows, evs, success, message, run_stats, c_mode.value,
-                    yy[:ny].copy(), float(hbuf[0]), float(times[reached - 1]), error)
-
-
-def _book(system) -> np.ndarray:
-    bk = system.book
-    return np.array([bk["E_impact"], bk["n_impacts"], bk["v_impact_max"], bk["t_first_slip"], bk["t_first_flight"],
-                     bk["Q"][0], bk["Q"][1], *system._seed, float(system._rebound), float(bk["W_lost"])])
+                    yy[:ny].copy(), float(hbuf[0]), float(times[reached - 1]), error, held)
 
 
 class HybridInterval:
@@ -903,14 +896,16 @@ class HybridInterval:
     (h None: the mode's initial step), the bookkeeping read from and written back to the system,
     the events' ring (the last ``burst``, for the Zeno guard) carried from one call to the next.
     Returns (status, mode, y, h, row): status 0 done (row: `HybridBall.sample` at t_end), 1 a
-    step failed, 2 a Zeno sequence (mode, y, h, the system and the ring then unchanged)."""
+    step failed, 2 a Zeno sequence (mode, y, h, the system and the ring then unchanged; with
+    on_zeno = "hold" the ball is held there instead, `hybrid.HybridBall.hold`, and the run goes on)."""
 
-    def __init__(self, system, *, burst: int = 100, max_rate: float = 1e4, scan: int = 3, xtol: float = 1e-11):
+    def __init__(self, system, *, burst: int = 100, max_rate: float = 1e4, scan: int = 3, xtol: float = 1e-11,
+                 on_zeno: str = "stop"):
         self.lib, why = _hybrid_lib()
         if self.lib is None:
             raise KernelUnavailable(why)
         self.system = system
-        self.H = _hybrid_problem(system, scan, xtol, burst, max_rate)
+        self.H = _hybrid_problem(system, scan, xtol, burst, max_rate, on_zeno)
         self.cap = max(burst, 1)
         self.events = np.zeros((self.cap, HYBRID_NEV))
         self.n_events = 0
@@ -920,7 +915,7 @@ class HybridInterval:
         yy = np.zeros(NYMAX)
         y = np.asarray(y, dtype=float)
         yy[:y.size] = y
-        book, events = _book(self.system), self.events.copy()
+        book, events = np.array(self.system.bookkeeping()), self.events.copy()
         hbuf, row = np.array([math.nan if h is None else h]), np.empty(HYBRID_NCOL)
         c_mode, n_ev = ctypes.c_int(mode), ctypes.c_longlong(self.n_events)
         status = self.lib.bmh_interval(ctypes.byref(self.H), t, t_end, ctypes.byref(c_mode), yy.ctypes.data_as(_dp),
@@ -929,12 +924,7 @@ class HybridInterval:
                                        row.ctypes.data_as(_dp), ctypes.byref(self.stats))
         if status:
             return status, mode, y, h, None
-        bk = self.system.book
-        bk.update(E_impact=float(book[0]), n_impacts=int(book[1]), v_impact_max=float(book[2]),
-                  t_first_slip=float(book[3]), t_first_flight=float(book[4]), Q=(float(book[5]), float(book[6])),
-                  W_lost=bool(book[11]))
-        self.system._seed = tuple(float(v) for v in book[7:10])
-        self.system._rebound = bool(book[10])
+        self.system._set_book(book.tolist())
         self.events, self.n_events = events, n_ev.value
         ny = self.system.integrator(c_mode.value).scale.size
         return 0, c_mode.value, yy[:ny].copy(), float(hbuf[0]), tuple(row.tolist())

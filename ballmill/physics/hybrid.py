@@ -216,7 +216,8 @@ class HybridBall:
         self._int_free = Integrator(method, tol=tol, scale=free + lq, h_fixed=h_fixed, h_max=h_max,
                                     max_steps=max_steps, n_err=len(free))
         self.book = dict(E_impact=0.0, n_impacts=0, v_impact_max=0.0, t_first_slip=math.nan,
-                         t_first_flight=math.nan, Q=(0.0, 0.0), W_lost=False)
+                         t_first_flight=math.nan, Q=(0.0, 0.0), W_lost=False, t_held=math.nan,
+                         held_window=math.nan)
         self._seed = (0.0, 0.0, 0.0)
         self._rebound = False  # the last map was a rebound (the flight's gap is opening)
         self._set_gap_res(t_ref)
@@ -240,25 +241,33 @@ class HybridBall:
 
     # -- resuming a run (the co-simulation step) ----------------------------
     BOOK = ("E_impact", "n_impacts", "v_impact_max", "t_first_slip", "t_first_flight", "Q0", "Q1",
-            "seed_x", "seed_y", "seed_z", "rebound", "W_lost")
+            "seed_x", "seed_y", "seed_z", "rebound", "W_lost", "t_held", "held_window")
 
     def bookkeeping(self) -> tuple:
-        """The run's bookkeeping as BOOK's 12 floats (the compiled kernel's bmh book: fast.hybrid_run):
+        """The run's bookkeeping as BOOK's 14 floats (the compiled kernel's bmh book: fast.hybrid_run):
         impact loss, count, largest impact speed, first slip and flight times (NaN: not yet), the
         rolling mode's quadratures (W, E_friction) while they are not in its state (energy =
-        False), the sliding direction's seed, the rebound flag, whether W was lost."""
+        False), the sliding direction's seed, the rebound flag, whether W was lost, and the hold
+        (`hold`: the time of the Zeno stop from which the ball is held on the wall, rolling only,
+        and the span of the burst of events that made it; NaN: not held)."""
         bk = self.book
         return (float(bk["E_impact"]), float(bk["n_impacts"]), float(bk["v_impact_max"]),
                 float(bk["t_first_slip"]), float(bk["t_first_flight"]), float(bk["Q"][0]), float(bk["Q"][1]),
-                *(float(v) for v in self._seed), float(self._rebound), float(bk["W_lost"]))
+                *(float(v) for v in self._seed), float(self._rebound), float(bk["W_lost"]),
+                float(bk["t_held"]), float(bk["held_window"]))
+
+    @property
+    def held(self) -> bool:
+        """The ball is held on the wall, rolling only (`hold`), until the run is reset."""
+        return not math.isnan(self.book["t_held"])
 
     def set_bookkeeping(self, book) -> None:
-        """Take back `bookkeeping`'s 12 floats (ValueError naming what does not fit)."""
+        """Take back `bookkeeping`'s 14 floats (ValueError naming what does not fit)."""
         book = tuple(float(v) for v in book)
         if len(book) != len(self.BOOK):
             raise ValueError(f"the hybrid bookkeeping holds {len(self.BOOK)} numbers {self.BOOK}, got {len(book)}")
         for name, v in zip(self.BOOK, book):
-            if name in ("t_first_slip", "t_first_flight"):
+            if name in ("t_first_slip", "t_first_flight", "t_held", "held_window"):
                 if not (math.isnan(v) or math.isfinite(v)):
                     raise ValueError(f"bookkeeping {name} = {v!r}: expected a finite time or NaN (not yet)")
             elif not math.isfinite(v):
@@ -268,8 +277,17 @@ class HybridBall:
                              f"{book[2]!r} m/s: expected non-negative values and a whole count")
         if book[10] not in (0.0, 1.0) or book[11] not in (0.0, 1.0):
             raise ValueError(f"bookkeeping rebound = {book[10]!r}, W_lost = {book[11]!r}: expected 0 or 1")
+        if math.isnan(book[12]) != math.isnan(book[13]):
+            raise ValueError(f"bookkeeping t_held = {book[12]!r} s, held_window = {book[13]!r} s: expected both "
+                             f"NaN (not held) or both finite")
+        self._set_book(book)
+
+    def _set_book(self, book) -> None:
+        """Take back `bookkeeping`'s 14 floats as they are (the compiled kernel's run's)."""
+        book = tuple(float(v) for v in book)
         self.book.update(E_impact=book[0], n_impacts=int(book[1]), v_impact_max=book[2], t_first_slip=book[3],
-                         t_first_flight=book[4], Q=(book[5], book[6]), W_lost=bool(book[11]))
+                         t_first_flight=book[4], Q=(book[5], book[6]), W_lost=bool(book[11]), t_held=book[12],
+                         held_window=book[13])
         self._seed = book[7:10]
         self._rebound = bool(book[10])
 
@@ -294,7 +312,7 @@ class HybridBall:
         return t0, mode, y
 
     def resume(self, mode: int, t: float, y, h, book, t_end: float, motion=None, *, burst: int = 100,
-               max_rate: float = 1e4) -> EventRun:
+               max_rate: float = 1e4, on_zeno: str = "stop") -> EventRun:
         """Go on with a run from its state at t, (mode, y, the integrator's next step h, the
         bookkeeping `book` as `bookkeeping` gave it), to t_end, the only grid point: events
         inside are located and applied as in any run (`events.integrate`, the one driver).
@@ -304,11 +322,13 @@ class HybridBall:
         `EventRun`: on success its ``mode``, ``y``, ``h`` and `bookkeeping`() are the state at
         t_end and ``rows[-1]`` the sample there; on failure (``success`` False: a failed step or
         the Zeno guard, ``message`` says which and when) the system's bookkeeping is whatever
-        the run reached: take it back from the saved state before going on."""
+        the run reached: take it back from the saved state before going on. ``on_zeno``: the
+        driver's Zeno policy (`events.integrate`; "hold": the ball held on the wall from the
+        Zeno stop on, `hold`)."""
         if motion is not None:
             self.set_motion(motion, t)
         self.set_bookkeeping(book)
-        return integrate(self, mode, t, y, (t_end,), h=h, burst=burst, max_rate=max_rate)
+        return integrate(self, mode, t, y, (t_end,), h=h, burst=burst, max_rate=max_rate, on_zeno=on_zeno)
 
     # -- chamber ----------------------------------------------------------
     def chamber(self, t):
@@ -466,6 +486,8 @@ class HybridBall:
     # -- guards ---------------------------------------------------------
     def guards(self, mode):
         if mode == ROLLING:
+            if self.held:  # held on the wall: the rolling model only, no event
+                return (), None, ()
             return ("slip", "leave"), self._g_rolling, (0.0, 0.0)
         if mode == SLIDING:
             return ("stick", "leave"), self._g_sliding, (0.0, 0.0)
@@ -627,9 +649,7 @@ class HybridBall:
         ut = self._slip(t, z, n)
         s = math.sqrt(_dot(ut, ut))
         if s <= self.slip_eps or stuck:
-            J = (-b.m * ut[0] / self.kt, -b.m * ut[1] / self.kt, -b.m * ut[2] / self.kt)
-            loss = self._impulse(t, z, J, n)
-            z[10] += loss
+            self._remove_slip(t, z, n, ut)
             details["slip_removed"] = s
             w = (z[6], z[7], z[8])
             o = self._roll_out(t, n + w)
@@ -644,6 +664,40 @@ class HybridBall:
         if math.isnan(self.book["t_first_slip"]):
             self.book["t_first_slip"] = t
         return SLIDING, z, details
+
+    def _remove_slip(self, t, z, n, ut):
+        """Remove the slip ut of the free state z on the wall (in place) by the tangential impulse
+        -m ut / k_t at P, its energy booked as friction loss."""
+        b = self.ball
+        J = (-b.m * ut[0] / self.kt, -b.m * ut[1] / self.kt, -b.m * ut[2] / self.kt)
+        z[10] += self._impulse(t, z, J, n)
+
+    def _remove_normal(self, t, z, n, vA):
+        """Remove the normal velocity of the free state z relative to the wall (in place: the
+        chamber's centre moves at vA; Omega x R n is tangent) by a normal impulse at P; returns the
+        energy it takes (impact loss)."""
+        b = self.ball
+        vn = (z[3] - vA[0]) * n[0] + (z[4] - vA[1]) * n[1] + (z[5] - vA[2]) * n[2]
+        return self._impulse(t, z, (-b.m * vn * n[0], -b.m * vn * n[1], -b.m * vn * n[2]), n)
+
+    def hold(self, mode, t, y, window):
+        """The map at a Zeno stop (`events.integrate` with on_zeno = "hold"; window: the span of the
+        burst of events [s]): the ball put on the wall and held there, rolling only from now on
+        (as the rolling model after contact_model = 1's latch): C onto the sphere, its normal
+        velocity relative to the wall removed (booked as impact loss, as rest's), then its slip
+        (booked as friction loss, as at a stick); the hold's time and window booked (`held`:
+        rolling has no guard from here on). Returns (ROLLING, y)."""
+        b = self.ball
+        A, vA, _, _, _ = self.chamber(t)
+        z = self.free_state(mode, t, y)
+        rho = z[:3] - np.array(A)
+        n = tuple(rho / math.sqrt(rho @ rho))
+        z[:3] = np.array(A) + b.d * np.array(n)
+        self.book["E_impact"] += self._remove_normal(t, z, n, vA)
+        self._remove_slip(t, z, n, self._slip(t, z, n))
+        self.book["t_held"], self.book["held_window"] = float(t), float(window)
+        self._rebound = False
+        return ROLLING, self._rolling_state(n, (z[6], z[7], z[8]), (z[9], z[10]), z[11])
 
     def _start_sliding(self, t, z, n, details):
         a = self._friction_free_slip_accel(self.chamber(t), z, n)
@@ -755,8 +809,7 @@ class HybridBall:
         _, an = self._normal_motion(t, z)
         hop = (self.e_n * vn) ** 2 / (2.0 * an) if an > 0.0 else math.inf
         if self.e_n * vn < self.v_rest or hop < self._gap_res:
-            vn2 = (z[3] - vA[0]) * n[0] + (z[4] - vA[1]) * n[1] + (z[5] - vA[2]) * n[2]
-            loss += self._impulse(t, z, (-b.m * vn2 * n[0], -b.m * vn2 * n[1], -b.m * vn2 * n[2]), n)
+            loss += self._remove_normal(t, z, n, vA)
             bk["E_impact"] += loss
             details["E_loss"] = loss
             details["rest"] = True
@@ -849,7 +902,7 @@ def simulate_hybrid(ball: Ball, motion, t_end: float, dt: float, contact: Contac
                     initial=None, t0: float = 0.0, method: str = "DOP853", tol: float = 1e-9,
                     h_max: float | None = None, energy: bool = True, burst: int = 100,
                     max_rate: float = 1e4, h_fixed: float = 1e-3,
-                    kernel: str = "auto") -> HybridTrajectory:
+                    kernel: str = "auto", on_zeno: str = "stop") -> HybridTrajectory:
     """The ball in a chamber moved by ``motion`` (a platform motion: translation; a
     `turning.motions.ChamberMotion`: any rigid motion) with rolling, sliding, flight and
     impacts, sampled every dt [s] from t0 to t_end.
@@ -866,6 +919,9 @@ def simulate_hybrid(ball: Ball, motion, t_end: float, dt: float, contact: Contac
         step before a grid point or an event shortened to land there); with either, events
         are located on the method's own step from the step's start (events.py).
     burst, max_rate: the Zeno guard of `events.integrate`.
+    on_zeno: what the Zeno guard does: "stop" the run there (``success`` False, the message
+        naming the stop), or "hold" the ball on the wall from there, rolling only
+        (`HybridBall.hold`, as the BallInShell FMU does; ``message`` then names the stop).
     kernel: ``"auto"`` (default) runs the scene in the compiled kernel (`fast.hybrid_run`:
         the same numbers bit for bit) when it is built and covers the run
         (`fast.hybrid_reason`: the kernel's platform motions, or Spin and Fig1Machine), else
@@ -890,15 +946,18 @@ def simulate_hybrid(ball: Ball, motion, t_end: float, dt: float, contact: Contac
     if kernel != "python":
         why = fast.hybrid_reason(system)
         if not why:
-            run = fast.hybrid_run(system, mode, t0, y, times, burst=burst, max_rate=max_rate)
+            run = fast.hybrid_run(system, mode, t0, y, times, burst=burst, max_rate=max_rate, on_zeno=on_zeno)
         elif kernel == "c":
             raise fast.KernelUnavailable(f"simulate_hybrid(kernel='c'): {why}")
     if run is None:
-        run = integrate(system, mode, t0, y, times, burst=burst, max_rate=max_rate)
+        run = integrate(system, mode, t0, y, times, burst=burst, max_rate=max_rate, on_zeno=on_zeno)
     arr = np.array(run.rows, dtype=float).reshape(len(run.rows), len(HybridBall.COLUMNS))
     out = {name: arr[:, j] for j, name in enumerate(HybridBall.COLUMNS)}
     out["M_impulse"] = out["M_impulse"] - out["M_impulse"][0]  # from the first sample
     bk = system.book
     nan_none = lambda v: None if math.isnan(v) else v  # noqa: E731
-    return HybridTrajectory(run.t, out, run.events, run.success, run.message, run.stats,
+    message = run.message
+    if run.held is not None:
+        message = f"held on the wall, rolling only, from t = {bk['t_held']:.9g} s: {run.held}"
+    return HybridTrajectory(run.t, out, run.events, run.success, message, run.stats,
                             nan_none(bk["t_first_slip"]), nan_none(bk["t_first_flight"]))

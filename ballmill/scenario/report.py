@@ -104,9 +104,9 @@ def validity_end(res: RunResult, ball: str, hybrid: bool = False):
     """Where the ball model's validity ended: (index of the first row with valid false, t_invalid
     [s] (the FMU's, else that row's time), why: "loss of contact", "slip", or "inconsistent
     inputs" when contact and rolling held at that row; "see log" without them; for a hybrid ball
-    (``hybrid``: contact_model = 2, whose validity survives slip and flight) "inconsistent inputs, a Zeno
-    sequence or a failed step", what it cannot follow), or None while valid (or without a recorded
-    `valid`)."""
+    (``hybrid``: contact_model = 2, whose validity survives slip and flight) "inconsistent inputs or
+    a Zeno sequence (the ball held on the wall from there)", what it cannot follow; a step it
+    cannot integrate is refused, not latched), or None while valid (or without a recorded `valid`)."""
     cols = set(res.columns)
     if f"{ball}.valid" not in cols:
         return None
@@ -116,7 +116,7 @@ def validity_end(res: RunResult, ball: str, hybrid: bool = False):
     i = int(bad[0])
     t_inv = float(res.column(f"{ball}.t_invalid")[i]) if f"{ball}.t_invalid" in cols else float(res.column("time")[i])
     if hybrid:
-        return i, t_inv, "inconsistent inputs, a Zeno sequence or a failed step"
+        return i, t_inv, "inconsistent inputs or a Zeno sequence (the ball held on the wall from there)"
     flags = [f for f in ("contact", "rolling") if f"{ball}.{f}" in cols]
     failed = [f for f in flags if res.column(f"{ball}.{f}")[i] < 0.5]
     if "contact" in failed:  # rolling needs contact: it fails with it

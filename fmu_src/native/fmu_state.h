@@ -30,7 +30,7 @@
 #include <stdint.h>
 
 #define FMU_STATE_MAGIC "ballmill"
-#define FMU_STATE_FORMAT 4u /* 3: BallInShell's hybrid states without the torque quadrature Lq; 2: BallInShell's data without the hybrid ball's mode and bookkeeping; 1: no checksum, no FMI version field */
+#define FMU_STATE_FORMAT 5u /* 4: BallInShell's hybrid bookkeeping without the hold (t_held, held_window); 3: BallInShell's hybrid states without the torque quadrature Lq; 2: BallInShell's data without the hybrid ball's mode and bookkeeping; 1: no checksum, no FMI version field */
 #define FMU_STATE_WHY 320   /* room for the reason a state is refused */
 
 typedef struct {

@@ -108,7 +108,7 @@ EDITS = {
     "flipped_bit": ("BallInShell", "blob = blob[:200] + bytes([blob[200] ^ 4]) + blob[201:]", "checksum mismatch"),
     "flipped_checksum": ("Structure", "blob = blob[:-1] + bytes([blob[-1] ^ 1])", "checksum mismatch"),
     "format_2": ("MotorStartup", "blob = json.dumps(dict(state, __format__=2)).encode()",
-                 "format version 2, expected 5"),
+                 "format version 2, expected 6"),
 }
 
 
