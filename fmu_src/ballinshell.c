@@ -59,7 +59,6 @@
 #define HYB_SCAN 3          /* interior points of the guards' Hermite scan */
 #define HYB_XTOL 1e-11      /* s: the event's bracket */
 #define HYB_SLIP_EPS 1e-6   /* m/s: sliding ends below this slip speed */
-#define HYB_CREEP_EPS 1e-3  /* m/s: below this slip speed a slide's friction takes its slow manifold's direction */
 #define HYB_HOP_MIN_ULPS 1e4 /* hybrid.HOP_MIN_ULPS: a rebound whose hop the gap cannot resolve is rest */
 #define HYB_MAX_STEPS 1000000 /* internal steps of one interval, at most (integrators.Integrator's default) */
 
@@ -1278,7 +1277,7 @@ static void hybrid_setup(ball_in_shell *b, const double *v, double inertia)
     H->R = R; H->r = r; H->d = R - r; H->m = m; H->g = g; H->Ib = inertia * m * bm_sq(r); H->lam = r / (R - r);
     H->mu = mu; H->mu_k = mu_k == -1.0 ? mu : mu_k; H->e_n = v[VR_e_n]; H->v_rest = v[VR_v_rest];
     H->slip_eps = HYB_SLIP_EPS;
-    H->creep_eps = HYB_CREEP_EPS;
+    H->creep_eps = v[VR_creep_eps];
     H->kt = 1.0 + 1.0 / inertia;
     H->energy = 0;
     H->scan = HYB_SCAN; H->xtol = HYB_XTOL; H->burst = HYB_BURST; H->max_rate = HYB_MAX_RATE;

@@ -141,7 +141,8 @@ class BallInShell(Slave):
         not MAX_INTERNAL_STEPS: a slide that starts from zero slip may take more than that within
         one step, and the flavours must fail alike)."""
         ball = self._model.ball
-        contact = Contact(mu_k=None if self.mu_k == -1.0 else self.mu_k, e_n=self.e_n, v_rest=self.v_rest)
+        contact = Contact(mu_k=None if self.mu_k == -1.0 else self.mu_k, e_n=self.e_n, v_rest=self.v_rest,
+                          creep_eps=self.creep_eps)
         self._system = HybridBall(ball, self._inputs.motion(), contact, METHODS[self.integrator], self.tolerance,
                                   None, False, self.h_fixed, t_ref=self._time)
 

@@ -204,6 +204,63 @@ def test_the_fast_start_through_the_fmu_is_the_librarys_hybrid_ball(fmus_of):
     assert res < 1e-3 * work, (res, work)
 
 
+# R = 1e3 m (the FMU's largest chamber), mu = mu_k = 0.3, shaken along x at 2 Hz: the amplitude at
+# which the rolling model's peak friction demand is mu N (1 + 5e-5), found by root finding on the
+# rolling model (simulate at tol 1e-12; the peak located by a bounded minimisation)
+GRAZE = Harmonic(x_amp=0.06523769338945387, x_omega=4 * math.pi)
+
+
+def test_a_grazing_slide_ends_inside_its_step_alike_in_both_flavours(fmus_of):
+    """GRAZE: a slide from zero slip at 0.12419 s whose slip never reaches slip_eps (5.5e-7 m/s at
+    its end), ended by the grip guard where the rolling demand falls back to mu N 1.6 ms later,
+    inside one 2 ms step (docs/design.md section 14, the grazing slide). Both flavours: every
+    output bit for bit, rolling at every communication point, valid; the first slip within
+    1e-8 s of simulate_hybrid's on the motion itself (measured 1.3e-9 s: the reconstruction)
+    and E_friction within 1e-4 of its (measured 9e-7; the library's ends the slide too, at the
+    rolling model's root: tests/test_hybrid.py). Before, the slide never ended: the native
+    flavour was still sliding at 0.13 s, its slip chattering about zero."""
+    from ballmill.physics import Ball
+    from ballmill.physics.hybrid import Contact, simulate_hybrid
+
+    ball, t_end = Ball(R=1e3, mu=0.3), 0.13
+    runs = {f: run_scene(fmus_of, f, GRAZE, t_end, **HYBRID, R=1e3) for f in ("native", "pythonfmu")}
+    differ = [n for n in runs["native"] if not np.array_equal(runs["native"][n], runs["pythonfmu"][n], equal_nan=True)]
+    assert not differ, differ
+    out = runs["native"]
+    ref = simulate_hybrid(ball, GRAZE, t_end, H, Contact())
+    slip, stick = ref.events
+    assert stick.kind == "stick" and stick.details["slip_removed"] < 1e-6 and stick.t - slip.t < H
+    assert np.all(out["mode"] == 1.0) and np.all(out["valid"] == 1.0) and out["n_impacts"][-1] == 0
+    assert out["t_first_slip"][-1] == pytest.approx(slip.t, abs=1e-8)
+    assert out["E_friction"][-1] == pytest.approx(ref["E_friction"][-1], rel=1e-4) and out["E_friction"][-1] > 0.0
+
+
+def test_creep_eps_0_gives_the_librarys_unreduced_model_in_both_flavours(fmus_of):
+    """creep_eps = 0, the unreduced Coulomb model, on the fast start to 0.28 s (a slide from 0, a
+    stick at 0.073 s, a slide from zero slip at 0.2687 s, stiff without the creeping slide).
+    Both flavours give every output bit for bit; against simulate_hybrid's unreduced run on the
+    crank itself the same modes, the contact point within 1e-6 m (measured 3.7e-8 m) and
+    E_friction within 1e-6 (measured 3.0e-7: the unreduced slide's stiff start makes its
+    integration error follow the 3.7e-8 m the reconstruction moves the ball); the default
+    creeping slide's run differs from the unreduced one by 4.0e-6 there, so the bound fails
+    if creep_eps does not reach the model."""
+    from ballmill.physics import Ball
+    from ballmill.physics.hybrid import Contact, simulate_hybrid
+
+    ball, t_end = Ball(), 0.28
+    runs = {f: run_scene(fmus_of, f, FAST, t_end, **HYBRID, creep_eps=0.0) for f in ("native", "pythonfmu")}
+    differ = [n for n in runs["native"] if not np.array_equal(runs["native"][n], runs["pythonfmu"][n], equal_nan=True)]
+    assert not differ, differ
+    out = runs["native"]
+    ref = {ce: simulate_hybrid(ball, FAST, t_end, H, Contact(e_n=0.5, creep_eps=ce), method="DOP853", tol=1e-9)
+           for ce in (0.0, 1e-3)}
+    assert [e.kind for e in ref[0.0].events] == ["stick", "slip"]
+    assert np.array_equal(out["mode"], ref[0.0]["mode"]) and out["mode"][-1] == 2
+    assert _contact_point_error(out, ref[0.0], ball.R) < 1e-6
+    assert out["E_friction"][-1] == pytest.approx(ref[0.0]["E_friction"][-1], rel=1e-6)
+    assert abs(ref[1e-3]["E_friction"][-1] / ref[0.0]["E_friction"][-1] - 1) > 3e-6
+
+
 def test_a_shaken_chamber_slides_flies_and_strikes_through_the_fmu_as_in_the_library(fmus_of):
     """Harmonic(0.1 m, 30 rad/s), mu = 0.2, mu_k = 0.15, e_n = 0.6: slides from 2.5 ms, leaves
     the wall at 0.129 s, strikes it 5 times, comes to rest. Against simulate_hybrid: the same

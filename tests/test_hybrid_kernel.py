@@ -18,6 +18,7 @@ pytestmark = pytest.mark.skipif(not KERNEL_AVAILABLE, reason=f"compiled kernel u
 B = Ball()
 DROP = ((0, 0, B.R - B.d + 0.05), (0, 0, 0), (0, 0, 0))
 PLANE = Ball(r=0.025, R=1e8, mu=0.3)
+GRAZE = Harmonic(x_amp=3.5 * 0.3 * 9.81 * (1 + 5e-5) / (4 * np.pi) ** 2, x_omega=4 * np.pi)  # test_hybrid's
 
 
 def _both(*args, **kw):
@@ -56,6 +57,9 @@ def _identical(a, b):
     # the rolling mode without the energy quadratures (rolling exactly as `simulate`), into
     # sliding and back
     ("no-energy", (B, CrankStartup(t0=0.5), 0.5, 0.01, Contact(e_n=0.5)), dict(energy=False), {"slip", "stick"}),
+    # grazing slides (mu_k = mu, the rolling demand above mu N for 1.6 ms twice, the slip below
+    # slip_eps): each ends by the grip guard where the demand falls back to mu N
+    ("grazing", (Ball(R=1e8, mu=0.3), GRAZE, 0.5, 0.01, Contact()), {}, {"slip", "stick"}),
     # turning chambers (the general model rolling): a turntable's ball spun up to rolling,
     ("turntable", (Ball(R=1e6, mu=0.5), Spin(Omega=(0, 0, 2.0), A=(0, 0, 1e6)), 0.5, 0.01, Contact()),
      dict(initial=((0.1, 0, 0.025), (0, 0, 0), (0, 0, 0))), {"stick"}),

@@ -132,6 +132,26 @@ def test_contact_table_is_checked_and_kept_in_the_context():
     assert e.value.problems == ["W: contact: e_n must lie in [0, 1], got e_n = 1.5 1"]
 
 
+@needs_kernel
+def test_the_creeping_slides_threshold_is_a_contact_key(tmp_path):
+    """[contact] creep_eps: checked as Contact checks it, and the points run with it: creep_eps = 0
+    (the unreduced Coulomb model) on the fast start (t0 = 0.5 s, 1 s) gives the friction loss of
+    simulate_hybrid's unreduced run, which the default creeping slide misses by 2.3e-6 J."""
+    with pytest.raises(StudyError) as e:
+        build("fast_start", grid={"drive.t0": [0.5]}, contact={"creep_eps": -1.0}, where="W")
+    assert e.value.problems == ["W: contact: creep_eps must be non-negative and finite (0: no creeping slide), "
+                                "got creep_eps = -1.0 m/s"]
+    (row,) = _rows(tmp_path, {"drive.t0": [0.5]}, stop=1.0, contact={"creep_eps": 0.0})
+    assert row["status"] == "ok" and "creep_eps = 0 m/s" in row["model"]
+    ball, crank = Ball(m=M_PAPER), CrankStartup(t0=0.5)
+    state = BallModel(ball).initial(0.0, 0.0, (0.0, 0.0, 0.0))
+    turns = crank.angles(np.array([1.0]))[0][0] / (2 * math.pi)
+    E = {ce: simulate_hybrid(ball, crank, 1.0, 0.01, Contact(creep_eps=ce), initial=state, method="DOP853",
+                             tol=1e-8)["E_friction"][-1] for ce in (0.0, 1e-3)}
+    assert row["E_friction_rev"] == pytest.approx(E[0.0] / turns, rel=1e-12)
+    assert abs(E[0.0] - E[1e-3]) > 1e-6
+
+
 def test_maps_draw_the_boundary_of_the_shockless_region(tmp_path, subplots_made):
     """On a 3 x 3 grid with impacts at the two points (t0 = 1, n0 = 60) and (t0 = 1, n0 = 80),
     every map carries the outline of those two cells inside the grid: the edges x = 1.5 (their

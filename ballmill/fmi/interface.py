@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from ballmill.physics.drives.crank import CrankStartup
 from ballmill.physics.drives.induction import CrankDrive
 from ballmill.physics.drives.induction import InductionMotor as MotorData
+from ballmill.physics.hybrid import Contact
 from ballmill.physics.params import Ball
 
 # unit name -> SI base-unit exponents (and factor) for <UnitDefinitions>
@@ -548,6 +549,7 @@ BALL_MOTION_OUTPUTS = (
 )
 BALL_ALL_INPUTS = BALL_INPUTS + BALL_MOTION_INPUTS
 _ball = Ball()
+_contact = Contact()
 W0_MAX = 1e4  # rad/s: bound of the initial angular velocity components
 MAX_INTERNAL_STEPS = 20000  # BallInShell's work bound: internal steps of one integration in a doStep
 DRAG_LIMIT = 1e4  # BallInShell: c_drag <= DRAG_LIMIT m omega0 (viscous time constant m/c_drag >= 1e-4 / omega0)
@@ -782,6 +784,13 @@ BALL_IN_SHELL = _interface(
          "bed (deeper than w_bed below its surface; always with bed = 0), 0 above its surface",
          dict(unit="1", **_out)),
         *BALL_HYBRID_ROWS,
+        # the creeping slide's threshold (declared last: earlier value references stay)
+        ("creep_eps", "parameter", _contact.creep_eps, "Creeping-slide threshold (contact_model = 2): below "
+         "this slip speed a slide's friction takes the direction of its slow manifold (the friction-free "
+         "relative tangential acceleration of the contact point, where the slip lies along it), so a slide "
+         "that starts from zero slip is not stiff (docs/design.md section 14); 0 = the unreduced Coulomb "
+         "model (friction against the slip at every speed: many more internal steps), else 0 < creep_eps "
+         "<= 1000 m/s", dict(unit="m/s", min=0.0, max=1e3)),
     ], rules=_BALL_RULES,
     model_exchange=ModelExchange(
         states=(("n_x", "1", "Contact direction n (unit vector from the chamber centre to the contact "
@@ -804,7 +813,7 @@ BALL_IN_SHELL = _interface(
               "that moves in 3-D and turns: its equations take the chamber's motion from co-simulation's "
               "reconstruction; the refusal names each parameter, its value and what is supported); "
               "contact_model = 2 is refused too (the hybrid ball's states change with its mode, rolling's n, omega "
-              "are only one of them: co-simulation only; mu_k, e_n and v_rest are then not used); "
+              "are only one of them: co-simulation only; mu_k, e_n, v_rest and creep_eps are then not used); "
               "integrator, tolerance, h_fixed, max_step, corrector, input_tol and coupling_warn "
               "belong to co-simulation's internal integration and are not used (coupling_error "
               "stays 0: there is no coupling error). valid and t_invalid latch at the state event "

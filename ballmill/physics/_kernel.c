@@ -2158,7 +2158,7 @@ static void bmh_rhs_slide(const bm_problem *P, const void *ctx, double t, const 
     f[11] = bmh_q_spin(H, vW, y[3], y[4]); /* translating: v_W = v_A */
 }
 
-/* the guards (ctx: the bmh_run): rolling (mu N - |F_t|, N), sliding (|u| - slip_eps, N), flight (gap) */
+/* the guards (ctx: the bmh_run): rolling (mu N - |F_t|, N), sliding (|u| - slip_eps, N, hold), flight (gap) */
 static void bmh_g_rolling(const void *ctx, double t, const double *y, double *g)
 {
     const bmh_run *run = ctx;
@@ -2168,13 +2168,32 @@ static void bmh_g_rolling(const void *ctx, double t, const double *y, double *g)
     g[1] = N;
 }
 
+static double bmh_on_sphere(const bmh_problem *H, double t, const double *z_in, double *z, double *n, double *ut);
+static void bmh_unslip(const bmh_problem *H, double t, double *z, const double *n, const double *ut, double *N,
+                       double *Ft);
+
+/* hybrid.GRIP_SCALE [N s/m]: the grip guard's weight of |u| - slip_eps */
+#define BMH_GRIP_SCALE 0x1p-30
+
+/* HybridBall._g_sliding: |u| - slip_eps, N and the grip guard (at and below slip_eps
+ * max(|F_t| - mu N, GRIP_SCALE (|u| - slip_eps)) with the rolling model's |F_t| and N where the
+ * stick map would put the ball; above, GRIP_SCALE (|u| - slip_eps)) */
 static void bmh_g_sliding(const void *ctx, double t, const double *y, double *g)
 {
     const bmh_run *run = ctx;
+    const bmh_problem *H = run->H;
     double Ft[3], n[3], vW[3], s;
     double N = bmh_slide_forces(run, t, y, NULL, Ft, &s, n, vW, NULL);
-    g[0] = s - run->H->slip_eps;
+    g[0] = s - H->slip_eps;
     g[1] = N;
+    if (g[0] > 0.0) {
+        g[2] = BMH_GRIP_SCALE * g[0];
+        return;
+    }
+    double z[BMH_NZ], nz[3], ut[3], Nr, Ftr;
+    bmh_on_sphere(H, t, y, z, nz, ut);
+    bmh_unslip(H, t, z, nz, ut, &Nr, &Ftr);
+    g[2] = bm_pymax(Ftr - H->mu * Nr, BMH_GRIP_SCALE * g[0]);
 }
 
 static double bmh_gap(const bmh_problem *H, double t, const double *y)
@@ -2322,31 +2341,48 @@ static double bmh_remove_normal(const bmh_problem *H, double t, double *z, const
     return bmh_impulse(H, t, z, J, n);
 }
 
+/* HybridBall._on_sphere: z (a copy of the free state z_in) with C put on |C - A| = d, n there
+ * and the tangential slip ut; returns its speed */
+static double bmh_on_sphere(const bmh_problem *H, double t, const double *z_in, double *z, double *n, double *ut)
+{
+    double A[3], vA[3], aA[3], Om[3], rho[3];
+    bmh_chamber(H, t, A, vA, aA, Om, NULL);
+    memcpy(z, z_in, BMH_NZ * sizeof(double));
+    for (int i = 0; i < 3; i++) rho[i] = z[i] - A[i];
+    double q = sqrt(bmh_dot(rho, rho));
+    for (int i = 0; i < 3; i++) n[i] = rho[i] / q;
+    for (int i = 0; i < 3; i++) z[i] = A[i] + H->d * n[i];
+    bmh_slip(H, t, z, n, ut);
+    return sqrt(bmh_dot(ut, ut));
+}
+
+/* HybridBall._unslip: the stick map, the slip ut of z removed in place by the tangential impulse
+ * -m ut / k_t (its energy booked as friction); the rolling model's N and |F_t| there */
+static void bmh_unslip(const bmh_problem *H, double t, double *z, const double *n, const double *ut, double *N,
+                       double *Ft)
+{
+    double nw[6];
+    bmh_remove_slip(H, t, z, n, ut);
+    memcpy(nw, n, 3 * sizeof(double));
+    memcpy(nw + 3, z + 6, 3 * sizeof(double));
+    bmh_roll_out(H, t, nw, N, Ft);
+}
+
 /* HybridBall.on_wall: the mode and state (y, *ny) of a ball on the wall with no normal
  * relative velocity (free state z), its slip removed if below slip_eps (or stuck: at a stick
  * event, whatever its speed), then the stick test */
 static int bmh_on_wall(bmh_run *run, double t, const double *z_in, double *y, int *ny, double *rec, int stuck)
 {
     const bmh_problem *H = run->H;
-    double A[3], vA[3], aA[3], Om[3], z[BMH_NZ], rho[3], n[3], ut[3];
-    bmh_chamber(H, t, A, vA, aA, Om, NULL);
-    memcpy(z, z_in, sizeof z);
-    for (int i = 0; i < 3; i++) rho[i] = z[i] - A[i];
-    double q = sqrt(bmh_dot(rho, rho));
-    for (int i = 0; i < 3; i++) n[i] = rho[i] / q;
-    for (int i = 0; i < 3; i++) z[i] = A[i] + H->d * n[i];
-    bmh_slip(H, t, z, n, ut);
-    double s = sqrt(bmh_dot(ut, ut));
+    double z[BMH_NZ], n[3], ut[3];
+    double s = bmh_on_sphere(H, t, z_in, z, n, ut);
     memcpy(y, z, sizeof z);
     *ny = BMH_NZ;
     if (s <= H->slip_eps || stuck) {
-        double nw[6], N, Ft;
-        bmh_remove_slip(H, t, z, n, ut);
+        double N, Ft;
+        bmh_unslip(H, t, z, n, ut, &N, &Ft);
         rec[BMH_D_REMOVED] = s;
         memcpy(y, z, sizeof z);
-        memcpy(nw, n, sizeof n);
-        memcpy(nw + 3, z + 6, 3 * sizeof(double));
-        bmh_roll_out(H, t, nw, &N, &Ft);
         if (N <= 0.0) return BMH_FLIGHT;
         if (Ft <= H->mu * N) {
             *ny = bmh_rolling_state(run, n, z + 6, z[9], z[10], z[11], y);
@@ -2433,13 +2469,10 @@ static int bmh_impact(bmh_run *run, double t, const double *z_in, double *y, int
 static int bmh_hold(bmh_run *run, int mode, double t, const double *y_in, double *y, double window)
 {
     const bmh_problem *H = run->H;
-    double A[3], vA[3], aA[3], Om[3], z[BMH_NZ], rho[3], n[3], ut[3];
+    double A[3], vA[3], aA[3], Om[3], zf[BMH_NZ], z[BMH_NZ], n[3], ut[3];
     bmh_chamber(H, t, A, vA, aA, Om, NULL);
-    bmh_free_state(run, mode, t, y_in, z);
-    for (int i = 0; i < 3; i++) rho[i] = z[i] - A[i];
-    double q = sqrt(bmh_dot(rho, rho));
-    for (int i = 0; i < 3; i++) n[i] = rho[i] / q;
-    for (int i = 0; i < 3; i++) z[i] = A[i] + H->d * n[i];
+    bmh_free_state(run, mode, t, y_in, zf);
+    bmh_on_sphere(H, t, zf, z, n, ut);
     double loss = bmh_remove_normal(H, t, z, n, vA);
     run->E_impact += loss;
     bmh_slip(H, t, z, n, ut);
@@ -2571,7 +2604,7 @@ static void bmh_setup(const bm_system *S, int mode, double t, const double *y, c
     } else {
         *P = &H->free; *T = &x->Tf;
         *rhs = mode == BMH_SLIDING ? bmh_rhs_slide : bmh_rhs_flight;
-        ev->ng = mode == BMH_SLIDING ? 2 : 1;
+        ev->ng = mode == BMH_SLIDING ? 3 : 1;
         ev->G = mode == BMH_SLIDING ? bmh_g_sliding : bmh_g_flight;
         ev->levels[0] = mode == BMH_SLIDING ? 0.0 : H->gap_res;
         ev->armed[0] = mode == BMH_FLIGHT && x->run.rebound; /* an opening gap after a rebound */
@@ -2582,7 +2615,8 @@ static void bmh_setup(const bm_system *S, int mode, double t, const double *y, c
 static int bmh_sys_jump(bm_system *S, int *mode, double *t, double *y, double *h, const bm_events *ev,
                         int *status)
 {
-    static const int kinds[3][2] = {{BMH_IMPACT, -1}, {BMH_SLIP, BMH_LEAVE}, {BMH_STICK, BMH_LEAVE}};
+    static const int kinds[3][3] = {{BMH_IMPACT, -1, -1}, {BMH_SLIP, BMH_LEAVE, -1},
+                                    {BMH_STICK, BMH_LEAVE, BMH_STICK}}; /* HybridBall.guards */
     bmh_sys *x = (bmh_sys *)S;
     const bmh_problem *H = x->run.H;
     int kind = kinds[*mode][ev->j], ny;

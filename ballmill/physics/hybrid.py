@@ -20,7 +20,9 @@ ball: the tangential impulse J changes the slip by k_t J / m).
   N = m (n.(g_vec - a_A) + |v_C - v_A|^2 / |C - A|); m a_C = m g_vec + F,
   I omega' = r n x F. Ends when |u| falls to ``slip_eps`` (guard |u| - slip_eps): the rest
   of the slip is removed by a tangential impulse (its energy booked as friction), then the
-  stick test (rolling's |F_t| <= mu N: ROLLING, else SLIDING again, seeded as above); or
+  stick test (rolling's |F_t| <= mu N: ROLLING, else SLIDING again, seeded as above); while
+  |u| <= slip_eps also where the rolling model's |F_t| falls back to mu N (the grip guard,
+  `GRIP_SCALE`: a slide whose slip never reaches slip_eps ends there by the same stick map); or
   when N reaches 0: FLIGHT.
 * FLIGHT: (C, v_C, omega), a_C = g_vec, omega' = 0; guard the gap d - |C - A|.
 * Impact (gap reaches 0 with approaching normal speed v_n): normal impulse (1 + e_n) m v_n;
@@ -140,6 +142,16 @@ def _dot(a, b):
 # acceleration of P) where the slip lies within acos(CREEP_COS[0]) of a0, fully on a0 where
 # |u_t| <= creep_eps / 2 and the angle is below acos(CREEP_COS[1]).
 CREEP_COS = (0.9, 0.99)
+
+# The grip guard (HybridBall._g_sliding; docs/design.md section 14, the grazing slide): a slide
+# that starts from zero slip and whose slip never exceeds slip_eps ends where the rolling
+# model's friction demand |F_t| falls back to mu N, by the stick map. Its value at and below
+# slip_eps is max(|F_t| - mu N, GRIP_SCALE (|u| - slip_eps)) [N], GRIP_SCALE [N s/m] a power of
+# two: where a slip falls through slip_eps with the demand below mu N (an ordinary stick) the
+# second term is the larger, the guard is the stick guard scaled exactly, and the root finder
+# takes the same iterates on both: the event is the stick guard's, to the bit. Small, so the
+# demand term wins wherever |F_t| - mu N > -GRIP_SCALE slip_eps (1e-15 N at the default).
+GRIP_SCALE = 2.0 ** -30
 
 
 def _smooth(x):
@@ -490,7 +502,7 @@ class HybridBall:
                 return (), None, ()
             return ("slip", "leave"), self._g_rolling, (0.0, 0.0)
         if mode == SLIDING:
-            return ("stick", "leave"), self._g_sliding, (0.0, 0.0)
+            return ("stick", "leave", "stick"), self._g_sliding, (0.0, 0.0, 0.0)
         return ("impact",), self._g_flight, (self._gap_res,)
 
     def _roll_out(self, t, y):
@@ -507,9 +519,19 @@ class HybridBall:
         return self.mu * o.N - o.Ft, o.N
 
     def _g_sliding(self, t, y):
-        """(|u| - slip_eps, N) of the sliding ball."""
+        """(|u| - slip_eps, N, the grip guard) of the sliding ball. The grip guard ends a slide
+        whose slip stays below slip_eps (the stick guard is never armed there): at and below
+        slip_eps it is max(|F_t| - mu N, GRIP_SCALE (|u| - slip_eps)), |F_t| and N the rolling
+        model's where the stick map would put the ball (`_on_sphere`, `_unslip`: on_wall's stick
+        test, the same floats), so it reaches 0 where the demand falls back to mu N; above
+        slip_eps it is GRIP_SCALE (|u| - slip_eps) > 0 (module constant GRIP_SCALE)."""
         N, _, s, _, _, _ = self._slide_forces(t, y)
-        return s - self.slip_eps, N
+        g = s - self.slip_eps
+        if g > 0.0:
+            return g, N, GRIP_SCALE * g
+        z, n, ut, _ = self._on_sphere(t, y)
+        o = self._unslip(t, z, n, ut)
+        return g, N, max(o.Ft - self.mu * o.N, GRIP_SCALE * g)
 
     def _g_flight(self, t, y):
         return (self._gap(t, y),)
@@ -530,7 +552,7 @@ class HybridBall:
         when the gap is first seen positive."""
         if mode == FLIGHT:
             return (self._rebound,)
-        return (False, False)
+        return (False, False, False) if mode == SLIDING else (False, False)
 
     def first_step(self, mode, t, y):
         """After a rebound, a quarter of the hop's duration in free flight (so the opening gap
@@ -632,27 +654,39 @@ class HybridBall:
         an = _dot(a, n)
         return (a[0] - an * n[0], a[1] - an * n[1], a[2] - an * n[2])
 
-    def on_wall(self, t, z, stuck=False):
-        """Mode and state of a ball on the wall with no normal relative velocity (free
-        state z): its slip removed if below slip_eps (booked as friction), then the stick
-        test. ``stuck``: the slip is removed whatever its speed here: the stick guard found
-        it at slip_eps, and putting C back on the sphere may move the speed recomputed here
-        above slip_eps by rounding (going on sliding from there, a slide the guard cannot
-        see start above slip_eps, would chatter at zero slip). Returns (mode, y, details)."""
+    def _on_sphere(self, t, z):
+        """(a copy of the free state z with C put on the sphere |C - A| = d, n there, the
+        tangential slip u_t, its speed): where `on_wall` and the grip guard start."""
         b = self.ball
         A = self.chamber(t)[0]
         z = np.array(z, dtype=float)
         rho = z[:3] - np.array(A)
         n = tuple(rho / math.sqrt(rho @ rho))
         z[:3] = np.array(A) + b.d * np.array(n)
-        details = {}
         ut = self._slip(t, z, n)
-        s = math.sqrt(_dot(ut, ut))
+        return z, n, ut, math.sqrt(_dot(ut, ut))
+
+    def _unslip(self, t, z, n, ut):
+        """The stick map: the slip u_t of z removed (in place) by the tangential impulse
+        -m u_t / k_t, its energy booked as friction; returns the rolling model's outputs there
+        (the stick test's N and |F_t|)."""
+        self._remove_slip(t, z, n, ut)
+        return self._roll_out(t, n + (z[6], z[7], z[8]))
+
+    def on_wall(self, t, z, stuck=False):
+        """Mode and state of a ball on the wall with no normal relative velocity (free
+        state z): its slip removed if below slip_eps (booked as friction), then the stick
+        test. ``stuck``: the slip is removed whatever its speed here: the stick guard found
+        it at slip_eps (or the grip guard below it), and putting C back on the sphere may move
+        the speed recomputed here above slip_eps by rounding (going on sliding from there, a
+        slide the guard cannot see start above slip_eps, would chatter at zero slip). Returns
+        (mode, y, details)."""
+        z, n, ut, s = self._on_sphere(t, z)
+        details = {}
         if s <= self.slip_eps or stuck:
-            self._remove_slip(t, z, n, ut)
+            o = self._unslip(t, z, n, ut)
             details["slip_removed"] = s
             w = (z[6], z[7], z[8])
-            o = self._roll_out(t, n + w)
             if o.N <= 0.0:
                 return FLIGHT, z, details
             if o.Ft <= self.mu * o.N:
@@ -687,13 +721,8 @@ class HybridBall:
         velocity relative to the wall removed (booked as impact loss, as rest's), then its slip
         (booked as friction loss, as at a stick); the hold's time and window booked (`held`:
         rolling has no guard from here on). Returns (ROLLING, y)."""
-        b = self.ball
-        A, vA, _, _, _ = self.chamber(t)
-        z = self.free_state(mode, t, y)
-        rho = z[:3] - np.array(A)
-        n = tuple(rho / math.sqrt(rho @ rho))
-        z[:3] = np.array(A) + b.d * np.array(n)
-        self.book["E_impact"] += self._remove_normal(t, z, n, vA)
+        z, n, _, _ = self._on_sphere(t, self.free_state(mode, t, y))
+        self.book["E_impact"] += self._remove_normal(t, z, n, self.chamber(t)[1])
         self._remove_slip(t, z, n, self._slip(t, z, n))
         self.book["t_held"], self.book["held_window"] = float(t), float(window)
         self._rebound = False

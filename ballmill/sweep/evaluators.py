@@ -426,7 +426,7 @@ class HybridPrepared(CrankPrepared):
         c = self.contact
         return (f"hybrid-kernel: rolling/sliding/flight/impacts, compiled kernel, {self.method} tol = "
                 f"{self.tol:g}, mu_k = {c.mu_k if c.mu_k is not None else 'mu'}, e_n = {c.e_n:g}, "
-                f"v_rest = {c.v_rest:g} m/s, outputs every {self.dt:g} s")
+                f"v_rest = {c.v_rest:g} m/s, creep_eps = {c.creep_eps:g} m/s, outputs every {self.dt:g} s")
 
     def run(self, params):
         from ..physics import BallModel

@@ -236,7 +236,7 @@ def build(scenario: str, *, name: str | None = None, description: str = "", set_
     (`evaluators.CASES`, e.g. "absorber") instead of the FMU scenario ``scenario``; its
     ``mode``, model settings and pseudo-parameters come from the case. ``origins``:
     "inst.param" -> where a fixed or swept value came from (the problems name it). ``contact``:
-    the hybrid ball's `physics.hybrid.Contact` parameters (mu_k, e_n, v_rest, slip_eps; {} for
+    the hybrid ball's `physics.hybrid.Contact` parameters (mu_k, e_n, v_rest, slip_eps, creep_eps; {} for
     its defaults): the points run on the evaluator "hybrid-kernel", by default with DOP853."""
     origins = dict(origins or {})
     problems: list[str] = []
@@ -373,7 +373,7 @@ def build(scenario: str, *, name: str | None = None, description: str = "", set_
 
 
 HYBRID = "hybrid-kernel"  # the evaluator of a study with a [contact] table
-CONTACT_KEYS = {"mu_k": "1", "e_n": "1", "v_rest": "m/s", "slip_eps": "m/s"}
+CONTACT_KEYS = {"mu_k": "1", "e_n": "1", "v_rest": "m/s", "slip_eps": "m/s", "creep_eps": "m/s"}
 
 
 def _check_contact(contact, case, kind, where) -> list[str]:

@@ -107,6 +107,11 @@ def test_a_tunable_parameter_takes_effect_at_the_next_step(open_fmu, flavour):
     ("BallInShell", "e_n", -0.1, "parameter e_n = -0.1 is outside its accepted range [0, 1]"),
     ("BallInShell", "v_rest", 0.0, "v_rest must be positive and finite, got v_rest = 0.0 m/s"),
     ("BallInShell", "v_rest", -1.0, "parameter v_rest = -1.0 m/s is outside its accepted range [0, 1000] m/s"),
+    ("BallInShell", "creep_eps", -1e-3, "parameter creep_eps = -0.001 m/s is outside its accepted range [0, 1000] m/s"),
+    ("BallInShell", "creep_eps", float("nan"), "parameter creep_eps = nan m/s is outside its accepted range [0, 1000] "
+     "m/s"),
+    ("BallInShell", "creep_eps", float("inf"), "parameter creep_eps = inf m/s is outside its accepted range [0, 1000] "
+     "m/s"),
     ("BallInShell", "contact_model", 3, "parameter contact_model = 3 is outside its accepted range [1, 2]"),
 ])
 def test_refused_initialisation_names_variable_value_and_range(open_fmu, flavour, model, name, value, expected):
