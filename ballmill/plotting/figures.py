@@ -14,6 +14,9 @@ scatter plots, the absorber's response curves) is made by `subplots` and written
   pixels cost about a third more in drawing and twice as much in encoding (level 1 files
   are ~10 % larger).
 
+``subplots(..., layout="one-axes")`` lays out a figure of one axes from the sizes of its texts
+alone, once (ballmill/plotting/layout.py): the layout engines of matplotlib measure the whole
+axes, ticks included, once (tight) or twice (constrained) before the draw measures it again.
 
 `close` is there for code that is handed either this module or pyplot (a figure here needs
 no closing: it is freed with its last reference).
@@ -27,13 +30,25 @@ DPI = 110  # the commands' PNGs: 825 x 528 pixels for a 7.5 x 4.8 in figure
 
 def subplots(nrows: int = 1, ncols: int = 1, *, figsize=None, dpi: float = DPI, layout=None, **kw):
     """(figure, axes) as ``pyplot.subplots`` gives them (``kw``: its squeeze, sharex, ...),
-    on an Agg canvas of its own, at ``dpi`` (the dpi `save` writes it at)."""
+    on an Agg canvas of its own, at ``dpi`` (the dpi `save` writes it at). ``layout``: a
+    matplotlib layout engine or its name, or "one-axes" (ballmill.plotting.layout.OneAxes)."""
+    import matplotlib as mpl
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=figsize, dpi=dpi, layout=layout)
+    if layout == "one-axes":
+        from .layout import OneAxes
+
+        fig = Figure(figsize=figsize, dpi=dpi, layout=OneAxes())
+        # the title at a fixed height that OneAxes sets, not moved on every draw by a measure
+        # of the whole y axis (matplotlib's automatic title position)
+        with mpl.rc_context({"axes.titley": 1.0}):
+            axes = fig.subplots(nrows, ncols, **kw)
+    else:
+        fig = Figure(figsize=figsize, dpi=dpi, layout=layout)
+        axes = fig.subplots(nrows, ncols, **kw)
     FigureCanvasAgg(fig)
-    return fig, fig.subplots(nrows, ncols, **kw)
+    return fig, axes
 
 
 def save(fig, path, dpi: float | None = None) -> Path:

@@ -567,9 +567,12 @@ def _draw_path(ax, res: RunResult, models, spec, lw, summary):
 
 
 def _legend(ax):
-    """The legend under the axes (not over the curves), when anything is labelled."""
+    """The legend under the axes' x label (not over the curves), when anything is labelled
+    (the figure laid out by ballmill.plotting.layout.OneAxes)."""
+    from ..plotting import layout
+
     if ax.get_legend_handles_labels()[0]:
-        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), fontsize=8, frameon=False)
+        layout.legend_below(ax, fontsize=8, frameon=False)
 
 
 def plot(res: RunResult, out_dir: Path, models=None, summary: dict | None = None) -> list[Path]:
@@ -594,7 +597,7 @@ def _plot_series(res: RunResult, models, spec, plt, summary):
     (another x: _draw_path); labels in words with units unless the spec gives them."""
     sc = res.scenario
     equal = spec.get("aspect") == "equal"
-    fig, ax = plt.subplots(figsize=(7.5, 4.8) if not equal else (6.4, 6.4), layout="constrained")
+    fig, ax = plt.subplots(figsize=(7.5, 4.8) if not equal else (6.4, 6.4), layout="one-axes")
     xname, ys = spec.get("x", "time"), spec["y"]
     x = res.column(xname)
     lw = 0.8 if len(x) > 2000 else 1.2
