@@ -42,4 +42,6 @@ def test_an_opaque_figure_is_written_as_rgb_with_the_canvas_pixels(tmp_path):
         assert np.array_equal(np.asarray(im), drawn[..., :3]) and drawn[..., 3].min() == 255
     fig.patch.set_alpha(0.5)  # a translucent one keeps its alpha channel
     with Image.open(figures.save(fig, tmp_path / "t.png")) as im:
-        assert im.mode == "RGBA"
+        drawn = np.asarray(fig.canvas.buffer_rgba())
+        assert im.mode == "RGBA" and np.array_equal(np.asarray(im), drawn) and drawn[..., 3].min() < 255
+        assert im.info["Software"] == "matplotlib (ballmill.plotting.figures)"
