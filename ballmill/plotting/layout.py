@@ -99,14 +99,16 @@ class OneAxes(LayoutEngine):
             if legend is not None:  # its top LEGEND_GAP under the x label, centred under the axes
                 legend.set_bbox_to_anchor((0.5, 0.0), transform=ax.transAxes + transforms.ScaledTranslation(
                     0.0, -(down + LEGEND_GAP * px) / fig.dpi, fig.dpi_scale_trans))
-                down = box.y0 - legend.get_window_extent(renderer).y0
-            # the box, then what sticks out sideways of it at that width
+                lb = legend.get_window_extent(renderer)
+                down = box.y0 - lb.y0
+            # the box, then what sticks out sideways of it at that width (the title, the x label
+            # and the legend are centred on it)
+            wide = [b.width for b in (t if title is not None else None, xlabel,
+                                      lb if legend is not None else None) if b is not None]
             x0, x1 = PAD * px + left, W - PAD * px
             right = 0.0
             for _ in range(2):
                 w = x1 - x0
-                wide = [x.width for x in (title and title.get_window_extent(renderer), xlabel,
-                                          legend and legend.get_window_extent(renderer)) if x]
                 side = max((s / 2 - w / 2 for s in wide), default=0.0)
                 right = max(0.0, side, max((s[0] / 2 - (1 - f) * w for f, s in zip(xwhere, xsizes)), default=0.0))
                 lead = max(left, side, max((s[0] / 2 - f * w for f, s in zip(xwhere, xsizes)), default=0.0))
@@ -119,8 +121,8 @@ class OneAxes(LayoutEngine):
             pos = transforms.Bbox.from_extents(x0 / W, y0 / H, x1 / W, y1 / H)
             ax._set_position(pos, which="both")  # noqa: SLF001 (what a layout engine sets)
             if title is not None:
-                for t in (ax.title, ax._left_title, ax._right_title):  # noqa: SLF001
-                    t.set_y(1.0 + lift / (y1 - y0))
+                for text in (ax.title, ax._left_title, ax._right_title):  # noqa: SLF001
+                    text.set_y(1.0 + lift / (y1 - y0))
             if ax.get_aspect() == "auto" or ax.get_adjustable() != "datalim":
                 break
             ax.apply_aspect(pos)
