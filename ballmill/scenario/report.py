@@ -336,13 +336,19 @@ def hybrid_indicators(res: RunResult, models, ball: str) -> dict:
 def write_csv(res: RunResult, path: Path):
     """The recorded columns as CSV: a header of the names, then every row with each value as
     "%.12g" (what numpy.savetxt(fmt="%.12g") writes, byte for byte), formatted in one operation
-    over all the values rather than row by row."""
-    data = np.asarray(res.data, dtype=float)
+    over all the values rather than row by row. A column that holds the same float in every row
+    (bit for bit: -0.0 is not 0.0; a quarter of fast_start's, parameters and flags) is formatted
+    once, its text written into the row's format."""
+    data = np.ascontiguousarray(res.data, dtype=float)
     if data.ndim == 1:
         data = data[:, None]
-    rows = "\n".join([",".join(["%.12g"] * data.shape[1])] * data.shape[0]) % tuple(data.ravel().tolist())
-    Path(path).write_text(",".join(res.columns) + "\n" + (rows + "\n" if data.shape[0] else ""),
-                          encoding="utf-8")
+    if not data.shape[0]:
+        Path(path).write_text(",".join(res.columns) + "\n", encoding="utf-8")
+        return
+    same = (data.view(np.uint64) == data[:1].view(np.uint64)).all(axis=0)
+    row = ",".join(("%.12g" % v).replace("%", "%%") if c else "%.12g" for v, c in zip(data[0].tolist(), same))
+    rows = "\n".join([row] * data.shape[0]) % tuple(data[:, ~same].ravel().tolist())
+    Path(path).write_text(",".join(res.columns) + "\n" + rows + "\n", encoding="utf-8")
 
 
 def _plot_shell(res: RunResult, models, spec, plt):
