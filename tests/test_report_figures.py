@@ -173,6 +173,8 @@ def test_the_invalid_span_is_shaded_and_labelled_on_every_time_plot(tmp_path, fm
     assert same(valid_part.get_xdata(), xP[:first_bad])
     assert same(grey.get_xdata(), xP[first_bad:]) and grey.get_color() == "0.7"
     assert grey.get_label() == label + ", not physical"
+    for fig in subplots_made:  # the ring's limits follow its equal aspect: a tick label at its right end
+        assert_laid_out(fig)
 
 
 def test_long_texts_small_values_and_many_entries_stay_inside_the_figure(tmp_path, subplots_made):

@@ -73,9 +73,15 @@ class OneAxes(LayoutEngine):
         title = ax.title if ax.title.get_text() else None
         legend = ax.get_legend()
         legend = legend if legend is not None and getattr(legend, BELOW, False) else None
-        for _ in range(3):  # an equal-aspect axes changes its limits with its box: once more
+        # an axes of equal aspect changes its limits with its box, and its ticks move: a tick
+        # label may then stand at either end of an axis, half of it beyond the axes
+        moving = ax.get_aspect() != "auto" and ax.get_adjustable() == "datalim"
+        for _ in range(3):  # moving: once more if the new limits bring wider labels
             xt, xwhere, xsizes, x_offset = ticks(ax.xaxis)
             yt, ywhere, ysizes, y_offset = ticks(ax.yaxis)
+            if moving:
+                xwhere, xsizes = [0.0, 1.0], [max(xsizes, default=(0.0, 0.0), key=lambda s: s[0])] * 2
+                ywhere, ysizes = [0.0, 1.0], [max(ysizes, default=(0.0, 0.0), key=lambda s: s[0])] * 2
             # below: the tick labels, then the x label (or the offset text at the right)
             down = (xt.get_pad() + xt.get_tick_padding()) * px + max((h for _, h in xsizes), default=0.0)
             xlabel = extent(ax.xaxis.label)
@@ -123,11 +129,14 @@ class OneAxes(LayoutEngine):
             if title is not None:
                 for text in (ax.title, ax._left_title, ax._right_title):  # noqa: SLF001
                     text.set_y(1.0 + lift / (y1 - y0))
-            if ax.get_aspect() == "auto" or ax.get_adjustable() != "datalim":
+            if not moving:
                 break
             ax.apply_aspect(pos)
             box = ax.bbox
-            if (ticks(ax.xaxis)[1:], ticks(ax.yaxis)[2:]) == ((xwhere, xsizes, x_offset), (ysizes, y_offset)):
+            _, _, xs, xo = ticks(ax.xaxis)
+            _, _, ys, yo = ticks(ax.yaxis)
+            if (xo, yo) == (x_offset, y_offset) and all(w <= xsizes[0][0] and h <= xsizes[0][1] for w, h in xs) \
+                    and all(w <= ysizes[0][0] and h <= ysizes[0][1] for w, h in ys):
                 break
 
 
