@@ -28,8 +28,9 @@ class OneAxes(LayoutEngine):
     the axis labels and the x axis' offset text beside and below, a legend centred under
     the x label (`legend_below`), every one of them PAD points or more inside the figure.
     The tick labels are measured as the axis' locator and formatter give them, without the
-    ticks themselves; an axes of equal aspect (adjustable "datalim") is measured again
-    after its limits follow the new box, until the margins hold."""
+    ticks themselves. An axes of equal aspect (adjustable "datalim") keeps half of its widest
+    tick label beyond both ends of each axis (its limits follow the new box, and its ticks
+    move with them), and is measured again when the new limits bring wider labels."""
     _adjust_compatible = False
     _colorbar_gridspec = False
 
