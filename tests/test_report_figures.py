@@ -66,6 +66,42 @@ def column(out, name):
     return np.loadtxt(out / "results.csv", delimiter=",", skiprows=1)[:, header.index(name)]
 
 
+def assert_laid_out(fig):
+    """A saved one-axes figure whose every text lies inside the figure's canvas and off the
+    axes' data area, each where a reader looks for it: the title above the axes (and above the y
+    axis' offset text), the y tick labels left of the axes and the y label left of them, the x
+    tick labels below the axes, the x label below them and the legend below the x label; and
+    everything drawn (fig.get_tightbbox) inside the figure."""
+    (ax,) = fig.axes
+    renderer = fig.canvas.get_renderer()
+    W, H = fig.bbox.width, fig.bbox.height
+    box = ax.bbox
+
+    def ticklabels(axis, i):  # the labels of the ticks inside the view: the drawn ones
+        lo, hi = sorted(axis.get_view_interval())
+        return [t.get_window_extent(renderer) for t in axis.get_ticklabels()
+                if t.get_text() and lo <= t.get_position()[i] <= hi]
+
+    xt, yt = ticklabels(ax.xaxis, 0), ticklabels(ax.yaxis, 1)
+    assert xt and yt
+    texts = {"title": ax.title, "x label": ax.xaxis.label, "y label": ax.yaxis.label,
+             "x offset": ax.xaxis.offsetText, "y offset": ax.yaxis.offsetText}
+    ext = {k: t.get_window_extent(renderer) for k, t in texts.items() if t.get_text()}
+    if ax.get_legend() is not None:
+        ext["legend"] = ax.get_legend().get_window_extent(renderer)
+    for name, b in [*ext.items(), *(("x tick label", b) for b in xt), *(("y tick label", b) for b in yt)]:
+        assert 0 <= b.x0 and b.x1 <= W and 0 <= b.y0 and b.y1 <= H, (name, b, W, H)
+    if "title" in ext:
+        assert ext["title"].y0 >= max(box.y1, ext["y offset"].y1 if "y offset" in ext else 0), ext
+    assert max(b.x1 for b in yt) <= box.x0 and ext["y label"].x1 <= min(b.x0 for b in yt)
+    assert max(b.y1 for b in xt) <= box.y0 and ext["x label"].y1 <= min(b.y0 for b in xt)
+    if "legend" in ext:
+        assert ext["legend"].y1 <= ext["x label"].y0
+    drawn = fig.get_tightbbox()
+    w, h = fig.get_size_inches()
+    assert drawn.x0 >= 0 and drawn.y0 >= 0 and drawn.x1 <= w and drawn.y1 <= h, (drawn, w, h)
+
+
 def test_a_set_reaches_the_banner_the_titles_and_the_t0_marker(tmp_path, fmu_build_dir, subplots_made, capsys):
     """slow_start (t0 = 30 s in its file) run with --set drive.t0=2 over 3 s: the banner, the
     summary's description and every title say t0 = 2 s, the dashed t0 marker stands at 2 s with
@@ -104,6 +140,8 @@ def test_a_set_reaches_the_banner_the_titles_and_the_t0_marker(tmp_path, fmu_bui
     assert legend(ring) == ["start-up, t < t0 = 2 s", "after the start-up, t \u2265 t0 = 2 s",
                             f"ring's inner radius {r_in:.4f} m (the summary's, t \u2265 t0 = 2 s)",
                             f"ring's outer radius {r_out:.4f} m (the summary's, t \u2265 t0 = 2 s)"]
+    for fig in subplots_made:
+        assert_laid_out(fig)
 
 
 def test_the_invalid_span_is_shaded_and_labelled_on_every_time_plot(tmp_path, fmu_build_dir, subplots_made):
@@ -135,6 +173,37 @@ def test_the_invalid_span_is_shaded_and_labelled_on_every_time_plot(tmp_path, fm
     assert same(valid_part.get_xdata(), xP[:first_bad])
     assert same(grey.get_xdata(), xP[first_bad:]) and grey.get_color() == "0.7"
     assert grey.get_label() == label + ", not physical"
+    for fig in subplots_made:  # the ring's limits follow its equal aspect: a tick label at its right end
+        assert_laid_out(fig)
+
+
+def test_long_texts_small_values_and_many_entries_stay_inside_the_figure(tmp_path, subplots_made):
+    """Series of micrometres (tick labels with a "1e-6" offset text above the y axis), labels of
+    two and three lines, a title of two lines, a legend of six entries under the x label, and an
+    x-y plot of equal aspect whose limits follow its box: every text inside the PNG and where it
+    belongs (assert_laid_out)."""
+    from ballmill.scenario import report
+    from ballmill.scenario.runner import RunResult
+    from ballmill.scenario.spec import Instance, Scenario
+
+    names = [f"ground.a{i}" for i in range(6)]
+    plots = [{"y": names, "file": "many.png", "title": "A title over two lines,\nthe second one longer than the first",
+              "ylabel": "a label of three lines:\nthe acceleration of the ground\nin micrometres [m/s2]",
+              "xlabel": "time since the start of the run,\nin seconds [s]",
+              "legend": [f"the ground's acceleration number {i}, an entry of the legend [m/s2]" for i in range(6)]},
+             {"x": "ground.a0", "y": ["ground.a1"], "aspect": "equal", "file": "path.png",
+              "title": "Two of the accelerations against each other, of equal aspect"}]
+    sc = Scenario(path=Path("s.toml"), name="s", description="", start=0.0, stop=2.0, step=0.01,
+                  instances={"ground": Instance("ground", table=Path("g.csv"))}, connections=[], record=[],
+                  plots=plots, summary={})
+    t = np.linspace(0.0, 2.0, 201)
+    data = np.column_stack([t] + [1e-6 * (1.0 + np.sin(3.0 * t + i)) for i in range(6)])
+    res = RunResult(scenario=sc, columns=["time", *names], data=data, success=True, message="")
+    assert [p.name for p in report.plot(res, tmp_path)] == ["many.png", "path.png"]
+    many, path = subplots_made
+    assert many.axes[0].yaxis.offsetText.get_text() == "1e\u22126" and len(legend(many.axes[0])) == 6
+    for fig in (many, path):
+        assert_laid_out(fig)
 
 
 def test_a_placeholder_or_vline_that_names_no_parameter_is_refused(tmp_path, fmu_build_dir, capsys):

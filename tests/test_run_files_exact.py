@@ -20,7 +20,9 @@ def test_results_csv_is_what_savetxt_wrote(tmp_path):
     data[1] = [1e300, 5e-324, 123456789012345678.0, 1.0 / 3.0]
     data[2] = [0.0, 1.0, -2.5, 1e-5]
     res = types.SimpleNamespace(columns=["time", "a.x", "a.y", "b.z"], data=data)
-    for rows in (data, data[:0]):
+    steady = np.array([[-0.0, np.nan, 1e300, 2.0 / 3.0]] * 5)  # columns of one value (-0.0 is not 0.0)
+    steady[1:, 0] = 0.0
+    for rows in (data, data[:0], steady, np.column_stack([data[:, 0], np.full(7, np.inf), data[:, 2], data[:, 2]])):
         res.data = rows
         report.write_csv(res, tmp_path / "r.csv")
         want = io.BytesIO()
@@ -42,4 +44,6 @@ def test_an_opaque_figure_is_written_as_rgb_with_the_canvas_pixels(tmp_path):
         assert np.array_equal(np.asarray(im), drawn[..., :3]) and drawn[..., 3].min() == 255
     fig.patch.set_alpha(0.5)  # a translucent one keeps its alpha channel
     with Image.open(figures.save(fig, tmp_path / "t.png")) as im:
-        assert im.mode == "RGBA"
+        drawn = np.asarray(fig.canvas.buffer_rgba())
+        assert im.mode == "RGBA" and np.array_equal(np.asarray(im), drawn) and drawn[..., 3].min() < 255
+        assert im.info["Software"] == "matplotlib (ballmill.plotting.figures)"

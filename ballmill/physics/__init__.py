@@ -44,18 +44,24 @@ _kernel.c at install time) when it is available and covers the run, with the
 same results bit for bit; ``KERNEL_AVAILABLE`` says whether it is,
 ``KERNEL_REASON`` why not.
 """
-from .drives.crank import Circle, CrankStartup, Fixed, Harmonic
-from .equations import PaperFormulation, VectorFormulation, make_formulation, omega_dot_cramer
-from .errors import FormulationLimitError, InputError, ParameterError, StepFailure
-from .fast import KernelUnavailable
-from .hybrid import Contact, HybridTrajectory, simulate_hybrid
-from .integrators import METHODS, Integrator
-from .model import BallModel, BallState, Trajectory, simulate
-from .outputs import Outputs, energy, evaluate, spin
-from .params import Ball, steel_ball_mass
-from .platform import MODES as INPUT_MODES, InputReconstruction
-from .turning.model import ChamberModel, ChamberOutputs, simulate_chamber, simulate_general
-from .turning.motions import ChamberState, ConstantSpeed, Fig1Machine, Spin, Translation
+# the names above, each from its module, imported when first asked for (PEP 562): a process
+# that needs one module (a scenario run: the drives, the outputs) does not import them all
+_FROM = {
+    ".drives.crank": ("Circle", "CrankStartup", "Fixed", "Harmonic"),
+    ".equations": ("PaperFormulation", "VectorFormulation", "make_formulation", "omega_dot_cramer"),
+    ".errors": ("FormulationLimitError", "InputError", "ParameterError", "StepFailure"),
+    ".fast": ("KernelUnavailable", "KERNEL_AVAILABLE", "KERNEL_REASON"),
+    ".hybrid": ("Contact", "HybridTrajectory", "simulate_hybrid"),
+    ".integrators": ("METHODS", "Integrator"),
+    ".model": ("BallModel", "BallState", "Trajectory", "simulate"),
+    ".outputs": ("Outputs", "energy", "evaluate", "spin"),
+    ".params": ("Ball", "steel_ball_mass"),
+    ".platform": ("INPUT_MODES", "InputReconstruction"),
+    ".turning.model": ("ChamberModel", "ChamberOutputs", "simulate_chamber", "simulate_general"),
+    ".turning.motions": ("ChamberState", "ConstantSpeed", "Fig1Machine", "Spin", "Translation"),
+}
+_RENAMED = {"INPUT_MODES": "MODES"}  # platform.MODES, exported as INPUT_MODES
+_MODULE = {name: module for module, names in _FROM.items() for name in names}
 
 __all__ = [
     "Ball", "BallModel", "BallState", "ChamberModel", "Contact", "HybridTrajectory", "simulate_hybrid", "ChamberOutputs", "ChamberState", "Circle",
@@ -69,9 +75,24 @@ __all__ = [
 
 
 def __getattr__(name):
-    # KERNEL_AVAILABLE (bool) and KERNEL_REASON (str, '' when available): looked up in
-    # fast, which loads the compiled kernel on first use rather than on import
-    if name in ("KERNEL_AVAILABLE", "KERNEL_REASON"):
-        from . import fast
-        return getattr(fast, name)
+    """A name of __all__, from its module (KERNEL_AVAILABLE, a bool, and KERNEL_REASON, a str,
+    '' when available, from fast, which loads the compiled kernel on first use rather than on
+    import); or a submodule."""
+    import importlib
+
+    module = _MODULE.get(name)
+    if module is not None:
+        value = getattr(importlib.import_module(module, __name__), _RENAMED.get(name, name))
+        if name not in ("KERNEL_AVAILABLE", "KERNEL_REASON"):  # these two: asked of fast each time
+            globals()[name] = value
+        return value
+    try:
+        return importlib.import_module(f"{__name__}.{name}")
+    except ModuleNotFoundError as e:
+        if e.name != f"{__name__}.{name}":
+            raise
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

@@ -336,13 +336,19 @@ def hybrid_indicators(res: RunResult, models, ball: str) -> dict:
 def write_csv(res: RunResult, path: Path):
     """The recorded columns as CSV: a header of the names, then every row with each value as
     "%.12g" (what numpy.savetxt(fmt="%.12g") writes, byte for byte), formatted in one operation
-    over all the values rather than row by row."""
-    data = np.asarray(res.data, dtype=float)
+    over all the values rather than row by row. A column that holds the same float in every row
+    (bit for bit: -0.0 is not 0.0; a quarter of fast_start's, parameters and flags) is formatted
+    once, its text written into the row's format."""
+    data = np.ascontiguousarray(res.data, dtype=float)
     if data.ndim == 1:
         data = data[:, None]
-    rows = "\n".join([",".join(["%.12g"] * data.shape[1])] * data.shape[0]) % tuple(data.ravel().tolist())
-    Path(path).write_text(",".join(res.columns) + "\n" + (rows + "\n" if data.shape[0] else ""),
-                          encoding="utf-8")
+    if not data.shape[0]:
+        Path(path).write_text(",".join(res.columns) + "\n", encoding="utf-8")
+        return
+    same = (data.view(np.uint64) == data[:1].view(np.uint64)).all(axis=0)
+    row = ",".join(("%.12g" % v).replace("%", "%%") if c else "%.12g" for v, c in zip(data[0].tolist(), same))
+    rows = "\n".join([row] * data.shape[0]) % tuple(data[:, ~same].ravel().tolist())
+    Path(path).write_text(",".join(res.columns) + "\n" + rows + "\n", encoding="utf-8")
 
 
 def _plot_shell(res: RunResult, models, spec, plt):
@@ -567,9 +573,12 @@ def _draw_path(ax, res: RunResult, models, spec, lw, summary):
 
 
 def _legend(ax):
-    """The legend under the axes (not over the curves), when anything is labelled."""
+    """The legend under the axes' x label (not over the curves), when anything is labelled
+    (the figure laid out by ballmill.plotting.layout.OneAxes)."""
+    from ..plotting import layout
+
     if ax.get_legend_handles_labels()[0]:
-        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), fontsize=8, frameon=False)
+        layout.legend_below(ax, fontsize=8, frameon=False)
 
 
 def plot(res: RunResult, out_dir: Path, models=None, summary: dict | None = None) -> list[Path]:
@@ -594,7 +603,7 @@ def _plot_series(res: RunResult, models, spec, plt, summary):
     (another x: _draw_path); labels in words with units unless the spec gives them."""
     sc = res.scenario
     equal = spec.get("aspect") == "equal"
-    fig, ax = plt.subplots(figsize=(7.5, 4.8) if not equal else (6.4, 6.4), layout="constrained")
+    fig, ax = plt.subplots(figsize=(7.5, 4.8) if not equal else (6.4, 6.4), layout="one-axes")
     xname, ys = spec.get("x", "time"), spec["y"]
     x = res.column(xname)
     lw = 0.8 if len(x) > 2000 else 1.2
