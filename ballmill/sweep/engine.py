@@ -489,6 +489,18 @@ def setup(study: Study, out_dir: Path, build_dir=None, log=None, context: dict |
     return Setup(sc, ev, prepared, ctx, chash, cols, units, info_path, done_rows)
 
 
+def _warm(draw: bool) -> None:
+    """What this process imports in a thread while the forked workers compute the points: what it
+    needs after them (pyarrow's Parquet writer) and, with ``draw``, what the plots need (the
+    processes forked afterwards to draw them inherit it)."""
+    import pyarrow.parquet  # noqa: F401
+
+    if draw:
+        from . import plots
+
+        plots.warm()
+
+
 def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int | None = None,
               batch: int | None = None, retry_failed: bool = False, progress: bool = True,
               build_dir=None, plots: bool = True, log=None) -> Outcome:
@@ -569,13 +581,11 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
     draw = plots and getattr(prepared, "generic_plots", True)
     plot_files, plots_s = [], 0.0
     try:
-        # the forked workers compute the points while this process imports what the plots need:
-        # the processes forked afterwards to draw them have it
-        warm = None
         if draw:
             from . import plots as _plots
 
-            warm = _plots.warm
+        def warm():  # (looked up when called: the benchmark clocks it)
+            _warm(draw)
         rnd = 0
         while True:
             if todo:
