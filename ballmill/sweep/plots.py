@@ -77,7 +77,7 @@ def jobs(study, rows: list[dict], out_dir: Path, parts: int = 1) -> list:
     here one after another: the same bytes). The rows are read here; a job holds only what it
     draws (the grids of values, the labels). ``parts``: how many jobs the heat maps of a
     two-parameter grid are cut into (each draws its share on a figure of its own); curves and
-    scatter plots are one job. None when there is nothing to plot."""
+    scatter plots are one job. No jobs when there is nothing to plot."""
     import functools
     import textwrap
 
