@@ -218,7 +218,7 @@ def test_default_batches_are_cut_for_the_forked_workers(tmp_path):
 
 
 @needs_kernel
-def test_plots_hatch_the_invalid_cells(tmp_path):
+def test_plots_hatch_the_invalid_cells(tmp_path, subplots_made):
     st = build("fast_start", grid={"drive.t0": [0.5, 2.5], "drive.n0": [60, 80]})
     res = run_study(st, tmp_path / "s", scheduler="in-process", progress=False)
     assert any(r["valid"] is False for r in res.rows)  # t0 = 0.5 s at 80 1/min: the ball slips
@@ -227,9 +227,12 @@ def test_plots_hatch_the_invalid_cells(tmp_path):
     one = run_study(build("fast_start", grid={"drive.t0": [1.0, 2.0, 3.0]}), tmp_path / "c",
                     scheduler="in-process", progress=False)
     assert [p.name for p in one.plots] == ["curves.png"]
-    # the default executor (Dask's processes scheduler): the same files, byte for byte
+    # the default executor (Dask's processes scheduler): the same files, byte for byte, drawn by
+    # its workers (no figure made in this process)
+    drawn_here = len(subplots_made)
     forked = run_study(st, tmp_path / "f", workers=2, progress=False)
     assert forked.executor.startswith("dask processes scheduler")
+    assert len(subplots_made) == drawn_here
     assert sorted(p.name for p in forked.plots) == sorted(names) and len(forked.plots) == len(res.plots)
     assert all((tmp_path / "f" / p.name).read_bytes() == p.read_bytes() for p in res.plots)
 

@@ -91,7 +91,9 @@ def test_maps_after_the_first_keep_its_layout_unless_their_text_would_leave_the_
     carries much wider tick labels and label (six digits with a sign after values below 1, a
     label of three lines after two) is laid out again, so
     that on every PNG everything drawn lies inside the figure; a map whose texts fit
-    keeps the first map's axes where they were."""
+    keeps the first map's axes where they were, also after one laid out again. So each PNG
+    depends on its own map and the first only: the maps cut into jobs (one per worker) give
+    the same bytes as one job."""
     from ballmill.plotting import figures
     from ballmill.sweep import plots
     from ballmill.sweep.spec import build
@@ -111,11 +113,20 @@ def test_maps_after_the_first_keep_its_layout_unless_their_text_would_leave_the_
     t0s, n0s = [1.0, 2.0, 3.0], [60, 70, 80]
     study = build("fast_start", grid={"drive.t0": t0s, "drive.n0": n0s})
     rows = [{"drive.t0": t0, "drive.n0": n0, "status": "ok", "valid": True, "N_range_after": 0.1 * t0,
-             "ring_width": 0.2 * t0, "T_drive_peak": -3000.0 * n0 * t0}
+             "ring_width": 0.2 * t0, "T_drive_peak": -3000.0 * n0 * t0, "E_startup": 0.3 * t0}
             for n0 in n0s for t0 in t0s]
     files = plots.write(study, rows, tmp_path)
-    assert [f.name for f in files] == ["map_N_range_after.png", "map_ring_width.png", "map_T_drive_peak.png"]
+    names = ["map_N_range_after.png", "map_ring_width.png", "map_T_drive_peak.png", "map_E_startup.png"]
+    assert [f.name for f in files] == names
     assert list(drawn) == [f.name for f in files] and all(inside for _, inside in drawn.values()), drawn
     first = drawn["map_N_range_after.png"][0]
     assert drawn["map_ring_width.png"][0] == first  # its texts fit: the first map's layout
     assert drawn["map_T_drive_peak.png"][0] != first  # laid out again
+    assert drawn["map_E_startup.png"][0] == first  # back in the first map's layout
+    for parts in (2, 3):
+        out = tmp_path / f"parts{parts}"
+        out.mkdir()
+        jobs = plots.jobs(study, rows, out, parts=parts)
+        assert len(jobs) == parts
+        assert [f.name for job in jobs for f in job()] == names
+        assert all((out / n).read_bytes() == (tmp_path / n).read_bytes() for n in names), parts

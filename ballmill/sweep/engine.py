@@ -29,8 +29,11 @@
   - an address ("tcp://host:8786"): an existing cluster whose workers have
     ballmill installed;
   - "in-process": the batches here, one after another.
-  This process writes the parts and the results and draws the plots, whatever
-  computed the points. An evaluator whose Prepared says ``sequential = True`` (points
+  This process writes the parts and the results, whatever computed the points; the
+  PNGs are drawn by the workers when they share this machine (the heat maps shared
+  out among them, `plots.jobs`: on the forked workers, forked again after the points,
+  while this process imports matplotlib during the points so that they inherit it;
+  on a LocalCluster), else here. An evaluator whose Prepared says ``sequential = True`` (points
   that continue from the previous one's state) gets all its points, in
   order, in one task; one with ``chain_key(params) -> (chain, order)`` gets
   each chain whole, in order, in one task (chains run in parallel; a chain
@@ -261,39 +264,60 @@ def _fork_pool(nworkers: int):
     return ProcessPoolExecutor(nworkers, mp_context=multiprocessing.get_context("fork"), initializer=init)
 
 
-def _run_forked(prepared, custom, tasks: list, nworkers: int, take, pool=None) -> float:
-    """run_batch of each task on Dask's local processes scheduler (dask.multiprocessing.get),
-    its nworkers processes forked from this one: they inherit the imported modules (numpy, the
-    kernel, ballmill), so they start in milliseconds where spawned ones import everything again.
-    One task at a time per worker (chunksize 1), so that a worker done early takes the next;
-    take(rows, split) is called here as each task ends (a Dask callback), so that rows are
-    written and counted as they come. Returns the perf_counter time of the last result (then
-    Dask stops the workers). The scheduler is passed as the function, not by its name
-    "processes": dask.compute then does not look for a dask.distributed client, an import of
-    about 0.3 s of CPU. ``pool``: worker processes kept from an earlier batch (`_fork_pool`;
-    then Dask neither starts nor stops them)."""
+def _compute_forked(calls: list, nworkers: int, take, pool=None, warm=None) -> float:
+    """dask.compute of the delayed calls on Dask's local processes scheduler
+    (dask.multiprocessing.get), its nworkers processes forked from this one: they inherit the
+    imported modules (numpy, the kernel, ballmill), so they start in milliseconds where spawned
+    ones import everything again. One task at a time per worker (chunksize 1), so that a
+    worker done early takes the next; take(call's index, result) is called here as each call
+    ends (a Dask callback), so that results are used as they come. Returns the perf_counter
+    time of the last result (then Dask stops the workers). The scheduler is passed as the
+    function, not by its name "processes": dask.compute then does not look for a
+    dask.distributed client, an import of about 0.3 s of CPU. ``pool``: worker processes kept
+    from an earlier batch (`_fork_pool`; then Dask neither starts nor stops them). ``warm``: a
+    function run in a thread of this process while the tasks run (started at the first result,
+    when the workers are forked; joined before this returns, so that no thread outlives it
+    into the next fork): what this process would otherwise do after the tasks, such as
+    importing what processes forked later need."""
+    import threading
+
     import dask
     import dask.multiprocessing
     from dask.callbacks import Callback
 
     last = time.perf_counter()
+    index = {c.key: k for k, c in enumerate(calls)}
+    warming = threading.Thread(target=warm, name="warm", daemon=True) if warm is not None else None
 
     def posttask(key, result, dsk, state, worker_id):
         nonlocal last
-        if key in batches:  # (not the nodes holding the tasks' points)
-            take(*result)
+        if key in index:  # (not the nodes holding the tasks' inputs)
+            if warming is not None and warming.ident is None:
+                warming.start()
+            take(index[key], result)
             last = time.perf_counter()
+
+    try:
+        with dask.config.set({"multiprocessing.context": "fork"}), Callback(posttask=posttask):
+            dask.compute(*calls, scheduler=dask.multiprocessing.get, num_workers=nworkers, chunksize=1,
+                         **({"pool": pool} if pool is not None else {}))
+    finally:
+        if warming is not None and warming.ident is not None:
+            warming.join()
+    return last
+
+
+def _run_forked(prepared, custom, tasks: list, nworkers: int, take, pool=None, warm=None) -> float:
+    """run_batch of each task by `_compute_forked` (take(rows, split) as each task ends); the
+    time of the last result."""
+    import dask
 
     # the Prepared as one value of the graph, not traversed (a dataclass's fields would be, for every
     # task: about 20 ms a task for the kernel's)
     prep = dask.delayed(prepared, traverse=False)
     # each task's points likewise (a list of 250 tuples of dicts: about 1 ms a task to traverse)
     calls = [dask.delayed(run_batch, pure=False)(prep, custom, dask.delayed(task, traverse=False)) for task in tasks]
-    batches = {c.key for c in calls}
-    with dask.config.set({"multiprocessing.context": "fork"}), Callback(posttask=posttask):
-        dask.compute(*calls, scheduler=dask.multiprocessing.get, num_workers=nworkers, chunksize=1,
-                     **({"pool": pool} if pool is not None else {}))
-    return last
+    return _compute_forked(calls, nworkers, lambda k, result: take(*result), pool, warm)
 
 
 def _default_batch(n: int, workers: int) -> int:
@@ -341,7 +365,9 @@ class Executor:
         self.name += f" ({self.nworkers} worker(s) seen)"
         self._prep = self.client.scatter(self.prepared, broadcast=True)
 
-    def run(self, tasks: list, custom, take) -> float:
+    def run(self, tasks: list, custom, take, warm=None) -> float:
+        """``warm``: with the forked workers, a function this process runs in a thread while
+        they compute (`_compute_forked`); elsewhere not called."""
         self.start()
         r0 = time.perf_counter()
         if self.scheduler == "in-process":
@@ -351,7 +377,7 @@ class Executor:
         if self.forked:
             if self.keep and self.pool is None:  # forked once, kept for every batch
                 self.pool = _fork_pool(self.nworkers)
-            last = _run_forked(self.prepared, custom, tasks, self.nworkers, take, self.pool)
+            last = _run_forked(self.prepared, custom, tasks, self.nworkers, take, self.pool, warm)
             self.split["cluster_close"] += time.perf_counter() - last
             return last - r0
         from dask.distributed import as_completed
@@ -361,6 +387,26 @@ class Executor:
             take(*fut.result())
             fut.release()
         return time.perf_counter() - r0
+
+    def call(self, jobs: list) -> list:
+        """The results of callables of no argument (a study's PNGs, `plots.jobs`), each one task on
+        this executor's workers where they share this machine's files (the forked workers, forked
+        afresh unless kept, or a LocalCluster started here), else called here one after
+        another; in the order given."""
+        if not jobs:
+            return []
+        if self.forked:
+            import dask
+
+            out = [None] * len(jobs)
+
+            def take(k, result):
+                out[k] = result
+            _compute_forked([dask.delayed(job, pure=False)() for job in jobs], self.nworkers, take, self.pool)
+            return out
+        if self.cluster is not None:
+            return self.client.gather([self.client.submit(job, pure=False) for job in jobs])
+        return [job() for job in jobs]
 
     def close(self) -> dict:
         """Stop the cluster or the kept workers (if any); the time its start and stop took [s]."""
@@ -443,6 +489,18 @@ def setup(study: Study, out_dir: Path, build_dir=None, log=None, context: dict |
     return Setup(sc, ev, prepared, ctx, chash, cols, units, info_path, done_rows)
 
 
+def _warm(draw: bool) -> None:
+    """What this process imports in a thread while the forked workers compute the points: what it
+    needs after them (pyarrow's Parquet writer) and, with ``draw``, what the plots need (the
+    processes forked afterwards to draw them inherit it)."""
+    import pyarrow.parquet  # noqa: F401
+
+    if draw:
+        from . import plots
+
+        plots.warm()
+
+
 def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int | None = None,
               batch: int | None = None, retry_failed: bool = False, progress: bool = True,
               build_dir=None, plots: bool = True, log=None) -> Outcome:
@@ -520,14 +578,21 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
             batch or _default_batch(len(todo_round), ex.nworkers))
         return [todo_round[k:k + nb_] for k in range(0, len(todo_round), nb_)]
 
+    draw = plots and getattr(prepared, "generic_plots", True)
+    plot_files, plots_s = [], 0.0
     try:
+        if draw:
+            from . import plots as _plots
+
+        def warm():  # (looked up when called: the benchmark clocks it)
+            _warm(draw)
         rnd = 0
         while True:
             if todo:
                 ex.start()  # (a LocalCluster or a scheduler: once; the batch size for the workers seen)
                 tasks = tasks_of(todo)
                 nb = max(nb, max(len(t) for t in tasks))
-                run_s += ex.run(tasks, study.indicators, take)
+                run_s += ex.run(tasks, study.indicators, take, warm)
             # refinement: the evaluator looks at every row so far and names the points to add
             # (each round one batch of tasks on the same executor); deterministic, so a resumed
             # study finds the same rounds and skips what it has
@@ -546,33 +611,32 @@ def run_study(study: Study, out_dir, scheduler: str | None = None, workers: int 
             todo = [(base + j, point_id(p), p) for j, p in enumerate(extra) if point_id(p) not in done_rows]
             bar.total += len(todo)
             skipped += len(extra) - len(todo)
+        compute_s = time.perf_counter() - c0
+
+        # the results file: old rows (minus those recomputed) and the new ones, by point index
+        w0 = time.perf_counter()
+        fresh = {r["point_id"] for r in new_rows}
+        rows = [r for k, r in done_rows.items() if k not in fresh] + new_rows
+        rows.sort(key=lambda r: (r.get("point", 0), r.get("point_id", "")))
+        _write(_table(rows, cols, units), results)
+        if parts.exists():
+            for p in parts.glob("part-*.parquet"):
+                p.unlink()
+            parts.rmdir()
+        write_s += time.perf_counter() - w0
+        # the PNGs: on the study's workers (the maps shared out among them), which are still there
+        p0 = time.perf_counter()
+        if draw:
+            try:
+                plot_files = [f for files in ex.call(_plots.jobs(study, rows, out_dir, parts=ex.nworkers))
+                              for f in files]
+            except Exception as e:  # noqa: BLE001 - the results stand without their plots
+                log(f"plots not written: {type(e).__name__}: {e}")
+        plots_s = time.perf_counter() - p0
     finally:
         for k, v in ex.close().items():
             split_total[k] = split_total.get(k, 0.0) + v
     executor = ex.name or "none"
-    compute_s = time.perf_counter() - c0
-
-    # the results file: old rows (minus those recomputed) and the new ones, by point index
-    w0 = time.perf_counter()
-    fresh = {r["point_id"] for r in new_rows}
-    rows = [r for k, r in done_rows.items() if k not in fresh] + new_rows
-    rows.sort(key=lambda r: (r.get("point", 0), r.get("point_id", "")))
-    _write(_table(rows, cols, units), results)
-    if parts.exists():
-        for p in parts.glob("part-*.parquet"):
-            p.unlink()
-        parts.rmdir()
-    write_s += time.perf_counter() - w0
-    plot_files = []
-    p0 = time.perf_counter()
-    if plots and getattr(prepared, "generic_plots", True):
-        try:
-            from . import plots as _plots
-
-            plot_files = _plots.write(study, rows, out_dir)
-        except Exception as e:  # noqa: BLE001 - the results stand without their plots
-            log(f"plots not written: {type(e).__name__}: {e}")
-    plots_s = time.perf_counter() - p0
     write_outputs = getattr(prepared, "write_outputs", None)
     if write_outputs is not None:  # an evaluator's own result files (and plots) beside the parquet
         plot_files += write_outputs(study, rows, out_dir, plots=plots, log=log)
