@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 from ballmill.physics.drives.crank import CrankStartup
 from ballmill.physics.drives.induction import CrankDrive
 from ballmill.physics.drives.induction import InductionMotor as MotorData
-from ballmill.physics.hybrid import Contact
+from ballmill.physics.params import Contact
 from ballmill.physics.params import Ball
 
 # unit name -> SI base-unit exponents (and factor) for <UnitDefinitions>

@@ -2,8 +2,9 @@
 
 `Ball` holds what the equations need (radii, mass, gravity, friction
 coefficient) and the derived constants (d = R - r, lambda = r/d, I, and the
-gain k = m r / (I + m r^2) of the closed-form angular acceleration). Building
-one with an impossible value raises `ParameterError` naming the value.
+gain k = m r / (I + m r^2) of the closed-form angular acceleration); `Contact`
+the hybrid ball's contact beyond the static friction (`hybrid.HybridBall`).
+Building one with an impossible value raises `ParameterError` naming the value.
 """
 from __future__ import annotations
 
@@ -133,3 +134,59 @@ class Ball:
                                                 "rolling_resistance", "drag", "bed_depth", "bed_band")}
         values.update(changes)
         return Ball(**values)
+
+
+def _unit_interval(name, value, unit="1"):
+    v = float(value)
+    if not (math.isfinite(v) and 0.0 <= v <= 1.0):
+        raise ParameterError(f"{name} must lie in [0, 1], got {name} = {value!r} {unit}")
+    return v
+
+
+@dataclass(frozen=True)
+class Contact:
+    """The contact's parameters beyond the ball's static friction coefficient ``Ball.mu``.
+
+    mu_k: kinetic friction coefficient [1], 0 <= mu_k <= mu (None: mu).
+    e_n: normal restitution [1], in [0, 1].
+    v_rest [m/s]: a rebound slower than this ends the bounce sequence (the ball stays on
+        the wall), > 0.
+    slip_eps [m/s]: sliding ends when the slip speed falls to it, > 0; above the
+        integrator's error in the slip (about tol times the velocity scale, 1e-9 m/s at the
+        defaults), else sticking would chatter; small enough that the rolling onset it
+        advances, slip_eps / |du/dt|, is negligible (1e-7 s for mu_k g = 3 m/s2).
+    creep_eps [m/s]: below this slip speed the sliding friction's direction is taken on the
+        slide's slow manifold, the direction of the friction-free relative tangential
+        acceleration of P, where the slip is aligned with it (docs/design.md section 14: a
+        slide whose slip stays small is otherwise stiff, u/|u| turning at the rate
+        k_t mu_k N / (m |u|)), >= 0; 0: Coulomb's u/|u| at every slip (the unreduced model)."""
+
+    mu_k: float | None = None
+    e_n: float = 0.5
+    v_rest: float = 0.01
+    slip_eps: float = 1e-6
+    creep_eps: float = 1e-3
+
+    def __post_init__(self):
+        if self.mu_k is not None:
+            v = float(self.mu_k)
+            if not (math.isfinite(v) and v >= 0.0):
+                raise ParameterError(f"mu_k must be non-negative and finite, got mu_k = {self.mu_k!r}")
+        _unit_interval("e_n", self.e_n)
+        for name in ("v_rest", "slip_eps"):
+            v = float(getattr(self, name))
+            if not (math.isfinite(v) and v > 0.0):
+                raise ParameterError(f"{name} must be positive and finite, got {name} = "
+                                     f"{getattr(self, name)!r} m/s")
+        v = float(self.creep_eps)
+        if not (math.isfinite(v) and v >= 0.0):
+            raise ParameterError(f"creep_eps must be non-negative and finite (0: no creeping slide), got "
+                                 f"creep_eps = {self.creep_eps!r} m/s")
+
+    def kinetic(self, ball: Ball) -> float:
+        """mu_k for this ball, checked against its static mu."""
+        mu_k = ball.mu if self.mu_k is None else float(self.mu_k)
+        if mu_k > ball.mu:
+            raise ParameterError(f"mu_k must not exceed the static friction coefficient mu = "
+                                 f"{ball.mu!r}, got mu_k = {self.mu_k!r}")
+        return mu_k

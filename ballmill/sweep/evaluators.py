@@ -403,7 +403,7 @@ class HybridKernel(CrankKernel):
     validity = VALIDITY_HYBRID
 
     def prepare(self, sc, study, build_dir=None):
-        from ..physics.hybrid import Contact
+        from ..physics.params import Contact
 
         feeds = {(di, dv): si for si, sv, di, dv in sc.connections}
         ball = next(n for n, i in sc.instances.items() if i.fmu == "BallInShell")

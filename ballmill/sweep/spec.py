@@ -30,7 +30,7 @@ command-line options; both become a `Study`:
     dt = 0.01                               # sampling of the outputs the indicators read [s]
 
     [contact]                               # optional: run the ball as the hybrid model (rolling,
-    mu_k = 0.3                              # sliding, flight, impacts: physics.hybrid.Contact), on
+    mu_k = 0.3                              # sliding, flight, impacts: physics.params.Contact), on
     e_n = 0.5                               # the evaluator "hybrid-kernel" (DOP853 at the tolerance
     v_rest = 0.01                           # by default); its indicators add hybrid ones (mode
                                             # fractions, impacts, friction and impact energy)
@@ -236,7 +236,7 @@ def build(scenario: str, *, name: str | None = None, description: str = "", set_
     (`evaluators.CASES`, e.g. "absorber") instead of the FMU scenario ``scenario``; its
     ``mode``, model settings and pseudo-parameters come from the case. ``origins``:
     "inst.param" -> where a fixed or swept value came from (the problems name it). ``contact``:
-    the hybrid ball's `physics.hybrid.Contact` parameters (mu_k, e_n, v_rest, slip_eps, creep_eps; {} for
+    the hybrid ball's `physics.params.Contact` parameters (mu_k, e_n, v_rest, slip_eps, creep_eps; {} for
     its defaults): the points run on the evaluator "hybrid-kernel", by default with DOP853."""
     origins = dict(origins or {})
     problems: list[str] = []
@@ -377,10 +377,10 @@ CONTACT_KEYS = {"mu_k": "1", "e_n": "1", "v_rest": "m/s", "slip_eps": "m/s", "cr
 
 
 def _check_contact(contact, case, kind, where) -> list[str]:
-    """The problems of a [contact] table: its keys and values (as physics.hybrid.Contact checks
+    """The problems of a [contact] table: its keys and values (as physics.params.Contact checks
     them), and a model or case it does not go with."""
     from ..physics.errors import ParameterError
-    from ..physics.hybrid import Contact
+    from ..physics.params import Contact
 
     if not isinstance(contact, dict):
         return [f"{where}: contact: expected a table of {', '.join(CONTACT_KEYS)}, got {contact!r}"]
