@@ -159,7 +159,7 @@ def validity(t, N, friction_ratio, mu: float):
     Bad: N <= 0 (contact lost) or not friction_ratio <= mu (slip; NaN counts as bad)."""
     N = np.asarray(N, dtype=float)
     fr = np.asarray(friction_ratio, dtype=float)
-    bad = ~(N > 0.0) | ~(fr <= mu)
+    bad = ~((N > 0.0) & (fr <= mu))
     if not bad.any():
         return True, None, len(t)
     i = int(np.argmax(bad))
@@ -229,9 +229,13 @@ def _stat(t, x, stat: str, sl):
     if stat == "mean":
         return float(w.mean())
     if stat == "integral":
-        tw = t[sl]
-        return float((0.5 * (w[1:] + w[:-1])).dot(np.diff(tw))) if len(w) > 1 else 0.0
+        return _trapezoid(w, np.diff(t[sl])) if len(w) > 1 else 0.0
     raise ValueError(f"unknown statistic {stat!r}")
+
+
+def _trapezoid(w, dt) -> float:
+    """The trapezoidal rule's integral of the samples w over the time steps dt (len(w) - 1 of them)."""
+    return float((0.5 * (w[1:] + w[:-1])).dot(dt))
 
 
 def builtin(rec: Record, n_valid: int) -> dict:
@@ -307,10 +311,10 @@ def grinding(rec: Record, sl) -> dict:
     if sl is None or sl.stop - sl.start < 2:
         return out
     t = rec.t[sl]
+    dt = np.diff(t)  # the window's steps, for both integrals
     if b + "s_bed" in rec.series:
         in_bed = rec.series[b + "s_bed"][sl] > 0.0
-        inside = in_bed.astype(float)
-        out["bed_fraction"] = float((0.5 * (inside[1:] + inside[:-1])).dot(np.diff(t)) / (t[-1] - t[0]))
+        out["bed_fraction"] = _trapezoid(in_bed.astype(float), dt) / float(t[-1] - t[0])
         r, R = rec.refs.get(b + "r"), rec.refs.get(b + "R")
         bed = rec.refs.get(b + "bed") == 1  # a bed of depth h_bed (with bed = 0 the material is everywhere)
         if bed and r is not None and R is not None and all(b + v in rec.series
@@ -321,7 +325,7 @@ def grinding(rec: Record, sl) -> dict:
             out["A_swept_bed"] = swept_area(u, in_bed, R, footprint(r, R))
     if b + "P_grind" not in rec.series:
         return out
-    work = _stat(rec.t, rec.series[b + "P_grind"], "integral", sl)
+    work = _trapezoid(rec.series[b + "P_grind"][sl], dt)
     out["P_grind_mean"] = work / float(t[-1] - t[0])
     psi = rec.series.get(f"{rec.drive}.psi") if rec.drive is not None else None
     if psi is not None:
