@@ -185,8 +185,11 @@ def _open(path: Path, source: Path = SOURCE):
     _declare(lib, {
         "bm_simulate": (ctypes.c_longlong, [P, _dp, ctypes.c_longlong, ctypes.c_longlong, ctypes.c_int,
                                             _dp, _dp, _dp, _dp, ctypes.POINTER(_Stats)]),
-        "bm_simulate_study": (ctypes.c_longlong, [P, _dp, ctypes.c_longlong, ctypes.c_longlong, ctypes.c_int,
-                                                  _dp, _dp, ctypes.c_int, ctypes.c_double, _dp, _dp, _dp,
+        # its arrays as addresses (study_run's buffers, one block per run: a numpy array's
+        # ctypes pointer costs microseconds, a study calls this thousands of times)
+        "bm_simulate_study": (ctypes.c_longlong, [P, ctypes.c_void_p, ctypes.c_longlong, ctypes.c_longlong,
+                                                  ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int,
+                                                  ctypes.c_double, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p,
                                                   ctypes.c_double, ctypes.POINTER(_Stats)]),
         "bm_advance_interval": (ctypes.c_int, [ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p]),
         "bm_initial_step": (ctypes.c_double, [P, ctypes.c_double, _dp, ctypes.c_double]),
@@ -251,7 +254,9 @@ _REAL = numbers.Real
 
 
 def _reals(*values) -> bool:
-    return all(isinstance(v, _REAL) and not isinstance(v, bool) for v in values)
+    # floats and ints first: numbers.Real's isinstance (an ABC) costs a microsecond a value
+    return all(type(v) is float or type(v) is int or (isinstance(v, _REAL) and not isinstance(v, bool))
+               for v in values)
 
 
 def _motion_params(motion):
@@ -494,20 +499,24 @@ def study_run(model, motion, times: np.ndarray, state, estimate: bool, stop_mu: 
     r = StudyRun()
     n = len(times)
     r.times = times = np.ascontiguousarray(times, dtype=float)
-    r.ys, r.outs = np.empty((n, NY)), np.empty((n, NOUT))
-    y = np.array(state.y, dtype=float)
-    h = np.array([state.h if state.h is not None else math.nan])
-    err = np.zeros(2)
+    # one block for the samples, the outputs, the state, the step and the estimate: one address
+    # to find (in doubles: ys n x NY, outs n x NOUT, y NY, h 1, err 2)
+    block = np.empty(n * (NY + NOUT) + NY + 3)
+    a_ys, a_outs, a_y = n * NY, n * (NY + NOUT), n * (NY + NOUT) + NY
+    r.ys, r.outs = block[:a_ys].reshape(n, NY), block[a_ys:a_outs].reshape(n, NOUT)
+    block[a_outs:a_y] = state.y
+    block[a_y] = state.h if state.h is not None else math.nan
+    block[a_y + 1:] = 0.0
+    base = block.ctypes.data
     stats = _Stats()
-    last = _kernel().bm_simulate_study(ctypes.byref(P), times.ctypes.data_as(_dp), n, 0, 1, y.ctypes.data_as(_dp),
-                                       h.ctypes.data_as(_dp), int(stop_mu is not None),
-                                       stop_mu if stop_mu is not None else 0.0, r.ys.ctypes.data_as(_dp),
-                                       r.outs.ctypes.data_as(_dp), err.ctypes.data_as(_dp) if estimate else None,
+    last = _kernel().bm_simulate_study(ctypes.byref(P), times.ctypes.data, n, 0, 1, base + 8 * a_outs, base + 8 * a_y,
+                                       int(stop_mu is not None), stop_mu if stop_mu is not None else 0.0, base,
+                                       base + 8 * a_ys, base + 8 * (a_y + 1) if estimate else None,
                                        limit if estimate and limit is not None else 0.0, ctypes.byref(stats))
     r.last = int(last)
     o = r.outs[r.last]
     r.stopped = stop_mu is not None and r.last >= 0 and not (o[9] > 0.0 and o[18] <= stop_mu)
-    r.err_P, r.err_N = (float(err[0]), float(err[1])) if estimate else (None, None)
+    r.err_P, r.err_N = (float(block[a_y + 1]), float(block[a_y + 2])) if estimate else (None, None)
     r.exceeded = limit is not None and r.err_P is not None and r.err_P > limit
     r.failed = r.last < n - 1 and not r.stopped and not r.exceeded
     info = model.info

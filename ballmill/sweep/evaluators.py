@@ -165,6 +165,7 @@ BALL_NUMERICS = ("formulation", "integrator", "tolerance", "h_fixed", "input_mod
                  "coupling_warn")
 DRIVE_LAW = ("l", "n0", "t0", "law")
 DRIVE_LOAD = ("m_platform", "J_crank")
+BALL_KNOWN = set(BALL_PHYSICS) | set(BALL_INITIAL) | set(BALL_NUMERICS) | set(BALL_BED)
 MOTION = ("x1O", "y1O", "vx1O", "vy1O", "ax1O", "ay1O")
 SAFETY = 0.8  # RK4: halve h while the estimated contact-point error exceeds SAFETY * target
 MAX_HALVINGS = 4
@@ -228,9 +229,13 @@ class CrankPrepared(Prepared):
     error: str = ERROR_METHODS[0]
     timing: dict = field(default_factory=lambda: {"integration": 0.0})
     _models: dict = field(default_factory=dict, repr=False, compare=False)  # (Ball, h) -> (model, problem)
+    # the ball's parameters (instance values, in order) -> its Ball (frozen): checked and built once
+    # for the points that share them, as the drive's swept values do
+    _balls: dict = field(default_factory=dict, repr=False, compare=False)
+    _times: tuple = field(default=(None, None), repr=False, compare=False)  # ((start, stop, dt), the samples)
 
-    def __getstate__(self):  # a worker builds its own models and kernel problems
-        return {**self.__dict__, "_models": {}}
+    def __getstate__(self):  # a worker builds its own models, kernel problems and balls
+        return {**self.__dict__, "_models": {}, "_balls": {}, "_times": (None, None)}
 
     @property
     def model(self):
@@ -247,20 +252,29 @@ class CrankPrepared(Prepared):
 
         values = _with(self.sc, params)
         bp, dp = values[self.ball], values[self.drive]
-        known_b = set(BALL_PHYSICS) | set(BALL_INITIAL) | set(BALL_NUMERICS) | set(BALL_BED)
+        try:
+            key = tuple(bp.items())
+            ball = self._balls.get(key)
+        except TypeError:  # a value that is not hashable: no reuse
+            key = ball = None
         known_d = set(DRIVE_LAW) | set(DRIVE_LOAD)
-        for inst, ps, known in ((self.ball, bp, known_b), (self.drive, dp, known_d)):
+        for inst, ps, known in (((self.ball, bp, BALL_KNOWN),) if ball is None else ()) + ((self.drive, dp, known_d),):
             for p in ps:
                 if p not in known:
                     raise ParameterError(f"{inst}.{p}: no such parameter (known: {', '.join(sorted(known))})")
-        bed = bp.get("bed", 0)
-        if bed not in (0, 1):
-            raise ParameterError(f"{self.ball}.bed must be one of [0, 1] (0 = the material fills the chamber, "
-                                 f"1 = a bed of depth h_bed), got {bed!r}")
-        bed_kw = {"bed_band": bp["w_bed"]} if "w_bed" in bp else {}
-        if bed == 1:
-            bed_kw["bed_depth"] = bp.get("h_bed", 0.0)
-        ball = Ball(**{BALL_PHYSICS[k]: v for k, v in bp.items() if k in BALL_PHYSICS}, **bed_kw)
+        if ball is None:
+            bed = bp.get("bed", 0)
+            if bed not in (0, 1):
+                raise ParameterError(f"{self.ball}.bed must be one of [0, 1] (0 = the material fills the chamber, "
+                                     f"1 = a bed of depth h_bed), got {bed!r}")
+            bed_kw = {"bed_band": bp["w_bed"]} if "w_bed" in bp else {}
+            if bed == 1:
+                bed_kw["bed_depth"] = bp.get("h_bed", 0.0)
+            ball = Ball(**{BALL_PHYSICS[k]: v for k, v in bp.items() if k in BALL_PHYSICS}, **bed_kw)
+            if key is not None:
+                if len(self._balls) > 256:
+                    self._balls.clear()
+                self._balls[key] = ball
         law = dp.get("law", 1)
         if law not in LAW_CODES:
             raise ParameterError(f"{self.drive}.law must be one of {sorted(LAW_CODES)} "
@@ -291,7 +305,11 @@ class CrankPrepared(Prepared):
         n_steps = int(round((t_end - t0) / dt))  # simulate's grid
         if n_steps < 1:
             return None
-        times = t0 + dt * np.arange(n_steps + 1)
+        if self._times[0] != (t0, t_end, dt):  # the same samples for every point: made once
+            grid = t0 + dt * np.arange(n_steps + 1)
+            grid.setflags(write=False)  # shared by the points' records (their t): never written
+            self._times = ((t0, t_end, dt), grid)
+        times = self._times[1]
         mu = ball.mu
 
         def run(h, limit):

@@ -109,23 +109,36 @@ class Record:
             return self.series[name]
         if name in self.derived:
             return self.derived[name]
+        v = self._derive(name, slice(None))
+        self.derived[name] = v
+        return v
+
+    def over(self, name: str, sl: slice) -> np.ndarray:
+        """``get(name)[sl]``; a derived variable not yet derived is computed over sl only (element
+        by element the same values: what an indicator over a window needs, not the whole run)."""
+        if name in self.series:
+            return self.series[name][sl]
+        if name in self.derived:
+            return self.derived[name][sl]
+        return self._derive(name, sl)
+
+    def _derive(self, name: str, sl: slice) -> np.ndarray:
         b = self.ball + "."
+        s = self.series
         if name == b + "rhoP":
-            v = np.hypot(self.series[b + "xP"], self.series[b + "yP"])
+            v = np.hypot(s[b + "xP"][sl], s[b + "yP"][sl])
         elif name == b + "theta_deg":
-            s = self.series
-            v = np.degrees(np.arctan2(np.hypot(s[b + "xP"] - s[b + "xC"], s[b + "yP"] - s[b + "yC"]),
-                                      s[b + "zC"] - s[b + "zP"]))
+            xP, yP, zP = s[b + "xP"][sl], s[b + "yP"][sl], s[b + "zP"][sl]
+            v = np.degrees(np.arctan2(np.hypot(xP - s[b + "xC"][sl], yP - s[b + "yC"][sl]), s[b + "zC"][sl] - zP))
         elif name == b + "slip_margin":
-            N = self.series[b + "N"]
-            ft = self.series.get(b + "Ft")
+            N = s[b + "N"][sl]
+            ft = s.get(b + "Ft")
             with np.errstate(invalid="ignore", over="ignore"):
-                margin = self.mu * N - ft if ft is not None else N * (self.mu - self.series[b + "friction_ratio"])
+                margin = self.mu * N - ft[sl] if ft is not None else N * (self.mu - s[b + "friction_ratio"][sl])
             v = np.where(N > 0.0, margin, N)
         else:
-            known = sorted(self.series) + [b + "rhoP", b + "theta_deg", b + "slip_margin"]
+            known = sorted(s) + [b + "rhoP", b + "theta_deg", b + "slip_margin"]
             raise KeyError(f"no recorded variable {name!r} (recorded: {', '.join(known)})")
-        self.derived[name] = v
         return v
 
     def time_of(self, ref) -> float:
@@ -146,7 +159,7 @@ def validity(t, N, friction_ratio, mu: float):
     Bad: N <= 0 (contact lost) or not friction_ratio <= mu (slip; NaN counts as bad)."""
     N = np.asarray(N, dtype=float)
     fr = np.asarray(friction_ratio, dtype=float)
-    bad = ~(N > 0.0) | ~(fr <= mu)
+    bad = ~((N > 0.0) & (fr <= mu))
     if not bad.any():
         return True, None, len(t)
     i = int(np.argmax(bad))
@@ -158,8 +171,10 @@ def _refine(t, x, i, sign):
     the sample itself at the ends or when the parabola does not bend the right way."""
     if i <= 0 or i >= len(x) - 1:
         return float(x[i])
-    y0, y1, y2 = float(x[i - 1]), float(x[i]), float(x[i + 1])
-    h0, h1 = float(t[i] - t[i - 1]), float(t[i + 1] - t[i])
+    # Python floats (the same IEEE doubles as numpy's, without numpy's per-scalar overhead)
+    y0, y1, y2 = x[i - 1:i + 2].tolist()
+    ta, tb, tc = t[i - 1:i + 2].tolist()
+    h0, h1 = tb - ta, tc - tb
     if not (h0 > 0 and h1 > 0) or abs(h0 - h1) > 1e-9 * (h0 + h1):
         return y1
     curv = y0 - 2.0 * y1 + y2  # h^2 x''
@@ -214,9 +229,13 @@ def _stat(t, x, stat: str, sl):
     if stat == "mean":
         return float(w.mean())
     if stat == "integral":
-        tw = t[sl]
-        return float((0.5 * (w[1:] + w[:-1])).dot(np.diff(tw))) if len(w) > 1 else 0.0
+        return _trapezoid(w, np.diff(t[sl])) if len(w) > 1 else 0.0
     raise ValueError(f"unknown statistic {stat!r}")
+
+
+def _trapezoid(w, dt) -> float:
+    """The trapezoidal rule's integral of the samples w over the time steps dt (len(w) - 1 of them)."""
+    return float((0.5 * (w[1:] + w[:-1])).dot(dt))
 
 
 def builtin(rec: Record, n_valid: int) -> dict:
@@ -225,12 +244,13 @@ def builtin(rec: Record, n_valid: int) -> dict:
     t = rec.t
     after = _window(rec, "after", "stop", n_valid)  # each window found once
     run = _window(rec, "start", "stop", n_valid)
-    st = lambda name, stat, sl: _stat(t, rec.get(name), stat, sl)  # noqa: E731
+    st = lambda name, stat, sl: None if sl is None else _stat(t, rec.get(name), stat, sl)  # noqa: E731
     out = {"N_max": st(b + "N", "max", run), "N_range_after": st(b + "N", "range", after)}
-    inner, outer = st(b + "rhoP", "min", after), st(b + "rhoP", "max", after)
+    inner, outer = _extrema(rec, b + "rhoP", after)
     out.update(ring_inner=inner, ring_outer=outer,
                ring_width=None if inner is None or outer is None else outer - inner)
-    out.update(theta_min_deg=st(b + "theta_deg", "min", after), theta_max_deg=st(b + "theta_deg", "max", after),
+    low, high = _extrema(rec, b + "theta_deg", after)
+    out.update(theta_min_deg=low, theta_max_deg=high,
                zP_max=st(b + "zP", "max", run), friction_ratio_max=st(b + "friction_ratio", "max", run))
     if rec.drive is not None and f"{rec.drive}.T_drive" in rec.series:
         d = rec.drive + "."
@@ -238,8 +258,17 @@ def builtin(rec: Record, n_valid: int) -> dict:
                    E_startup=st(d + "P_drive", "integral", _window(rec, "start", "after", n_valid)))
     else:
         out.update(T_drive_rms=None, E_startup=None)
-    out.update(mill(rec, n_valid))
+    out.update(_mill(rec, n_valid, run, after))
     return {name: out[name] for name in BUILTIN}
+
+
+def _extrema(rec: Record, name: str, sl) -> tuple:
+    """(min, max) of a variable over the samples sl, as `_stat`'s, a derived one computed over sl
+    only; (None, None) for no window."""
+    if sl is None:
+        return None, None
+    t, x, w = rec.t[sl], rec.over(name, sl), slice(0, sl.stop - sl.start)
+    return _ext(t, x, w, -1), _ext(t, x, w, 1)
 
 
 MILL = ("T_drive_peak", "P_drive_peak", "P_grind_mean", "bed_fraction", "W_grind_rev", "A_swept_bed",
@@ -250,14 +279,18 @@ def mill(rec: Record, n_valid: int) -> dict:
     """The indicators a mill is designed by (MILL: the drive's peaks, the grinding ones, the
     margins), from whatever the record holds (None for what it lacks); `builtin` reports them
     among the others and the scenario summary (ballmill.scenario.report) on their own."""
+    return _mill(rec, n_valid, _window(rec, "start", "stop", n_valid), _window(rec, "after", "stop", n_valid))
+
+
+def _mill(rec: Record, n_valid: int, run, after) -> dict:
+    """`mill` with the windows [start, stop] and [after, stop] found by the caller."""
     b = rec.ball + "."
     t = rec.t
-    run = _window(rec, "start", "stop", n_valid)
-    st = lambda name, stat, sl: _stat(t, rec.get(name), stat, sl)  # noqa: E731
+    st = lambda name, stat, sl: None if sl is None else _stat(t, rec.get(name), stat, sl)  # noqa: E731
     d = f"{rec.drive}." if rec.drive is not None else None
     out = {"T_drive_peak": st(d + "T_drive", "abs_max", run) if d and d + "T_drive" in rec.series else None,
            "P_drive_peak": st(d + "P_drive", "abs_max", run) if d and d + "P_drive" in rec.series else None}
-    out.update(grinding(rec, _window(rec, "after", "stop", n_valid)))
+    out.update(grinding(rec, after))
     # the margins: up to and including the first failure (the sample that failed)
     upto = _window(rec, "start", "stop", len(t))
     if upto is not None:
@@ -278,10 +311,10 @@ def grinding(rec: Record, sl) -> dict:
     if sl is None or sl.stop - sl.start < 2:
         return out
     t = rec.t[sl]
+    dt = np.diff(t)  # the window's steps, for both integrals
     if b + "s_bed" in rec.series:
         in_bed = rec.series[b + "s_bed"][sl] > 0.0
-        inside = in_bed.astype(float)
-        out["bed_fraction"] = float((0.5 * (inside[1:] + inside[:-1])).dot(np.diff(t)) / (t[-1] - t[0]))
+        out["bed_fraction"] = _trapezoid(in_bed.astype(float), dt) / float(t[-1] - t[0])
         r, R = rec.refs.get(b + "r"), rec.refs.get(b + "R")
         bed = rec.refs.get(b + "bed") == 1  # a bed of depth h_bed (with bed = 0 the material is everywhere)
         if bed and r is not None and R is not None and all(b + v in rec.series
@@ -292,7 +325,7 @@ def grinding(rec: Record, sl) -> dict:
             out["A_swept_bed"] = swept_area(u, in_bed, R, footprint(r, R))
     if b + "P_grind" not in rec.series:
         return out
-    work = _stat(rec.t, rec.series[b + "P_grind"], "integral", sl)
+    work = _trapezoid(rec.series[b + "P_grind"][sl], dt)
     out["P_grind_mean"] = work / float(t[-1] - t[0])
     psi = rec.series.get(f"{rec.drive}.psi") if rec.drive is not None else None
     if psi is not None:
