@@ -445,8 +445,8 @@ def test_a_hybrid_state_with_impossible_bookkeeping_is_refused(opened, fmus_of):
     chamber (wx0 = 96 rad/s, mu = 0.3) slips at 0.18 s and is sliding at 0.2 s, not yet flown: its
     state with the energy -1 J, the count 0.5, the speed -1 m/s, or either time +inf or -inf (in
     every copy the state holds, found as t_first_slip's bytes followed by a NaN; checksum made
-    right), or the Zeno hold's time (NaN: not held) infinite or finite without its window, is refused
-    naming the bookkeeping, and the instance keeps its state and steps on."""
+    right), the rebound or W-lost flag 0.5, or the Zeno hold's time (NaN: not held) or its window
+    infinite or the time finite without its window, is refused naming the bookkeeping, and the instance keeps its state and steps on."""
     ball = opened(fmus_of("native")["BallInShell"], "hybrid", contact_model=2, wx0=96.0, mu=0.3)
     ball.initialize()
     for k in range(100):
@@ -464,23 +464,26 @@ def test_a_hybrid_state_with_impossible_bookkeeping_is_refused(opened, fmus_of):
     # is refused as a corrected state
     book = "FMU state refused: its hybrid bookkeeping (impacts, losses, first times, seed, flags, hold) is not valid"
     reasons = {book, "FMU state refused: a corrected state is not one it can continue from"}
-    # (offset from t_first_slip, value): E_impact, n_impacts, v_impact_max, t_first_slip, t_first_flight; the
-    # Zeno hold's time t_held infinite, or finite without its window (NaN: not held)
-    forgeries = [(-24, -1.0), (-16, 0.5), (-8, -1.0), (0, math.inf), (0, -math.inf), (8, math.inf), (8, -math.inf),
-                 (72, math.inf), (72, 0.1)]
+    # ((offset from t_first_slip, value), ...): E_impact, n_impacts, v_impact_max, t_first_slip, t_first_flight;
+    # the rebound and W-lost flags not 0 or 1; the Zeno hold's time t_held infinite, or finite without its
+    # window (NaN: not held), and either of the two infinite with the other finite
+    forgeries = [((-24, -1.0),), ((-16, 0.5),), ((-8, -1.0),), ((0, math.inf),), ((0, -math.inf),), ((8, math.inf),),
+                 ((8, -math.inf),), ((56, 0.5),), ((64, 0.5),), ((72, math.inf),), ((72, 0.1),),
+                 ((72, math.inf), (80, 0.01)), ((72, 0.1), (80, math.inf))]
     said = {}
     for at in slots:
-        for field, value in forgeries:
+        for forgery in forgeries:
             forged = bytearray(blob)
-            struct.pack_into("<d", forged, at + field, value)
+            for field, value in forgery:
+                struct.pack_into("<d", forged, at + field, value)
             state = ball.fmu.deSerializeFMUstate(_sealed(forged))
             n = len(ball.messages)
             with pytest.raises(FMICallException) as info:
                 ball.fmu.setFMUstate(state)
             assert info.value.status == ERROR
             why = [m.split("': ", 1)[1] for s, m in ball.messages[n:] if s == ERROR and "FMU state refused: " in m]
-            assert len(why) == 1 and why[0] in reasons, (field, value, ball.messages[n:])
-            said.setdefault((field, value), set()).add(why[0])
+            assert len(why) == 1 and why[0] in reasons, (forgery, ball.messages[n:])
+            said.setdefault(forgery, set()).add(why[0])
             ball.fmu.freeFMUstate(state)
     assert len(said) == len(forgeries) and all(book in r for r in said.values()), said  # named for each
     assert ball.reals(("xC", "yC", "zC", "N")) == before
