@@ -54,6 +54,7 @@ from ballmill.fmi.interface import (BALL_ALL_INPUTS, BALL_FEEDTHROUGH, BALL_IN_S
                                     MAX_INTERNAL_STEPS)
 from ballmill.fmi.slave import NEVER, Slave
 from ballmill.physics import Ball, BallModel, BallState, InputReconstruction
+from ballmill.physics.events import BURST, MAX_RATE, zeno_words
 from ballmill.physics.hybrid import FLIGHT, ROLLING, SLIDING, Contact, HybridBall
 from ballmill.physics.platform import GAIN_POSITIONS, ulp
 from ballmill.physics.turning.model import ChamberModel, evaluate_c
@@ -66,9 +67,10 @@ OUTPUTS = BALL_OUTPUTS
 INPUTS = BALL_INPUTS
 MOTIONS = {1: "translation", 2: "general"}
 CONTACT_MODELS = {1: "rolling", 2: "hybrid"}
-# contact_model = 2: the driver's Zeno guard (events.integrate's defaults; fmu_src/ballinshell.c's HYB_BURST,
-# HYB_MAX_RATE): more than HYB_BURST events within HYB_BURST / HYB_MAX_RATE s hold the ball on the wall
-HYB_BURST, HYB_MAX_RATE = 100, 1e4
+# contact_model = 2: the driver's Zeno guard (events.integrate's defaults, events.BURST and MAX_RATE;
+# fmu_src/ballinshell.c's HYB_BURST, HYB_MAX_RATE): more than HYB_BURST events within HYB_BURST /
+# HYB_MAX_RATE s hold the ball on the wall
+HYB_BURST, HYB_MAX_RATE = BURST, MAX_RATE
 _T_HELD, _HELD_WINDOW = HybridBall.BOOK.index("t_held"), HybridBall.BOOK.index("held_window")  # NaN: not held
 GENERAL_MODES = {1: "derivatives", 3: "hold"}  # input modes of motion = 2
 _UNITS = {v.name: v.unit for v in BALL_IN_SHELL.variables}
@@ -358,9 +360,9 @@ class BallInShell(Slave):
     def _held_reason(state):
         """contact_model = 2: why valid latched when the ball is held on the wall from a Zeno stop
         (HybridBall.hold: its time and the burst's span in the bookkeeping)."""
-        return (f"Zeno sequence: {HYB_BURST} events within {state.book[_HELD_WINDOW]:.3g} s before t = "
-                f"{state.book[_T_HELD]:.9g} s, more than the allowed rate {HYB_MAX_RATE:g} events/s: the ball is held on the wall from there, "
-                f"rolling only (as contact_model = 1 after its latch; a larger v_rest ends a bounce sequence sooner)")
+        return (zeno_words(HYB_BURST, state.book[_HELD_WINDOW], state.book[_T_HELD], HYB_MAX_RATE)
+                + ": the ball is held on the wall from there, rolling only (as contact_model = 1 after its latch; "
+                "a larger v_rest ends a bounce sequence sooner)")
 
     _t_prev = None
     _general = False

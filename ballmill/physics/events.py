@@ -76,6 +76,10 @@ from .errors import StepFailure
 from .integrators import StepStats
 
 
+# the Zeno guard's defaults (`integrate`): more than BURST events within BURST / MAX_RATE s
+BURST, MAX_RATE = 100, 1e4
+
+
 @dataclass
 class Event:
     """One switch: time [s], what fired (the guard's kind), the modes before and after, and
@@ -210,8 +214,8 @@ def _detect(step, f, G, levels, armed, scan):
 
 
 def integrate(system, mode: int, t: float, y, times, *, h: float | None = None, stops=(),
-              scan: int = 3, xtol: float = 1e-11, burst: int = 100,
-              max_rate: float = 1e4, on_zeno: str = "stop") -> EventRun:
+              scan: int = 3, xtol: float = 1e-11, burst: int = BURST,
+              max_rate: float = MAX_RATE, on_zeno: str = "stop") -> EventRun:
     """Integrate ``system`` from (t, mode, y) over the grid ``times`` (times[0] == t is
     sampled as it is), handling every event on the way (module docstring). Returns an
     `EventRun`; a step failure or a Zeno sequence ends it early with success False.
@@ -230,8 +234,7 @@ def integrate(system, mode: int, t: float, y, times, *, h: float | None = None, 
     The work of an interval is added to ``EventRun.stats`` when the interval is complete:
     a failing interval's is not counted (as `Integrator.advance`, which raises, reports
     none)."""
-    if on_zeno not in ("stop", "hold"):
-        raise ValueError(f"on_zeno must be 'stop' or 'hold', got on_zeno = {on_zeno!r}")
+    hold = holds_on_zeno(on_zeno)
     times = np.asarray(times, dtype=float)
     y = np.array(y, dtype=float)
     t = float(t)
@@ -287,7 +290,7 @@ def integrate(system, mode: int, t: float, y, times, *, h: float | None = None, 
                 if bound is not None:
                     h = min(h, bound)
                 if len(events) >= burst and t_e - events[-burst].t < burst / max_rate:
-                    if on_zeno == "stop":
+                    if not hold:
                         raise zeno(events, burst, max_rate)
                     held = zeno(events, burst, max_rate)
                     mode, y = system.hold(mode, t, y, t_e - events[-burst].t)
@@ -329,6 +332,22 @@ class Plain:
         return self._sample(t, y)
 
 
+def holds_on_zeno(on_zeno: str) -> bool:
+    """The Zeno policy ``on_zeno`` ("stop" or "hold") as "the system's hold map applies"
+    (ValueError naming any other)."""
+    if on_zeno not in ("stop", "hold"):
+        raise ValueError(f"on_zeno must be 'stop' or 'hold', got on_zeno = {on_zeno!r}")
+    return on_zeno == "hold"
+
+
+def zeno_words(burst: int, window: float, t: float, max_rate: float, last_kind: str | None = None) -> str:
+    """What the Zeno guard says: ``burst`` events within ``window`` s before t (the last of kind
+    ``last_kind``, when known), more than ``max_rate``."""
+    last = f" (the last: {last_kind!r})" if last_kind is not None else ""
+    return (f"Zeno sequence: {burst} events within {window:.3g} s before t = {t:.9g} s{last}, more than the "
+            f"allowed rate {max_rate:g} events/s")
+
+
 class _Zeno(Exception):
     pass
 
@@ -337,6 +356,4 @@ def zeno(events, burst: int, max_rate: float) -> _Zeno:
     """The Zeno guard's error at the last of ``events``: ``burst`` events within less than
     burst / max_rate seconds (also what the compiled kernel's run reports, fast.hybrid_run)."""
     last = events[-1]
-    return _Zeno(f"Zeno sequence: {burst} events within {last.t - events[-burst].t:.3g} s before "
-                 f"t = {last.t:.9g} s (the last: {last.kind!r}), more than the allowed rate "
-                 f"{max_rate:g} events/s")
+    return _Zeno(zeno_words(burst, last.t - events[-burst].t, last.t, max_rate, last.kind))

@@ -824,9 +824,9 @@ def _hybrid_problem(system, scan: int, xtol: float, burst: int, max_rate: float,
     H.kt, H.gap_res, H.energy = system.kt, system._gap_res, int(system.energy)
     H.creep_eps = system.creep_eps
     H.scan, H.xtol, H.burst, H.max_rate = scan, xtol, burst, max_rate
-    if on_zeno not in ("stop", "hold"):
-        raise ValueError(f"on_zeno must be 'stop' or 'hold', got on_zeno = {on_zeno!r}")
-    H.zeno_hold = int(on_zeno == "hold")
+    from .events import holds_on_zeno
+
+    H.zeno_hold = int(holds_on_zeno(on_zeno))
     return H
 
 

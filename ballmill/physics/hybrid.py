@@ -59,7 +59,7 @@ import numpy as np
 
 from . import outputs as _out
 from .errors import ParameterError
-from .events import EventRun, integrate
+from .events import BURST, MAX_RATE, EventRun, integrate
 from .integrators import Integrator, StepStats
 from .model import BallModel, BallState
 from .params import Ball, Contact  # Contact: re-exported here, where it was first defined
@@ -267,8 +267,8 @@ class HybridBall:
             self.book["t_first_flight"] = t0
         return t0, mode, y
 
-    def resume(self, mode: int, t: float, y, h, book, t_end: float, motion=None, *, burst: int = 100,
-               max_rate: float = 1e4, on_zeno: str = "stop") -> EventRun:
+    def resume(self, mode: int, t: float, y, h, book, t_end: float, motion=None, *, burst: int = BURST,
+               max_rate: float = MAX_RATE, on_zeno: str = "stop") -> EventRun:
         """Go on with a run from its state at t, (mode, y, the integrator's next step h, the
         bookkeeping `book` as `bookkeeping` gave it), to t_end, the only grid point: events
         inside are located and applied as in any run (`events.integrate`, the one driver).
@@ -873,8 +873,8 @@ class HybridTrajectory:
 
 def simulate_hybrid(ball: Ball, motion, t_end: float, dt: float, contact: Contact = Contact(), *,
                     initial=None, t0: float = 0.0, method: str = "DOP853", tol: float = 1e-9,
-                    h_max: float | None = None, energy: bool = True, burst: int = 100,
-                    max_rate: float = 1e4, h_fixed: float = 1e-3,
+                    h_max: float | None = None, energy: bool = True, burst: int = BURST,
+                    max_rate: float = MAX_RATE, h_fixed: float = 1e-3,
                     kernel: str = "auto", on_zeno: str = "stop") -> HybridTrajectory:
     """The ball in a chamber moved by ``motion`` (a platform motion: translation; a
     `turning.motions.ChamberMotion`: any rigid motion) with rolling, sliding, flight and
